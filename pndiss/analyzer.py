@@ -1,0 +1,187 @@
+"""The pipeline: frames in, events out, every frame accounted for.
+
+``Analyzer.feed`` takes one captured frame, dispatches it by link layer / EtherType / FrameID to
+the protocol modules and hands every resulting event to the sink. Each frame ends up in exactly
+one bucket: ``decoded``, ``not_profinet`` or ``malformed`` (with a ``malformed`` event that
+names the frame, the layer and the reason).
+
+Events are plain dicts with at least ``frame``, ``ts_ns`` and ``kind`` (docs/events.md).
+"""
+from __future__ import annotations
+
+from collections import Counter
+from typing import Callable
+
+from . import stations as st
+from .proto import alarm, dcp, lldp, ptcp, rt
+from .proto.common import Malformed, mac
+from .proto.eth import decode_link
+from .settings import Settings
+
+ETH_PNRT = 0x8892
+ETH_LLDP = 0x88CC
+ETH_MRP = 0x88E3
+ETH_IPV4 = 0x0800
+
+MAX_KEPT_MALFORMED = 1000  # the summary keeps the first ones; the JSONL stream has all
+
+
+class Analyzer:
+    def __init__(self, settings: Settings | None = None, sink: Callable[[dict], None] | None = None):
+        from .session import SessionTracker  # PNIO-CM / AR map (imports records)
+        from .cyclic import CyclicTracker    # telegrams + reference encoder
+
+        self.settings = settings or Settings()
+        self.sink = sink
+        self.counts = {"decoded": 0, "not_profinet": 0, "malformed": 0}
+        self.kinds: Counter = Counter()
+        self.frame_classes: Counter = Counter()
+        self.malformed: list[dict] = []
+        self.frames = 0
+        self.first_ts: int | None = None
+        self.last_ts: int | None = None
+        self.stations = st.Stations()
+        self.session = SessionTracker(self)
+        self.cyclic = CyclicTracker(self)
+        # (frame, ts) of the frame being processed, for events emitted by trackers
+        self.cur_frame = 0
+        self.cur_ts = 0
+
+    # -- output ---------------------------------------------------------------------------
+    def emit(self, ev: dict) -> None:
+        self.kinds[ev["kind"]] += 1
+        if self.sink is not None:
+            self.sink(ev)
+
+    def event(self, kind: str, **fields) -> dict:
+        """Emit an event stamped with the current frame and time."""
+        ev = {"frame": self.cur_frame, "ts_ns": self.cur_ts, "kind": kind}
+        ev.update(fields)
+        self.emit(ev)
+        return ev
+
+    def _malformed(self, fn: int, ts: int, layer: str, reason: str) -> None:
+        ev = {"frame": fn, "ts_ns": ts, "kind": "malformed", "layer": layer, "reason": reason}
+        if len(self.malformed) < MAX_KEPT_MALFORMED:
+            self.malformed.append(ev)
+        self.emit(ev)
+
+    # -- input ----------------------------------------------------------------------------
+    def feed(self, fn: int, ts: int, linktype: int, data: bytes) -> None:
+        self.frames += 1
+        self.cur_frame, self.cur_ts = fn, ts
+        if self.first_ts is None:
+            self.first_ts = ts
+        self.last_ts = ts
+        try:
+            dst, src, et, off, tags = decode_link(linktype, data)
+            if et == ETH_PNRT:
+                status = self._pn_rt(fn, ts, data, off, mac(src), mac(dst), tags, udp=False)
+            elif et == ETH_LLDP:
+                status = self._lldp(fn, ts, data, off, mac(src), mac(dst))
+            elif et == ETH_IPV4:
+                status = self.session.on_ipv4(fn, ts, data, off, mac(src), mac(dst))
+            elif et == ETH_MRP:
+                status = self._mrp(fn, ts, data, off, mac(src), mac(dst))
+            else:
+                status = "not_profinet"
+        except Malformed as e:
+            self._malformed(fn, ts, e.layer, e.reason)
+            status = "malformed"
+        self.counts[status] += 1
+
+    def finish(self) -> None:
+        """End of capture: flush pending reassemblies, open handshakes and state machines."""
+        self.session.finish()
+        self.cyclic.finish()
+
+    # -- dispatch ---------------------------------------------------------------------------
+    def _pn_rt(self, fn, ts, data, off, src, dst, tags, udp: bool, end: int | None = None) -> str:
+        """PN-RT PDU at data[off:end] (end defaults to the end of the frame, pad included)."""
+        pdu = data if end is None else data[:end]
+        if len(pdu) - off < 2:
+            raise Malformed("pn_rt", "PDU too short for a FrameID")
+        frame_id = (pdu[off] << 8) | pdu[off + 1]
+        cls, cyclic = rt.classify(frame_id, udp)
+        self.frame_classes[cls] += 1
+        ev = {"frame": fn, "ts_ns": ts, "kind": "rt", "src": src, "dst": dst,
+              "frame_id": frame_id, "frame_class": cls}
+        if tags:
+            ev["vlan"] = [{"tpid": t[0], "priority": t[1], "dei": t[2], "id": t[3]} for t in tags]
+        if cyclic:
+            if len(pdu) - off < 6:
+                self.emit(ev)
+                raise Malformed("pn_rt", f"cyclic PDU of {len(pdu) - off} bytes has no room for the APDU status")
+            ev.update(rt.decode_apdu_status(pdu, off))
+            self.emit(ev)
+            self.cyclic.on_frame(ev, pdu, off + 2)
+            return "decoded"
+        self.emit(ev)
+        body = off + 2
+        if cls.startswith("DCP"):
+            d = dcp.decode(pdu, body, frame_id)
+            d.update(frame=fn, ts_ns=ts, kind="dcp", src=src, dst=dst, frame_id=frame_id)
+            self.emit(d)
+            self.stations.from_dcp(d, src, dst)
+            for extra in d.pop("events", ()):  # e.g. invalid NameOfStation
+                self.event(**extra)
+        elif cls.startswith("Alarm"):
+            d = alarm.decode(pdu, body, frame_id)
+            d.update(frame=fn, ts_ns=ts, kind="alarm", src=src, dst=dst, frame_id=frame_id)
+            self.emit(d)
+            self.stations.seen(src)
+        elif cls in rt.PTCP_CLASSES:
+            d = ptcp.decode(pdu, body, frame_id)
+            d.update(frame=fn, ts_ns=ts, kind="ptcp", src=src, dst=dst, frame_id=frame_id)
+            self.emit(d)
+        return "decoded"
+
+    def _lldp(self, fn, ts, data, off, src, dst) -> str:
+        d = lldp.decode(data, off)
+        d.update(frame=fn, ts_ns=ts, kind="lldp", src=src, dst=dst)
+        self.emit(d)
+        self.stations.from_lldp(d, src)
+        return "decoded"
+
+    def _mrp(self, fn, ts, data, off, src, dst) -> str:
+        d = lldp.decode_mrp(data, off)
+        d.update(frame=fn, ts_ns=ts, kind="mrp", src=src, dst=dst)
+        self.emit(d)
+        return "decoded"
+
+    # -- results ----------------------------------------------------------------------------
+    def summary(self) -> dict:
+        return {
+            "frames": self.frames,
+            "accounting": dict(self.counts),
+            "first_ts_ns": self.first_ts,
+            "last_ts_ns": self.last_ts,
+            "events": dict(self.kinds),
+            "frame_classes": dict(self.frame_classes),
+            "stations": self.stations.as_list(),
+            "malformed": self.malformed,
+            "session": self.session.summary(),
+            "cyclic": self.cyclic.summary(),
+            "settings": self.settings.as_dict(),
+        }
+
+
+def analyze_file(path: str, settings: Settings | None = None, sink=None, progress=None) -> Analyzer:
+    """Run the whole pipeline over a capture file. Raises capture.CaptureError on bad files
+    (after feeding every complete frame, so ``exc.frames`` frames were analysed)."""
+    from .capture import open_capture
+
+    from .capture import CaptureError
+
+    a = Analyzer(settings, sink)
+    try:
+        for fn, ts, lt, data in open_capture(path):
+            a.feed(fn, ts, lt, data)
+            if progress is not None and not fn & 0xFFF:
+                progress(fn)
+    except CaptureError as e:
+        a.finish()
+        e.analyzer = a
+        raise
+    a.finish()
+    return a

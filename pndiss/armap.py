@@ -1,0 +1,62 @@
+"""The AR map: which submodule's bytes sit where in which cyclic frame.
+
+Built by the session tracker (``pndiss.session``) from Connect requests/responses, from a
+user map (``--map``), a GSDML file or, last, data lengths; read by the cyclic decoder
+(``pndiss.cyclic``). This module is only the shared data model, so both sides agree on it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass
+class DataObject:
+    """One submodule's IO data in one cyclic frame (offsets relative to the first C_SDU byte)."""
+
+    api: int
+    slot: int
+    subslot: int
+    offset: int                 # first data byte; IOPS follows the data directly
+    length: int                 # data bytes (0 for submodules without data in this direction)
+    iops_len: int = 1
+    module_ident: int | None = None
+    submodule_ident: int | None = None
+    telegram: int | None = None          # PROFIdrive telegram number, when known
+    telegram_source: str | None = None   # 'P922' | 'gsdml' | 'map' | 'length' (a guess) | ...
+
+
+@dataclass
+class IocsEntry:
+    """An IOCS byte in a cyclic frame: the consumer status of a submodule of the other direction."""
+
+    api: int
+    slot: int
+    subslot: int
+    offset: int
+    length: int = 1
+
+
+@dataclass
+class FrameMap:
+    """Layout of one cyclic frame ID between one MAC pair (one IOCR of one AR)."""
+
+    frame_id: int
+    direction: str              # 'input' (device -> controller) or 'output' (controller -> device)
+    controller_mac: str | None = None
+    device_mac: str | None = None
+    station: str | None = None  # NameOfStation of the device, when known
+    ar_uuid: str | None = None
+    data_length: int | None = None       # C_SDU length from the IOCR block
+    send_clock_factor: int | None = None
+    reduction_ratio: int | None = None
+    watchdog_factor: int | None = None
+    objects: list[DataObject] = field(default_factory=list)
+    iocs: list[IocsEntry] = field(default_factory=list)
+    source: str = "connect"     # 'connect' | 'map' | 'length'
+
+    @property
+    def cycle_time_ns(self) -> int | None:
+        """SendClockFactor x ReductionRatio x 31.25 us, when known."""
+        if self.send_clock_factor and self.reduction_ratio:
+            return self.send_clock_factor * self.reduction_ratio * 31250
+        return None

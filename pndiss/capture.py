@@ -1,0 +1,189 @@
+"""Streaming pcap / pcapng reader.
+
+Reads the file in fixed-size chunks (never the whole file, never an mmap whose touched pages
+would count against RSS) and yields ``(frame_number, ts_ns, linktype, data)`` tuples.
+Frame numbers are 1-based and count packet blocks exactly as Wireshark's ``frame.number``;
+timestamps are integer nanoseconds since the epoch.
+
+A file that ends inside a record raises :class:`CaptureError` *after* yielding every complete
+frame, so callers can report the frames read so far.
+"""
+from __future__ import annotations
+
+import struct
+from typing import BinaryIO, Iterator
+
+LINKTYPE_ETHERNET = 1
+LINKTYPE_LINUX_SLL = 113
+LINKTYPE_LINUX_SLL2 = 276
+
+CHUNK = 1 << 22  # 4 MiB reads: large enough to amortise syscalls, small enough for flat RSS
+
+PCAP_MAGICS = {  # magic as read little-endian -> (byte order, ns resolution)
+    0xA1B2C3D4: ("<", False),
+    0xA1B23C4D: ("<", True),
+    0xD4C3B2A1: (">", False),
+    0x4D3CB2A1: (">", True),
+}
+PCAPNG_SHB = 0x0A0D0D0A
+
+
+class CaptureError(Exception):
+    """Unusable or damaged capture file; ``frames`` is how many frames were read before it."""
+
+    def __init__(self, message: str, frames: int = 0):
+        super().__init__(message)
+        self.frames = frames
+
+
+class _Buffer:
+    """A window over the file: ``need(n)`` guarantees n bytes at ``pos`` or reports EOF."""
+
+    __slots__ = ("f", "buf", "pos", "eof")
+
+    def __init__(self, f: BinaryIO):
+        self.f = f
+        self.buf = b""
+        self.pos = 0
+        self.eof = False
+
+    def need(self, n: int) -> bool:
+        avail = len(self.buf) - self.pos
+        if avail >= n:
+            return True
+        if self.eof:
+            return False
+        parts = [self.buf[self.pos:]]
+        while avail < n and not self.eof:
+            chunk = self.f.read(max(CHUNK, n - avail))
+            if not chunk:
+                self.eof = True
+                break
+            parts.append(chunk)
+            avail += len(chunk)
+        self.buf = b"".join(parts)
+        self.pos = 0
+        return avail >= n
+
+    def at_end(self) -> bool:
+        return not self.need(1)
+
+
+def open_capture(path: str) -> Iterator[tuple[int, int, int, bytes]]:
+    """Yield frames of the pcap/pcapng file at ``path``; raise CaptureError on bad input."""
+    try:
+        f = open(path, "rb")
+    except OSError as e:
+        raise CaptureError(f"cannot open {path}: {e.strerror}") from None
+    with f:
+        b = _Buffer(f)
+        if not b.need(4):
+            raise CaptureError(f"{path}: empty file or too short to be a capture (no pcap/pcapng header)")
+        magic = struct.unpack_from("<I", b.buf, 0)[0]
+        if magic in PCAP_MAGICS:
+            yield from _read_pcap(path, b, *PCAP_MAGICS[magic])
+        elif magic == PCAPNG_SHB:
+            yield from _read_pcapng(path, b)
+        else:
+            raise CaptureError(f"{path}: not a pcap or pcapng file (magic 0x{magic:08x})")
+
+
+def _read_pcap(path: str, b: _Buffer, bo: str, ns: bool) -> Iterator[tuple[int, int, int, bytes]]:
+    if not b.need(24):
+        raise CaptureError(f"{path}: pcap file header truncated")
+    linktype = struct.unpack_from(bo + "I", b.buf, b.pos + 20)[0] & 0x0FFFFFFF  # upper bits: FCS info
+    b.pos += 24
+    rec = struct.Struct(bo + "IIII")
+    mult = 1 if ns else 1000
+    n = 0
+    while True:
+        if not b.need(16):
+            if len(b.buf) - b.pos:
+                raise CaptureError(f"{path}: truncated record header after frame {n}", n)
+            return
+        sec, frac, incl, _orig = rec.unpack_from(b.buf, b.pos)
+        if incl > 0x4000000:
+            raise CaptureError(f"{path}: corrupt record after frame {n} (captured length {incl})", n)
+        if not b.need(16 + incl):
+            raise CaptureError(f"{path}: frame {n + 1} truncated ({len(b.buf) - b.pos - 16} of {incl} bytes)", n)
+        start = b.pos + 16
+        n += 1
+        yield n, sec * 1_000_000_000 + frac * mult, linktype, b.buf[start:start + incl]
+        b.pos = start + incl
+
+
+def _tsres_to_ns(resol: int):
+    """Return a function converting pcapng timestamp units to ns (if_tsresol, default 10^-6)."""
+    if resol & 0x80:
+        shift = resol & 0x7F
+        return lambda t: (t * 1_000_000_000) >> shift
+    exp = resol
+    if exp <= 9:
+        m = 10 ** (9 - exp)
+        return lambda t: t * m
+    d = 10 ** (exp - 9)
+    return lambda t: t // d
+
+
+def _read_pcapng(path: str, b: _Buffer) -> Iterator[tuple[int, int, int, bytes]]:
+    n = 0
+    bo = "<"
+    ifaces: list[tuple[int, object, int]] = []  # (linktype, ts->ns function, tsoffset seconds)
+    while True:
+        if not b.need(12):
+            if len(b.buf) - b.pos:
+                raise CaptureError(f"{path}: truncated block header after frame {n}", n)
+            return
+        btype = struct.unpack_from(bo + "I", b.buf, b.pos)[0]
+        if btype == PCAPNG_SHB:  # byte order may change per section
+            bom = b.buf[b.pos + 8:b.pos + 12]
+            if bom == b"\x4d\x3c\x2b\x1a":
+                bo = "<"
+            elif bom == b"\x1a\x2b\x3c\x4d":
+                bo = ">"
+            else:
+                raise CaptureError(f"{path}: corrupt pcapng section header after frame {n}", n)
+            ifaces = []
+        blen = struct.unpack_from(bo + "I", b.buf, b.pos + 4)[0]
+        if blen < 12 or blen % 4 or blen > 0x4000000:
+            raise CaptureError(f"{path}: corrupt pcapng block (length {blen}) after frame {n}", n)
+        if not b.need(blen):
+            raise CaptureError(f"{path}: pcapng block truncated after frame {n}", n)
+        p = b.pos
+        body = p + 8
+        if btype == 6:  # Enhanced Packet Block
+            ifid, hi, lo, cap, _orig = struct.unpack_from(bo + "IIIII", b.buf, body)
+            if ifid >= len(ifaces) or 20 + cap > blen - 12:
+                raise CaptureError(f"{path}: bad enhanced packet block after frame {n}", n)
+            lt, conv, off = ifaces[ifid]
+            n += 1
+            yield n, conv((hi << 32) | lo) + off, lt, b.buf[body + 20:body + 20 + cap]
+        elif btype == 3:  # Simple Packet Block: interface 0, no timestamp
+            if not ifaces:
+                raise CaptureError(f"{path}: simple packet block before any interface after frame {n}", n)
+            orig = struct.unpack_from(bo + "I", b.buf, body)[0]
+            cap = min(orig, blen - 16)
+            n += 1
+            yield n, 0, ifaces[0][0], b.buf[body + 4:body + 4 + cap]
+        elif btype == 2:  # obsolete Packet Block
+            ifid, _drops, hi, lo, cap, _orig = struct.unpack_from(bo + "HHIIII", b.buf, body)
+            if ifid >= len(ifaces) or 20 + cap > blen - 12:
+                raise CaptureError(f"{path}: bad packet block after frame {n}", n)
+            lt, conv, off = ifaces[ifid]
+            n += 1
+            yield n, conv((hi << 32) | lo) + off, lt, b.buf[body + 20:body + 20 + cap]
+        elif btype == 1:  # Interface Description Block
+            lt = struct.unpack_from(bo + "H", b.buf, body)[0]
+            resol, tsoff = 6, 0
+            o, end = body + 8, p + blen - 4
+            while o + 4 <= end:
+                code, olen = struct.unpack_from(bo + "HH", b.buf, o)
+                if code == 0:
+                    break
+                if code == 9 and olen >= 1:
+                    resol = b.buf[o + 4]
+                elif code == 14 and olen >= 8:
+                    tsoff = struct.unpack_from(bo + "q", b.buf, o + 4)[0] * 1_000_000_000
+                o += 4 + ((olen + 3) & ~3)
+            ifaces.append((lt, _tsres_to_ns(resol), tsoff))
+        b.pos = p + blen

@@ -1,0 +1,44 @@
+"""Settings in force for one analysis: CLI options, config file, and the spec's open points.
+
+Every setting the spec marks [INFERENCE] or [AMBIGUOUS] lives here with the suggested default
+and its source, so the report can print the settings in force (docs/settings.md lists them).
+"""
+from __future__ import annotations
+
+import json
+import tomllib
+from dataclasses import asdict, dataclass, field, fields
+
+
+@dataclass
+class Settings:
+    # Device profile: 'auto' picks it from I&M0 / DCP vendor+device ID (records.md, issue #3).
+    profile: str = "auto"
+    gsdml: list[str] = field(default_factory=list)
+    map_file: str | None = None
+    # --- open points of the spec (behaviour.md §0.1, §8.1) ---
+    l_max: int = 2                    # reaction latency tolerance in cycles [INFERENCE] behaviour.md §0.1
+    preset_deadline_ms: float = 10.0  # D_preset = ceil(10 ms / T_cycle) + L_max [INFERENCE] behaviour.md §0.1
+    sol_threshold_ge: bool = False    # failure counter fault at C > 10*N (False) or C >= 10*N (True) [AMBIGUOUS] §3.3
+    sol_monitor_rt: bool = False      # monitor sign-of-life also without isochronous mode [AMBIGUOUS] §3.1 R-CLS-5
+    iso: bool | None = None           # isochronous mode configured; None = infer from the Connect
+    master_cycle_ratio: int = 1       # k = TMAPC / TDP [INFERENCE] behaviour.md §0.1
+    compat: int | None = None         # 0xBF00 byte 0 bit 5; None = from the captured 0xBF00, else the profile default
+    class4: int | None = None         # 0xBF00 byte 0 bit 1; None = from the capture
+    byte_order: str = "big"           # PS/PSM "Intel" claim, cyclic.md §1 [AMBIGUOUS]: 'big' or 'little'
+    fail_on: str | None = None        # 'info' | 'warning' | 'error': exit 1 at or above that severity
+
+    @classmethod
+    def from_file(cls, path: str) -> "Settings":
+        """Read a TOML or JSON config file with the same keys as the dataclass fields."""
+        with open(path, "rb") as f:
+            raw = f.read()
+        data = json.loads(raw) if path.endswith(".json") else tomllib.loads(raw.decode())
+        known = {f.name for f in fields(cls)}
+        unknown = set(data) - known
+        if unknown:
+            raise ValueError(f"unknown setting(s) in {path}: {', '.join(sorted(unknown))}")
+        return cls(**data)
+
+    def as_dict(self) -> dict:
+        return asdict(self)

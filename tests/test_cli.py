@@ -1,0 +1,63 @@
+"""CLI: accounting adds up, bad input gives one clear line and exit 2, JSONL contract."""
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from tsharkdiff import PUBLIC, capture_files
+
+MIXED = os.path.join(PUBLIC, "profinet_io_cm_mixed_1.pcap")
+
+
+def run(*args):
+    return subprocess.run([sys.executable, "-m", "pndiss", *args], capture_output=True, text=True)
+
+
+@pytest.mark.parametrize("path", capture_files(), ids=os.path.basename)
+def test_accounting_adds_up(path, tmp_path):
+    s = tmp_path / "s.json"
+    r = run("analyze", path, "-q", "--summary-json", str(s))
+    assert r.returncode == 0, r.stderr
+    summ = json.loads(s.read_text())
+    acc = summ["accounting"]
+    assert acc["decoded"] + acc["not_profinet"] + acc["malformed"] == summ["frames"]
+    assert summ["frames"] > 0
+
+
+def test_mixed_accounts_for_1635():
+    r = run("analyze", MIXED, "--no-progress")
+    assert r.returncode == 0, r.stderr
+    assert "1,635" in r.stdout and "MISMATCH" not in r.stdout
+
+
+def test_jsonl_contract(tmp_path):
+    out = tmp_path / "e.jsonl"
+    r = run("analyze", MIXED, "-q", "--jsonl", str(out))
+    assert r.returncode == 0
+    lines = [json.loads(x) for x in out.read_text().splitlines()]
+    assert lines and all({"frame", "ts_ns", "kind"} <= set(e) for e in lines)
+    assert {"rt", "lldp", "dcp"} <= {e["kind"] for e in lines}
+
+
+def test_bad_inputs_one_line_exit_2(tmp_path):
+    empty = tmp_path / "empty.pcap"
+    empty.write_bytes(b"")
+    text = tmp_path / "notes.txt"
+    text.write_text("not a capture at all\n")
+    with open(MIXED, "rb") as f:
+        raw = f.read()
+    trunc = tmp_path / "trunc.pcapng"
+    trunc.write_bytes(raw[: len(raw) // 2 + 7])
+    for p in (empty, text, trunc, tmp_path / "missing.pcap", tmp_path):
+        r = run("analyze", str(p), "--no-progress")
+        assert r.returncode == 2, (p, r.stderr)
+        err = r.stderr.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("pndiss: error:"), r.stderr
+        assert "Traceback" not in r.stderr + r.stdout
+
+
+def test_bad_arguments_exit_2():
+    assert run("analyze").returncode == 2
+    assert run("analyze", MIXED, "--set", "nonsense=1").returncode == 2
