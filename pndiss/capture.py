@@ -17,6 +17,7 @@ LINKTYPE_ETHERNET = 1
 LINKTYPE_LINUX_SLL = 113
 LINKTYPE_LINUX_SLL2 = 276
 
+MAX_RECORD = 0x4000000  # 64 MiB: larger captured lengths mean a corrupt file
 CHUNK = 1 << 22  # 4 MiB reads: large enough to amortise syscalls, small enough for flat RSS
 
 PCAP_MAGICS = {  # magic as read little-endian -> (byte order, ns resolution)
@@ -93,23 +94,32 @@ def _read_pcap(path: str, b: _Buffer, bo: str, ns: bool) -> Iterator[tuple[int, 
         raise CaptureError(f"{path}: pcap file header truncated")
     linktype = struct.unpack_from(bo + "I", b.buf, b.pos + 20)[0] & 0x0FFFFFFF  # upper bits: FCS info
     b.pos += 24
-    rec = struct.Struct(bo + "IIII")
+    unpack = struct.Struct(bo + "IIII").unpack_from
     mult = 1 if ns else 1000
     n = 0
     while True:
+        # Inner loop over the records already buffered: no method call per frame.
+        buf, pos, end = b.buf, b.pos, len(b.buf)
+        while pos + 16 <= end:
+            sec, frac, incl, _orig = unpack(buf, pos)
+            start = pos + 16
+            stop = start + incl
+            if stop > end or incl > MAX_RECORD:
+                break
+            n += 1
+            yield n, sec * 1_000_000_000 + frac * mult, linktype, buf[start:stop]
+            pos = stop
+        b.pos = pos
+        # The next record is not wholly buffered: read more, or say why the file ends here.
         if not b.need(16):
             if len(b.buf) - b.pos:
                 raise CaptureError(f"{path}: truncated record header after frame {n}", n)
             return
-        sec, frac, incl, _orig = rec.unpack_from(b.buf, b.pos)
-        if incl > 0x4000000:
+        incl = unpack(b.buf, b.pos)[2]
+        if incl > MAX_RECORD:
             raise CaptureError(f"{path}: corrupt record after frame {n} (captured length {incl})", n)
         if not b.need(16 + incl):
             raise CaptureError(f"{path}: frame {n + 1} truncated ({len(b.buf) - b.pos - 16} of {incl} bytes)", n)
-        start = b.pos + 16
-        n += 1
-        yield n, sec * 1_000_000_000 + frac * mult, linktype, b.buf[start:start + incl]
-        b.pos = start + incl
 
 
 def _tsres_to_ns(resol: int):
@@ -145,7 +155,7 @@ def _read_pcapng(path: str, b: _Buffer) -> Iterator[tuple[int, int, int, bytes]]
                 raise CaptureError(f"{path}: corrupt pcapng section header after frame {n}", n)
             ifaces = []
         blen = struct.unpack_from(bo + "I", b.buf, b.pos + 4)[0]
-        if blen < 12 or blen % 4 or blen > 0x4000000:
+        if blen < 12 or blen % 4 or blen > MAX_RECORD:
             raise CaptureError(f"{path}: corrupt pcapng block (length {blen}) after frame {n}", n)
         if not b.need(blen):
             raise CaptureError(f"{path}: pcapng block truncated after frame {n}", n)
