@@ -1,0 +1,95 @@
+"""``pndiss simulate``: write a capture of an IO controller and reference encoders, with ground truth."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def _scenario_help() -> str:
+    from ..sim.scenarios import SCENARIOS
+    return "; ".join(f"{n}: {c.help}" for n, c in SCENARIOS.items())
+
+
+def add_parser(sub) -> None:
+    from ..sim.model import PROFILE_TELEGRAMS
+    from ..sim.scenarios import INJECTIONS, SCENARIOS
+
+    p = sub.add_parser(
+        "simulate", help="write a pcapng of a PLC and PROFIdrive encoders, with fault injection and ground truth",
+        description="Write a pcapng of a complete PROFINET session between an IO controller and one or more "
+                    "encoders (DCP, LLDP, Connect, records, parameter access, cyclic telegrams), plus "
+                    "<name>.expected.json with the injected faults and expected decode facts. "
+                    "Same arguments and seed give a byte-identical file.",
+        epilog="scenarios: " + _scenario_help() + ". injectable rules: " + ", ".join(sorted(INJECTIONS))
+               + " (docs/simulate.md says why the others are not).",
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--scenario", default="startup", choices=sorted(SCENARIOS), metavar="NAME",
+                   help="one of: " + ", ".join(SCENARIOS) + " (default: startup)")
+    p.add_argument("--profile", default="generic", choices=sorted(PROFILE_TELEGRAMS), metavar="VENDOR",
+                   help="device profile: " + ", ".join(PROFILE_TELEGRAMS) + " (default: generic)")
+    p.add_argument("--telegram", type=int, default=81, metavar="N",
+                   help="telegram: 81-84 (all), 860 (scancon, hohner, psm, generic), 86-89/100/101 (psm only)")
+    p.add_argument("--cycle-time", type=float, default=1.0, metavar="MS", dest="cycle_ms",
+                   help="IO cycle in ms: 0.25, 0.5, 1, 2, 4 ... (send clock x reduction ratio; default 1)")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--cycles", type=int, metavar="N", help="number of IO cycles (default 2000)")
+    g.add_argument("--duration", type=float, metavar="S", help="cyclic run in seconds")
+    p.add_argument("--encoders", type=int, default=1, metavar="N", help="number of encoders (default 1, max 16)")
+    p.add_argument("--inject", action="append", default=[], metavar="RULE_ID[@CYCLE]",
+                   help="break one catalogue rule (repeatable); CYCLE defaults to half-way")
+    p.add_argument("--seed", type=int, default=1, metavar="N", help="seed for timestamps, UUIDs, counters (default 1)")
+    p.add_argument("--no-expected", action="store_true", help="do not write <name>.expected.json")
+    p.add_argument("-o", "--output", required=True, metavar="FILE", help="pcapng file to write")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..errors import UsageError
+    from ..rules import RULES
+    from ..sim.fastpath import FAST_THRESHOLD, write_fast
+    from ..sim.model import PROFILE_TELEGRAMS
+    from ..sim.scenarios import INJECTIONS, NOT_INJECTABLE, write_capture
+    from ..sim.session import Config, send_clock
+
+    if args.telegram not in PROFILE_TELEGRAMS[args.profile]:
+        raise UsageError(f"--telegram {args.telegram} is not available with --profile {args.profile} "
+                         f"(available: {', '.join(map(str, PROFILE_TELEGRAMS[args.profile]))})")
+    try:
+        send_clock(args.cycle_ms)
+    except ValueError as e:
+        raise UsageError(f"--cycle-time: {e}") from None
+    if not 1 <= args.encoders <= 16:
+        raise UsageError("--encoders must be 1..16")
+    cycles = args.cycles if args.cycles is not None else \
+        int(round(args.duration * 1000 / args.cycle_ms)) if args.duration is not None else 2000
+    if cycles < 1:
+        raise UsageError("--cycles/--duration must give at least one cycle")
+    injects = []
+    for spec in args.inject:
+        rule, _, cyc = spec.partition("@")
+        rule = rule.strip().upper()
+        if rule not in RULES:
+            raise UsageError(f"--inject {spec}: unknown rule ID (see pndiss/data/rules.json)")
+        if rule not in INJECTIONS:
+            raise UsageError(f"--inject {rule}: not injectable: {NOT_INJECTABLE.get(rule, 'see docs/simulate.md')}")
+        try:
+            c = int(cyc) if cyc else None
+        except ValueError:
+            raise UsageError(f"--inject {spec}: CYCLE must be an integer") from None
+        if c is not None and not 1 <= c < cycles:
+            raise UsageError(f"--inject {spec}: CYCLE must be within 1..{cycles - 1}")
+        injects.append((rule, c))
+    cfg = Config(scenario=args.scenario, profile=args.profile, telegram=args.telegram, cycle_ms=args.cycle_ms,
+                 cycles=cycles, encoders=args.encoders, injects=injects, seed=args.seed)
+    try:
+        if cycles >= FAST_THRESHOLD and not injects and args.scenario == "startup":
+            truth = write_fast(cfg, args.output, expected=not args.no_expected)
+        else:
+            truth = write_capture(cfg, args.output, expected=not args.no_expected)
+    except OSError as e:
+        raise UsageError(f"cannot write {args.output}: {e.strerror}") from None
+    except ValueError as e:
+        raise UsageError(str(e)) from None
+    print(f"pndiss simulate: wrote {truth['frames']} frames to {args.output}"
+          + (f" ({len(truth['faults'])} injected fault(s))" if truth["faults"] else ""), file=sys.stderr)
+    return 0

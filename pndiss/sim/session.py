@@ -1,0 +1,507 @@
+"""One simulated PROFINET session: an IO controller and N encoders, frame by frame on a fixed clock.
+
+``SimSession(cfg).build()`` returns the sorted frame list and the ground truth; the writer in
+``scenarios.write_capture`` turns it into a pcapng + ``.expected.json``. Nothing here reads the
+wall clock: timestamps are EPOCH_NS + seed seconds + scheduled offsets, UUIDs come from a seeded
+RNG, so the same arguments give the same bytes.
+"""
+from __future__ import annotations
+
+import random
+import struct
+import uuid
+from dataclasses import dataclass, field
+
+from .. import telegrams as T
+from . import frames as F
+from . import recdata
+from .model import Encoder, Plc, Shaft, PROFILE_TELEGRAMS
+
+EPOCH_NS = 1_767_225_600 * 10**9   # 2026-01-01T00:00:00Z, the simulator's fixed epoch
+API_DAP = 0
+API_ENC = 0x3D00                    # encoder object API (records.md §6, PS/PSM 002_d69f444daf0f8af2.txt:490-493)
+SLOT_ENC = 1
+SUB_MAP = 1                         # MAP/PAP at slot 1 subslot 1: records 0xBF00, 0xB02E (records.md §6)
+SUB_TEL = 2                         # telegram submodule at slot 1 subslot 2 (000_37bf2397999f1108.txt:2756)
+DAP_SUBSLOTS = (0x0001, 0x8000, 0x8001, 0x8002)   # DAP, interface, port 1, port 2
+
+# Identification per profile. Only Lika's vendor ID 0x0239 is in the manuals (network.md §1.11);
+# the other IDs, device IDs and all module/submodule idents are [sim choice] (network.md §1.8: none
+# of the manuals gives them). vendor_text: network.md §1.11 "device type" candidates.
+PROFILES = {
+    "lika": dict(vendor_id=0x0239, device_id=0x0001, vendor_text="LIKA ROTACOD",
+                 order_id="XAC7716/16384PT", bf00_index=0xBF00),
+    "scancon": dict(vendor_id=0x0249, device_id=0x0001, vendor_text="SCANCON SAG",
+                    order_id="SAG-EIXXB-1213-0000", bf00_index=0xBF00),
+    "hohner": dict(vendor_id=0x0259, device_id=0x0001, vendor_text="HOHNER ENCODER",
+                   order_id="ExM58x-xxxPNxxxx1213", bf00_index=0xBF00),
+    "psm": dict(vendor_id=0x0269, device_id=0x0001, vendor_text="PSM Encoder Standard",
+                order_id="PSM-ENC-PN", bf00_index=0xFFFF),     # PS/PSM record 0xFFFF (records.md §5.1)
+    "generic": dict(vendor_id=0x0279, device_id=0x0001, vendor_text="PNDISS SIM ENCODER",
+                    order_id="PNDISS-SIM-ENC", bf00_index=0xBF00),
+}
+DAP_MODULE = 0x00000001            # [sim choice]
+MAP_SUBMODULE = 0x0000FFFF         # SCANCON's MAP submodule ident 0xFFFF, low confidence (network.md §1.8)
+
+
+def _profiles_from_records():
+    """Prefer the records helper's vendor IDs (select_profile must recognise ours)."""
+    try:
+        from ..records import VENDORS, select_profile  # type: ignore
+    except Exception:
+        return
+    for prof, d in PROFILES.items():
+        for vid, name in VENDORS.items():
+            if prof in str(name).lower().replace("/", "").replace(" ", "") or \
+                    (prof == "psm" and "psm" in str(name).lower()):
+                try:
+                    if select_profile(vid, d["device_id"])[0] == prof:
+                        d["vendor_id"] = vid
+                except Exception:
+                    pass
+                break
+
+
+_profiles_from_records()
+
+
+def module_ident(telegram: int) -> int:
+    return 0x00000100 + telegram   # [sim choice]: encoder module per telegram
+
+
+def submodule_ident(telegram: int) -> int:
+    return telegram                # [sim choice]: telegram submodule ident = telegram number
+
+
+@dataclass
+class Config:
+    scenario: str = "startup"
+    profile: str = "generic"
+    telegram: int = 81
+    cycle_ms: float = 1.0
+    cycles: int = 2000
+    encoders: int = 1
+    injects: list = field(default_factory=list)   # [(rule_id, cycle or None)]
+    seed: int = 1
+    mupr: int = 8192
+    tmr: int = 8192 * 4096
+    compat: int = 1
+    class4: int = 1
+    velocity_unit: int = 0
+
+
+class Frame:
+    __slots__ = ("ts", "order", "data", "tags", "what")
+
+    def __init__(self, ts, order, data, what, tags=()):
+        self.ts, self.order, self.data, self.what, self.tags = ts, order, data, what, set(tags)
+
+
+def mac(n: int, dev: int) -> str:
+    """Locally administered MACs: 02:00:00:00:<dev>:<n> (dev 0 = controller)."""
+    return f"02:00:00:00:{dev:02x}:{n:02x}"
+
+
+class Station:
+    """Addresses and AR data of one encoder."""
+
+    def __init__(self, i: int, cfg: Config, rng: random.Random):
+        self.i = i
+        self.mac = mac(1, i + 1)
+        self.port_macs = (mac(2, i + 1), mac(3, i + 1))
+        self.name = f"encoder-{i + 1}"
+        self.ip = f"192.168.0.{10 + i}"
+        self.ar_uuid = uuid.UUID(int=rng.getrandbits(128), version=4)
+        self.session_key = 1
+        self.in_fid = 0x8000 + 2 * i
+        self.out_fid = 0x8001 + 2 * i
+        self.rpc_port = 0xC000 + i           # controller's RPC port for this AR
+        self.dev_port = 0xC100 + i           # device's port for its own requests (ApplicationReady)
+        sp, ac = T.length(cfg.telegram, "setpoint"), T.length(cfg.telegram, "actual")
+        self.out_len, self.in_len = sp, ac
+        # Input CR: lone IOPS for DAP submodules and MAP, then the telegram data + IOPS, then the
+        # IOCS of the telegram's output (wire.md §2.6); output CR: data + IOPS, then IOCS for all.
+        n = len(DAP_SUBSLOTS)
+        self.in_objs = [(API_DAP, 0, ss, o) for o, ss in enumerate(DAP_SUBSLOTS)] + \
+            [(API_ENC, SLOT_ENC, SUB_MAP, n), (API_ENC, SLOT_ENC, SUB_TEL, n + 1)]
+        self.in_data_off = n + 1
+        self.in_iocs = [(API_ENC, SLOT_ENC, SUB_TEL, n + 2 + ac)]
+        self.in_csdu = max(40, n + 3 + ac)
+        self.out_data_off = 0
+        self.out_objs = [(API_ENC, SLOT_ENC, SUB_TEL, 0)]
+        self.out_iocs = [(API_DAP, 0, ss, sp + 1 + o) for o, ss in enumerate(DAP_SUBSLOTS)] + \
+            [(API_ENC, SLOT_ENC, SUB_MAP, sp + 1 + n), (API_ENC, SLOT_ENC, SUB_TEL, sp + 2 + n)]
+        self.out_csdu = max(40, sp + 3 + n)
+
+
+CTRL_MAC = mac(1, 0)
+CTRL_PORT_MAC = mac(2, 0)
+CTRL_IP = "192.168.0.1"
+CTRL_NAME = "plc"
+CTRL_VENDOR, CTRL_DEVICE = 0x0279, 0x0002   # [sim choice]
+
+
+def cyclic_header(src: str, dst: str, frame_id: int) -> bytes:
+    """Ethernet + 802.1Q (PCP 6, VID 0) + FrameID: the fixed head of every cyclic frame (wire.md §1)."""
+    return (bytes.fromhex(dst.replace(":", "")) + bytes.fromhex(src.replace(":", ""))
+            + struct.pack(">HHHH", 0x8100, F.PCP_RT << 13, F.ETH_PNRT, frame_id))
+
+
+# APDU status (wire.md §2.3): DataStatus 0x35 = primary, valid, run, station ok; transfer status 0
+DATA_STATUS = 0x35
+IOXS_GOOD = 0x80
+
+
+class SimSession:
+    """Builds every frame of one session; ``build()`` -> (frames sorted by time, ground truth)."""
+
+    def __init__(self, cfg: Config, scenario=None):
+        if cfg.telegram not in PROFILE_TELEGRAMS[cfg.profile]:
+            raise ValueError(f"telegram {cfg.telegram} is not offered by profile {cfg.profile} "
+                             f"(offered: {', '.join(map(str, PROFILE_TELEGRAMS[cfg.profile]))})")
+        self.cfg = cfg
+        self.rng = random.Random(cfg.seed)
+        self.t0 = EPOCH_NS + cfg.seed * 10**9
+        self.cycle_ns = int(round(cfg.cycle_ms * 1_000_000))
+        self.scf, self.rr = send_clock(cfg.cycle_ms)
+        self.ident = PROFILES[cfg.profile]
+        self.stations = [Station(i, cfg, self.rng) for i in range(cfg.encoders)]
+        self.frames: list[Frame] = []
+        self.order = 0
+        self.xid = self.rng.randrange(1, 1 << 24)
+        self.ip_id = self.rng.randrange(1, 1 << 15)
+        self.seq = 0
+        self.bmp_ref = self.rng.randrange(1, 200)
+        self.facts: dict = {"records": [], "params": [], "dcp": [], "alarms": []}
+        self.injected: list[dict] = []
+        self.scenario = scenario
+        self.cyc_start_ns = 0
+
+    # ------------------------------------------------------------------ plumbing
+    def add(self, ts: int, data: bytes, what: str, tags=()) -> Frame:
+        self.order += 1
+        fr = Frame(ts, self.order, data, what, tags)
+        self.frames.append(fr)
+        return fr
+
+    def uuid(self) -> uuid.UUID:
+        return uuid.UUID(int=self.rng.getrandbits(128), version=4)
+
+    def next_ip_id(self) -> int:
+        self.ip_id = (self.ip_id + 1) & 0xFFFF
+        return self.ip_id
+
+    def ms(self, x: float) -> int:
+        return self.t0 + int(round(x * 1_000_000))
+
+    def cyc_ts(self, k: int) -> int:
+        return self.cyc_start_ns + k * self.cycle_ns
+
+    # ------------------------------------------------------------------ RPC
+    def rpc_call(self, ts, st: Station, opnum: int, req_blocks, res_blocks, *, from_device=False,
+                 status: int = 0, tags=(), what="rpc"):
+        """A request and its response 300 us later, each one datagram."""
+        act = self.uuid()
+        if from_device:  # device -> controller (ApplicationReady), to the controller interface
+            src, dst, sip, dip, sp, dp = st.mac, CTRL_MAC, st.ip, CTRL_IP, st.dev_port, F.RPC_PORT
+            obj, iface = F.object_uuid(CTRL_VENDOR, CTRL_DEVICE), F.IF_CONTROLLER
+        else:
+            src, dst, sip, dip, sp, dp = CTRL_MAC, st.mac, CTRL_IP, st.ip, st.rpc_port, F.RPC_PORT
+            obj, iface = F.object_uuid(self.ident["vendor_id"], self.ident["device_id"]), F.IF_DEVICE
+        self.seq += 1
+        req = F.rpc(src, dst, sip, dip, sp, dp, ptype=0, opnum=opnum, seq=self.seq, act=act, obj=obj,
+                    iface=iface, blocks=req_blocks, ip_id=self.next_ip_id())
+        res = F.rpc(dst, src, dip, sip, dp, sp, ptype=2, opnum=opnum, seq=self.seq, act=act, obj=obj,
+                    iface=iface, blocks=res_blocks, status=status, ip_id=self.next_ip_id(), boot=1)
+        a = self.add(ts, req, what + ".req", tags)
+        b = self.add(ts + 300_000, res, what + ".res", tags)
+        return a, b
+
+    def write_record(self, ts, st, index, data, *, api=API_ENC, slot=SLOT_ENC, subslot=SUB_MAP,
+                     status=0, tags=(), what="write"):
+        self.seq_rw = getattr(self, "seq_rw", 0) + 1
+        pn = 0 if status == 0 else status
+        a, b = self.rpc_call(ts, st, 3, [F.write_req(self.seq_rw, st.ar_uuid, api, slot, subslot, index, data)],
+                             [F.write_res(self.seq_rw, st.ar_uuid, api, slot, subslot, index, len(data), pn)],
+                             status=pn, tags=tags, what=what)
+        return a, b
+
+    def read_record(self, ts, st, index, data, *, api=API_ENC, slot=SLOT_ENC, subslot=SUB_MAP, tags=(),
+                    what="read"):
+        self.seq_rw = getattr(self, "seq_rw", 0) + 1
+        return self.rpc_call(ts, st, 2, [F.read_req(self.seq_rw, st.ar_uuid, api, slot, subslot, index, 4096)],
+                             [F.read_res(self.seq_rw, st.ar_uuid, api, slot, subslot, index, data)],
+                             tags=tags, what=what)
+
+    def bmp(self, ts, st, req: bytes, res: bytes, tags=(), what="bmp"):
+        """Base mode parameter access: write the request to 0xB02E, read the response (records.md §3.2)."""
+        a, _ = self.write_record(ts, st, 0xB02E, req, tags=tags, what=what + ".write")
+        _, d = self.read_record(ts + 1_000_000, st, 0xB02E, res, tags=tags, what=what + ".read")
+        return a, d
+
+    def next_ref(self) -> int:
+        self.bmp_ref = self.bmp_ref % 255 + 1   # 1..255, changes with every request (records.md §3.5)
+        return self.bmp_ref
+
+    # ------------------------------------------------------------------ the session
+    def device_params(self) -> dict:
+        c = self.cfg
+        return dict(direction=0, class4=c.class4, preset_control=0, scaling=1, alarm_channel_control=0,
+                    compat=c.compat, mupr=c.mupr, tmr=c.tmr, max_master_sol_failures=1,
+                    velocity_unit=c.velocity_unit)
+
+    def build(self):
+        cfg, sc = self.cfg, self.scenario
+        params = self.device_params()
+        if sc is not None:
+            sc.prepare(self, params)
+        n = len(self.stations)
+        # --- LLDP from the controller and both ports of every encoder (wire.md §6)
+        self.lldp_round(0)
+        # --- DCP: Identify All, responses; per station Identify by name, Set NameOfStation, Set IP
+        xid = self.xid
+        self.add(self.ms(5), F.dcp_identify_req(CTRL_MAC, xid), "dcp.identify_all")
+        for st in self.stations:
+            self.add(self.ms(5.5 + 0.2 * st.i), self.identify_res(st, xid), "dcp.identify_res")
+        for st in self.stations:
+            base = 10 + 10 * st.i
+            x = self.xid = self.xid + 1
+            self.add(self.ms(base), F.dcp_identify_req(CTRL_MAC, x, name=st.name), "dcp.identify_name")
+            self.add(self.ms(base + 0.4), self.identify_res(st, x), "dcp.identify_res")
+            self.dcp_set_name(self.ms(base + 2), st, st.name.encode())
+            x = self.xid = self.xid + 1
+            self.add(self.ms(base + 4), F.dcp_set_ip(CTRL_MAC, st.mac, x, st.ip, "255.255.255.0", "0.0.0.0"),
+                     "dcp.set_ip")
+            self.add(self.ms(base + 4.3), F.dcp_set_res(st.mac, CTRL_MAC, x, 1, 2), "dcp.set_res")
+            self.facts["dcp"].append({"station": st.name, "ip": st.ip, "mac": st.mac})
+        # --- Connect, 0xBF00, PrmEnd per station
+        t = 10 + 10 * n + 5
+        for st in self.stations:
+            self.connect(self.ms(t), st)
+            if not (sc and sc.skip_bf00):
+                bf = recdata.bf00(cfg.profile, **params) if not (sc and sc.bf00_bytes) else sc.bf00_bytes
+                self.write_record(self.ms(t + 3), st, self.ident["bf00_index"], bf, what="bf00",
+                                  tags=sc.bf00_tags if sc else ())
+                self.facts["records"].append({"station": st.name, "op": "write", "index": self.ident["bf00_index"],
+                                              "length": len(bf)})
+            self.rpc_call(self.ms(t + 6), st, 4, [F.control_req(st.ar_uuid, st.session_key, prm_end=True)],
+                          [F.control_res(st.ar_uuid, st.session_key, block_type=0x8110)], what="prm_end")
+            t += 10
+        self.cyc_start_ns = self.ms(t)
+        # --- ApplicationReady from each device once its IO data run (legacy start-up)
+        for st in self.stations:
+            self.rpc_call(self.cyc_ts(5 + 2 * st.i), st, 4,
+                          [F.control_req(st.ar_uuid, st.session_key, app_ready=True)],
+                          [F.control_res(st.ar_uuid, st.session_key, block_type=0x8112)],
+                          from_device=True, what="app_ready")
+        # --- I&M0 and the profile parameters (P922, P964, P965, P979, P65001)
+        encs = {}
+        for st in self.stations:
+            k = 20 + 3 * st.i
+            self.read_record(self.cyc_ts(k), st, 0xAFF0,
+                             recdata.im0(self.ident["vendor_id"], self.ident["order_id"], f"SIM{cfg.seed:04d}{st.i:04d}"),
+                             what="im0")
+            self.facts["records"].append({"station": st.name, "op": "read", "index": 0xAFF0})
+            dev = {"vendor_id": self.ident["vendor_id"], "telegram": cfg.telegram, "compat": params["compat"],
+                   "mupr": params["mupr"], "tmr": params["tmr"], "preset_value": 0, "offset": 0,
+                   "velocity_unit": params["velocity_unit"]}
+            encs[st.i] = dev
+            for j, pnu in enumerate((922, 964, 965, 979, 65001)):
+                self.read_param(self.cyc_ts(k + 10 + 5 * j), st, pnu, dev)
+        # --- cyclic
+        self.run_cyclic(params, encs)
+        # --- Release at the end
+        t_end = self.cyc_ts(cfg.cycles) + 2_000_000
+        for st in self.stations:
+            self.rpc_call(t_end + st.i * 1_000_000, st, 1,
+                          [F.control_req(st.ar_uuid, st.session_key, release=True)],
+                          [F.control_res(st.ar_uuid, st.session_key, block_type=0x8114)], what="release")
+        if sc is not None:
+            sc.finish(self)
+        self.frames.sort(key=lambda f: (f.ts, f.order))
+        return self.frames, self.truth()
+
+    def lldp_round(self, t_ms):
+        self.add(self.ms(t_ms), F.lldp_frame(CTRL_PORT_MAC, chassis=CTRL_NAME, port_id=f"port-001.{CTRL_NAME}",
+                                              mgmt_ip=CTRL_IP), "lldp")
+        for st in self.stations:
+            for p, pm in enumerate(st.port_macs):
+                self.add(self.ms(t_ms + 0.1 + 0.05 * (2 * st.i + p)),
+                         F.lldp_frame(pm, chassis=st.name, port_id=f"port-00{p + 1}.{st.name}", mgmt_ip=st.ip),
+                         "lldp")
+
+    def identify_res(self, st, xid):
+        return F.dcp_identify_res(st.mac, CTRL_MAC, xid, name=st.name, vendor_text=self.ident["vendor_text"],
+                                  vendor_id=self.ident["vendor_id"], device_id=self.ident["device_id"],
+                                  ip=st.ip, mask="255.255.255.0", gw="0.0.0.0")
+
+    def dcp_set_name(self, ts, st, name: bytes, tags=()):
+        x = self.xid = self.xid + 1
+        self.add(ts, F.dcp_set_name(CTRL_MAC, st.mac, x, name), "dcp.set_name", tags)
+        self.add(ts + 300_000, F.dcp_set_res(st.mac, CTRL_MAC, x, 2, 2), "dcp.set_res", tags)
+
+    def connect(self, ts, st: Station):
+        cfg = self.cfg
+        ctrl_obj = F.object_uuid(CTRL_VENDOR, CTRL_DEVICE)
+        in_apis = [(API_DAP, [(s, ss, o) for a, s, ss, o in st.in_objs if a == API_DAP], []),
+                   (API_ENC, [(s, ss, o) for a, s, ss, o in st.in_objs if a == API_ENC],
+                    [(s, ss, o) for a, s, ss, o in st.in_iocs])]
+        out_apis = [(API_DAP, [], [(s, ss, o) for a, s, ss, o in st.out_iocs if a == API_DAP]),
+                    (API_ENC, [(s, ss, o) for a, s, ss, o in st.out_objs],
+                     [(s, ss, o) for a, s, ss, o in st.out_iocs if a == API_ENC])]
+        subs_dap = [(ss, ss, None, None) for ss in DAP_SUBSLOTS]
+        subs_enc = [(SUB_MAP, MAP_SUBMODULE, None, None),
+                    (SUB_TEL, submodule_ident(cfg.telegram), st.in_len, st.out_len)]
+        req = [F.ar_block_req(st.ar_uuid, st.session_key, CTRL_MAC, ctrl_obj, CTRL_NAME),
+               F.iocr_block_req(1, 1, st.in_csdu, st.in_fid, self.scf, self.rr, in_apis),
+               F.iocr_block_req(2, 2, st.out_csdu, st.out_fid, self.scf, self.rr, out_apis),
+               F.alarm_cr_block_req(),
+               F.expected_submodules([(API_DAP, 0, DAP_MODULE, subs_dap),
+                                      (API_ENC, SLOT_ENC, module_ident(cfg.telegram), subs_enc)])]
+        res = [F.ar_block_res(st.ar_uuid, st.session_key, st.mac), F.iocr_block_res(1, 1, st.in_fid),
+               F.iocr_block_res(2, 2, st.out_fid), F.alarm_cr_block_res()]
+        self.rpc_call(ts, st, 0, req, res, what="connect")
+
+    def read_param(self, ts, st, pnu, dev, tags=()):
+        fmt, fn = recdata.PNU_VALUES[pnu]
+        vals = fn(dev)
+        ref = self.next_ref()
+        count = len(vals) if len(vals) > 1 else 0
+        req = recdata.param_request(ref, 1, [(pnu, 0, count, None, fmt)])
+        res = recdata.param_response(ref, 1, [(fmt, vals)])
+        self.bmp(ts, st, req, res, tags=tags, what=f"p{pnu}")
+        self.facts["params"].append({"station": st.name, "pnu": pnu, "values": vals, "request_ref": ref})
+
+    def write_param(self, ts, st, pnu, value, *, error: int | None = None, tags=()):
+        ref = self.next_ref()
+        req = recdata.param_request(ref, 2, [(pnu, 0, 0, [value & 0xFFFFFFFF], 0x43)])
+        if error is None:
+            res = recdata.param_response(ref, 2, [(0x40, [])])
+        else:
+            res = recdata.param_response(ref, 0x82, [(0x44, [error])])
+        self.bmp(ts, st, req, res, tags=tags, what=f"p{pnu}.change")
+        self.facts["params"].append({"station": st.name, "pnu": pnu, "write": value, "error": error,
+                                     "request_ref": ref})
+
+    # ------------------------------------------------------------------ cyclic
+    def run_cyclic(self, params, devs):
+        cfg, sc = self.cfg, self.scenario
+        cyc_s = self.cycle_ns / 1e9
+        step = (self.scf * self.rr) & 0xFFFF   # cycle counter unit 31.25 us (wire.md §2.3)
+        shaft_segs = sc.shaft if sc is not None and sc.shaft else ((0.0, 0.0, 0.0), (0.2, 0.0, 60.0), (0.7, 60.0, 60.0),
+                                                                   (1.2, 60.0, 0.0), (1.7, 0.0, 0.0))
+        out_l, in_l = T.layout(cfg.telegram, "setpoint"), T.layout(cfg.telegram, "actual")
+        per = []
+        for st in self.stations:
+            enc = Encoder(cfg.profile, cfg.telegram, params=params, shaft=Shaft(shaft_segs), cycle_s=cyc_s)
+            plc = Plc(cfg.telegram, sol_start=1 + self.rng.randrange(15))
+            out_t = bytearray(cyclic_header(CTRL_MAC, st.mac, st.out_fid) + bytes(st.out_csdu) + bytes(4))
+            in_t = bytearray(cyclic_header(st.mac, CTRL_MAC, st.in_fid) + bytes(st.in_csdu) + bytes(4))
+            h = 20  # dst, src, 802.1Q, type, FrameID
+            for _a, _s, _ss, o in st.out_objs:
+                out_t[h + o + st.out_len] = IOXS_GOOD
+            for _a, _s, _ss, o in st.out_iocs:
+                out_t[h + o] = IOXS_GOOD
+            for _a, s, ss, o in st.in_objs:
+                out_len = st.in_len if (s, ss) == (SLOT_ENC, SUB_TEL) else 0
+                in_t[h + o + out_len] = IOXS_GOOD
+            for _a, _s, _ss, o in st.in_iocs:
+                in_t[h + o] = IOXS_GOOD
+            out_t[-2], in_t[-2] = DATA_STATUS, DATA_STATUS
+            cc0 = (self.rng.randrange(1 << 16), self.rng.randrange(1 << 16))
+            per.append((st, enc, plc, out_t, in_t, cc0))
+        last_in = {st.i: None for st in self.stations}
+        for k in range(cfg.cycles):
+            t = self.cyc_ts(k)
+            for st, enc, plc, out_t, in_t, cc0 in per:
+                tags_o, tags_i = set(), set()
+                if sc is not None:
+                    sc.before_cycle(self, k, st, plc, enc, last_in[st.i])
+                out = plc.step(k, last_in[st.i])
+                actual = enc.step(k, out)
+                last_in[st.i] = actual
+                ob = out_l.encode(out)
+                ib = in_l.encode(actual)
+                o = bytearray(out_t)
+                i = bytearray(in_t)
+                o[20 + st.out_data_off:20 + st.out_data_off + len(ob)] = ob
+                i[20 + st.in_data_off:20 + st.in_data_off + len(ib)] = ib
+                struct.pack_into(">H", o, len(o) - 4, (cc0[0] + k * step) & 0xFFFF)
+                struct.pack_into(">H", i, len(i) - 4, (cc0[1] + k * step) & 0xFFFF)
+                if sc is not None:
+                    sc.patch(self, k, st, o, i, tags_o, tags_i)
+                self.add(t + 20_000 * st.i, bytes(o), "cyclic.out", tags_o)
+                self.add(t + self.cycle_ns // 2 + 20_000 * st.i, bytes(i), "cyclic.in", tags_i)
+            if k and k % 5000 == 0:   # LLDP every 5 s (IEEE 802.1AB default msgTxInterval)
+                self.lldp_round((t - self.t0) / 1e6 + 0.2)
+
+    # ------------------------------------------------------------------ ground truth
+    def truth(self) -> dict:
+        cfg = self.cfg
+        num = {id(f): n for n, f in enumerate(self.frames, 1)}
+        faults = []
+        for inj in self.injected:
+            tagged = [n for n, f in enumerate(self.frames, 1) if inj["tag"] in f.tags]
+            d = {k: v for k, v in inj.items() if k != "tag"}
+            d["first_frame"] = tagged[0] if tagged else None
+            d["last_frame"] = tagged[-1] if tagged else None
+            faults.append(d)
+        del num
+        stations = []
+        for st in self.stations:
+            def objs(lst, data_len):
+                return [{"api": a, "slot": s, "subslot": ss, "offset": o,
+                         "length": data_len if (s, ss) == (SLOT_ENC, SUB_TEL) else 0} for a, s, ss, o in lst]
+
+            def iocs(lst):
+                return [{"api": a, "slot": s, "subslot": ss, "offset": o} for a, s, ss, o in lst]
+            stations.append({
+                "name": st.name, "mac": st.mac, "ip": st.ip, "profile": cfg.profile,
+                "vendor_id": self.ident["vendor_id"], "device_id": self.ident["device_id"],
+                "ar_uuid": str(st.ar_uuid), "telegram": cfg.telegram,
+                "telegram_slot": SLOT_ENC, "telegram_subslot": SUB_TEL,
+                "module_ident": module_ident(cfg.telegram), "submodule_ident": submodule_ident(cfg.telegram),
+                "iocrs": [
+                    {"direction": "input", "frame_id": st.in_fid, "src": st.mac, "dst": CTRL_MAC,
+                     "data_length": st.in_csdu, "send_clock_factor": self.scf, "reduction_ratio": self.rr,
+                     "objects": objs(st.in_objs, st.in_len), "iocs": iocs(st.in_iocs)},
+                    {"direction": "output", "frame_id": st.out_fid, "src": CTRL_MAC, "dst": st.mac,
+                     "data_length": st.out_csdu, "send_clock_factor": self.scf, "reduction_ratio": self.rr,
+                     "objects": objs(st.out_objs, st.out_len), "iocs": iocs(st.out_iocs)},
+                ],
+            })
+        whats = {}
+        for f in self.frames:
+            whats[f.what] = whats.get(f.what, 0) + 1
+        return {
+            "generator": "pndiss simulate",
+            "config": {"scenario": cfg.scenario, "profile": cfg.profile, "telegram": cfg.telegram,
+                       "cycle_ms": cfg.cycle_ms, "cycles": cfg.cycles, "encoders": cfg.encoders,
+                       "seed": cfg.seed, "inject": [f"{r}@{c}" if c is not None else r for r, c in cfg.injects]},
+            "frames": len(self.frames),
+            "frame_kinds": dict(sorted(whats.items())),
+            "controller": {"name": CTRL_NAME, "mac": CTRL_MAC, "ip": CTRL_IP},
+            "stations": stations,
+            "records": self.facts["records"],
+            "params": self.facts["params"],
+            "alarms": self.facts["alarms"],
+            "faults": faults,
+            "clean": not faults,
+        }
+
+
+def send_clock(cycle_ms: float) -> tuple[int, int]:
+    """(SendClockFactor, ReductionRatio) for a cycle time: SCF x RR x 31.25 us (network.md §1.3).
+    Send clock 1 ms (SCF 32) with RR = cycle/1 ms for slower cycles; SCF < 32 below 1 ms."""
+    units = cycle_ms * 32
+    if units != int(units) or units < 8:
+        raise ValueError(f"cycle time {cycle_ms} ms is not a multiple of 31.25 us x 8 (min 0.25 ms)")
+    units = int(units)
+    if units <= 32:
+        if units & (units - 1):
+            raise ValueError(f"cycle time {cycle_ms} ms: below 1 ms the send clock must be 0.25, 0.5 or 1 ms")
+        return units, 1
+    rr = units // 32
+    if units % 32 or rr & (rr - 1) or rr > 512:
+        raise ValueError(f"cycle time {cycle_ms} ms: must be 1 ms x a power of two up to 512")
+    return 32, rr
