@@ -301,6 +301,8 @@ def test_no_duplicate_after_rename_or_for_same_device():
     # DEV is renamed first, so its old name is free
     assert _run([_ident_rsp("enc-1", "10.0.0.5", DEV), _set(DEV, name="enc-9"), _set(DEV2, name="enc-1")]) == []
     assert _run([_set(DEV, name=""), _set(DEV2, name="")]) == []
+    # a name reset (empty name) frees the name for another device
+    assert _run([_ident_rsp("enc-1", "10.0.0.5", DEV), _set(DEV, name=""), _set(DEV2, name="enc-1")]) == []
 
 
 def test_ip_assign_occupied():
@@ -310,6 +312,7 @@ def test_ip_assign_occupied():
     assert _run([_ident_rsp("enc-1", "0.0.0.0", DEV), _set(DEV2, ip="0.0.0.0")]) == []
     # DEV moved to another address first
     assert _run([_ident_rsp("a", "10.0.0.5", DEV), _set(DEV, ip="10.0.0.9"), _set(DEV2, ip="10.0.0.5")]) == []
+    assert _run([_ident_rsp("a", "10.0.0.5", DEV), _ident_rsp("a", "0.0.0.0", DEV), _set(DEV2, ip="10.0.0.5")]) == []
 
 
 # -- property tests: a dict or Malformed, nothing else ----------------------------------------

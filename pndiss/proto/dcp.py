@@ -433,12 +433,16 @@ def name_problems(name: str) -> list[str]:
         probs.append("characters other than letters, digits, '-' and '.': " + " ".join(repr(c) for c in bad))
     if name.startswith("-") or name.endswith("-"):
         probs.append("starts or ends with '-'")
-    for label in name.split("."):
+    labels = name.split(".")
+    last = len(labels) - 1
+    for i, label in enumerate(labels):
         if label == "":
             probs.append("empty label (leading, trailing or double '.')")
-        elif len(label) > MAX_LABEL:
+            continue
+        if len(label) > MAX_LABEL:
             probs.append(f"label of {len(label)} characters (more than {MAX_LABEL})")
-        elif (label.startswith("-") or label.endswith("-")) and label not in (name,):
+        # DNS labels: no '-' at either end (the name's own ends are reported above)
+        if (i > 0 and label[0] == "-") or (i < last and label[-1] == "-"):
             probs.append(f"label {label!r} starts or ends with '-'")
     # IEC 61158-6-10 extras quoted in spec/wire.md §3.6 [UNVERIFIED there]: not "port-xyz",
     # not an IPv4 literal
@@ -505,10 +509,20 @@ class DcpTracker:
         name = st.get("name")
         if name:
             out += self._claim("name", name, target, assign, fn, ts)
+        elif name == "":
+            self._release(self.name_at, self.mac_name, target)  # name reset: the name is free
         ip = st.get("ip")
         if ip and ip != "0.0.0.0":
             out += self._claim("ip", ip, target, assign, fn, ts)
+        elif ip == "0.0.0.0":
+            self._release(self.ip_at, self.mac_ip, target)
         return out
+
+    @staticmethod
+    def _release(at: dict, by_mac: dict, mac_: str) -> None:
+        old = by_mac.pop(mac_, None)
+        if old is not None and at.get(old, ("",))[0] == mac_:
+            del at[old]
 
     def _claim(self, what: str, value: str, mac_: str, assign: bool, fn: int, ts: int) -> list[dict]:
         at, by_mac = (self.name_at, self.mac_name) if what == "name" else (self.ip_at, self.mac_ip)
