@@ -1,0 +1,62 @@
+"""``pndiss export CAPTURE -o out.mcap``: the analysis as an MCAP timeline for Foxglove."""
+from __future__ import annotations
+
+import sys
+
+from .analyze import add_settings_args, check_capture_path, settings_from_args
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("export", help="write the decoded capture as MCAP (Foxglove), docs/mcap.md")
+    p.add_argument("capture", help="pcap or pcapng file")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.mcap", help="MCAP file to write")
+    p.add_argument("--on-change", action="store_true",
+                   help="cyclic topics: write a sample only when its words change, plus keyframes")
+    p.add_argument("--keyframe", type=float, default=1.0, metavar="SECONDS",
+                   help="with --on-change: write a sample at least this often per channel (default 1 s)")
+    p.add_argument("--decimate", type=int, default=1, metavar="N",
+                   help="cyclic topics: write every Nth sample per channel (with --on-change: also every Nth)")
+    p.add_argument("--compression", choices=("none", "lz4", "zstd"), default="zstd",
+                   help="chunk compression (default zstd)")
+    add_settings_args(p)
+    p.add_argument("-q", "--quiet", action="store_true", help="no summary line")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..analyzer import analyze_file
+    from ..capture import CaptureError
+    from ..errors import UsageError
+    from mcap.exceptions import UnsupportedCompressionError
+
+    from ..mcap_export import McapExporter
+
+    check_capture_path(args.capture)
+    if args.decimate < 1:
+        raise UsageError("--decimate must be 1 or more")
+    if args.keyframe <= 0:
+        raise UsageError("--keyframe must be a positive number of seconds")
+    settings = settings_from_args(args)
+    try:
+        exp = McapExporter(args.output, args.capture, settings, on_change=args.on_change,
+                           decimate=args.decimate, keyframe_s=args.keyframe, compression=args.compression)
+    except OSError as e:
+        raise UsageError(f"cannot write {args.output}: {e.strerror}") from None
+    except UnsupportedCompressionError as e:  # lz4 is not a hard dependency
+        raise UsageError(f"--compression {args.compression}: module {e} is not installed") from None
+    error = None
+    try:
+        analyze_file(args.capture, settings, exp.on_event)
+    except CaptureError as e:
+        error = e
+    finally:
+        exp.close()
+    if error is not None:
+        print(f"pndiss: error: {error} ({error.frames} frames read before it); "
+              f"{args.output} holds what was read", file=sys.stderr)
+        return 2
+    if not args.quiet:
+        topics = exp.topic_counts()
+        print(f"{args.output}: {sum(topics.values())} messages on {len(topics)} topics"
+              + (f", {exp.dropped} cyclic samples left out" if exp.dropped else ""), file=sys.stderr)
+    return 0
