@@ -26,6 +26,12 @@ class Settings:
     compat: int | None = None         # 0xBF00 byte 0 bit 5; None = from the captured 0xBF00, else the profile default
     class4: int | None = None         # 0xBF00 byte 0 bit 1; None = from the capture
     byte_order: str = "big"           # PS/PSM "Intel" claim, cyclic.md §1 [AMBIGUOUS]: 'big' or 'little'
+    telegram: int | None = None       # telegram when neither the Connect/P922/GSDML nor --map tells it
+    # --- reference encoder: values a capture rarely shows (behaviour.md §0.3, §4.1) ---
+    st_phys: int | None = None        # hardware steps per revolution; None = unknown (range rules skipped)
+    mt_phys: int | None = None        # hardware revolutions; None = unknown
+    xist1_shift: int | None = None    # P979 sub 3; None = P979 read, else inferred from XIST1/XIST2 [INFERENCE] §1.6
+    max_position_step: int | None = None  # plausible |position change| per cycle; None = R/8 [INFERENCE] §4.2 #42
     fail_on: str | None = None        # 'info' | 'warning' | 'error': exit 1 at or above that severity
 
     @classmethod

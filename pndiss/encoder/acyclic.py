@@ -1,0 +1,227 @@
+"""Record and parameter rules of the reference encoder (behaviour.md §5, §9.9 #64-71/75, §9.10).
+
+Fed ``record`` events (0xBF00 / 0xFFFF user parameters) and ``param`` events (a paired 0xB02E
+request/response from pndiss.records.ParamPairer) in capture order. Updates the checker's
+configuration (0xBF00 values, P65000, P979 shift) and emits violations through the checker.
+"""
+from __future__ import annotations
+
+from .. import telegrams as tg
+
+BF00_LEN = 31                                    # 000_37bf2397999f1108.txt:2171, 002_d69f444daf0f8af2.txt:1020
+BF00_INDEXES = (0xBF00, 0xFFFF)                  # PS/PSM: 0xFFFF (behaviour.md §5.1)
+# LIKA's read-only PNUs (behaviour.md §9.10 #86, 000_37bf2397999f1108.txt:1953-2168)
+READ_ONLY = {"lika": {922, 964, 965, 975, 979, 980, 61001, 65001},
+             "psm": {922, 925, 964, 965, 975, 979, 980, 61001, 65001}}   # PS/PSM "Get" (002_d69f444daf0f8af2.txt:1089-1166)
+PROFILE_PNUS = {922, 964, 965, 975, 979, 980, 65000, 65001}    # profile parameters readable after run-up (#92)
+ABORTING_ERRORS = {0x05, 0x16, 0x17, 0x18}       # 001_9461bb7bc8c2767b.txt:2089, 2099 (#85)
+# words of the ParamPairer's pairing problems -> rule (behaviour.md §9.10 #76, #81)
+PAIRING_RULES = (("pipelin", "BMP-PIPELINED"), ("before the response", "BMP-PIPELINED"),
+                 ("ref", "BMP-NOT-MIRRORED"), ("axis", "BMP-NOT-MIRRORED"), ("number of param", "BMP-NOT-MIRRORED"))
+RECORD_RULES = {"BF00-LENGTH", "BF00-RESERVED-NONZERO", "BF00-VALUE-OUT-OF-RANGE", "BMP-BAD-REQUEST",
+                "BMP-REQREF-ZERO", "BMP-NEG-FORMAT", "BMP-ILLEGAL-REQID-RESPONSE", "BMP-RESPID-MISMATCH"}
+
+
+def check_record(chk, ev: dict) -> None:
+    kind = ev.get("kind")
+    if kind == "record":
+        _record(chk, ev)
+    elif kind == "param":
+        _param(chk, ev)
+
+
+def _v(chk, rule, ev, msg, frame=None, side=None):
+    chk._emit(rule, ev.get("frame", 0) if frame is None else frame, ev.get("ts_ns", 0), msg, side=side)
+
+
+def _decoded_problems(chk, ev, done: set) -> None:
+    """Problems the records decoder already found (rule ID + words): report each once."""
+    for p in (ev.get("decoded") or {}).get("problems", ()) or ():
+        rule = p.get("rule") if isinstance(p, dict) else (p[0] if isinstance(p, (list, tuple)) and p else None)
+        words = p.get("text", p.get("message", "")) if isinstance(p, dict) else " ".join(str(x) for x in p[1:])
+        if rule in RECORD_RULES and rule not in done:
+            done.add(rule)
+            _v(chk, rule, ev, str(words) or rule)
+
+
+def _record(chk, ev: dict) -> None:
+    idx = ev.get("index")
+    if idx not in BF00_INDEXES or ev.get("op") != "write":
+        return
+    if idx == 0xFFFF and chk.cfg.profile != "psm":
+        return
+    c = chk.cfg
+    chk.bf00_seen = True
+    problems = []
+    done: set = set()
+    data = bytes.fromhex(ev.get("data") or "") if isinstance(ev.get("data"), str) else bytes(ev.get("data") or b"")
+    n = ev.get("length", len(data))
+    if n != BF00_LEN:
+        problems.append(f"length {n}")
+        # 67: 31 bytes (000_37bf2397999f1108.txt:2171)
+        _v(chk, "BF00-LENGTH", ev, f"0x{idx:04X} written with {n} bytes; expected {BF00_LEN}")
+        done.add("BF00-LENGTH")
+    if c.profile == "lika" and len(data) >= 1 and ((data[0] & 0xC0) or any(data[19:31])):
+        problems.append("reserved bits")
+        # 68: LIKA byte 0 bits 6-7 and bytes 19-30 are reserved (000_37bf2397999f1108.txt:2195, 2211)
+        _v(chk, "BF00-RESERVED-NONZERO", ev, f"0xBF00 reserved content set (byte 0 = 0x{data[0]:02X}, bytes 19-30 = {data[19:31].hex()})")
+        done.add("BF00-RESERVED-NONZERO")
+    d = ev.get("decoded") or {}
+    rng = []
+    mupr, tmr = d.get("mupr"), d.get("tmr")
+    if mupr is not None and (mupr < 1 or (c.st_phys and mupr > c.st_phys)):
+        rng.append(f"MUPR={mupr} outside [1, {c.st_phys or '?'}]")
+    if tmr is not None and (tmr < 2 or (c.st_phys and c.mt_phys and tmr > c.st_phys * c.mt_phys)):
+        rng.append(f"TMR={tmr} outside [2, {(c.st_phys or 0) * (c.mt_phys or 0) or '?'}]")
+    if d.get("max_master_sol_failures") == 0 and c.profile != "psm":
+        rng.append("max master sign-of-life failures = 0")
+    vu = d.get("velocity_unit")
+    if vu is not None and vu > (4 if c.profile == "psm" else 3):
+        rng.append(f"velocity unit {vu}")
+    if rng:
+        problems.extend(rng)
+        # 69: value ranges of the parameter set (000_37bf2397999f1108.txt:2395-2480)
+        _v(chk, "BF00-VALUE-OUT-OF-RANGE", ev, "0xBF00 " + "; ".join(rng))
+        done.add("BF00-VALUE-OUT-OF-RANGE")
+    _decoded_problems(chk, ev, done)
+    problems.extend(r for r in done if r not in ("BF00-LENGTH", "BF00-RESERVED-NONZERO", "BF00-VALUE-OUT-OF-RANGE"))
+    # the captured parameter set is now in force (behaviour.md §2.0: re-read whenever written)
+    for key, attr in (("compat", "compat"), ("class4", "class4"), ("preset_control", "preset_control"),
+                      ("scaling", "scaling"), ("direction", "direction"), ("code_sequence", "direction"),
+                      ("mupr", "mupr"), ("tmr", "tmr"), ("max_master_sol_failures", "max_master_sol_failures"),
+                      ("velocity_unit", "velocity_unit")):
+        if d.get(key) is not None:
+            setattr(c, attr, int(d[key]))
+            c.sources[attr] = f"captured 0xBF00 (frame {ev.get('frame')})"
+    chk._apply_cfg()
+    if problems:
+        chk.bf00_invalid = "; ".join(problems)
+        chk.bf00_due = (chk.n + chk.D, chk.bf00_invalid)
+        chk.bf00_valid_frame = None
+    else:
+        chk.bf00_invalid = None
+        chk.bf00_due = None
+        chk.bf00_valid_frame = ev.get("frame")
+    prev = chk.prev_bf00
+    if prev is not None and d:
+        keys = ("direction", "code_sequence", "mupr", "tmr")
+        if any(prev.get(k) != d.get(k) for k in keys if k in d or k in prev):
+            chk.params_changed = True
+
+
+def _param(chk, ev: dict) -> None:
+    c = chk.cfg
+    change = "change" in str(ev.get("request_id", ""))
+    ok = bool(ev.get("ok"))
+    frame = ev.get("response_frame", ev.get("frame", 0))
+    for prob in ev.get("pairing") or ():
+        words = str(prob).lower()
+        for key, rule in PAIRING_RULES:
+            if key in words:
+                # 76 / 81: one request at a time, mirrored header (001_9461bb7bc8c2767b.txt:1822, 1908, 1921)
+                _v(chk, rule, ev, f"parameter access: {prob}", frame=frame)
+                break
+    ref = ev.get("request_ref")
+    if isinstance(ref, int):
+        if ref == 0:
+            # 77: request reference 0 is reserved (001_9461bb7bc8c2767b.txt:2013)
+            _v(chk, "BMP-REQREF-ZERO", ev, "request reference 0x00 (reserved)", frame=ev.get("request_frame", frame))
+        elif ref == chk.last_req_ref:
+            # 78: a new reference per request (001_9461bb7bc8c2767b.txt:1908)
+            _v(chk, "BMP-REQREF-NOT-CHANGED", ev, f"request reference {ref} repeated", frame=ev.get("request_frame", frame))
+        chk.last_req_ref = ref
+    params = ev.get("params") or []
+    rid = ev.get("response_id")
+    if isinstance(rid, int) and rid & 0x80 == 0 and any(p.get("error") for p in params):
+        # 82: a positive response cannot carry errors (001_9461bb7bc8c2767b.txt:1914-1920)
+        _v(chk, "BMP-RESPID-MISMATCH", ev, f"positive response ID 0x{rid:02X} with a parameter error", frame=frame)
+    aborted = False
+    for p in params:
+        pnu, sub, err = p.get("pnu"), p.get("subindex", 0), p.get("error")
+        code = err.get("code") if isinstance(err, dict) else None
+        vals = p.get("values") or []
+        if code is not None and code > 0xFF:
+            # 83: error numbers are one byte (001_9461bb7bc8c2767b.txt:2031)
+            _v(chk, "BMP-NEG-FORMAT", ev, f"PNU {pnu}: error number 0x{code:X} > 0xFF", frame=frame)
+        if change and len(params) > 1:
+            if aborted and err is None:
+                # 85: errors 0x05/0x16/0x17/0x18 abort the rest (001_9461bb7bc8c2767b.txt:2089, 2099)
+                _v(chk, "BMP-MULTI-NOT-ABORTED", ev, f"PNU {pnu} reported changed after an aborting error", frame=frame)
+            if code in ABORTING_ERRORS:
+                aborted = True
+        if chk.p980 is not None and pnu is not None and pnu not in chk.p980 and (err is None or code != 0x00):
+            # 88: unknown PNU -> error 0x00 (001_9461bb7bc8c2767b.txt:2040)
+            _v(chk, "BMP-UNKNOWN-PNU", ev, f"PNU {pnu} is not in P980 but was answered "
+               + ("positively" if err is None else f"with error 0x{code:02X}"), frame=frame)
+        if change:
+            _change(chk, ev, p, pnu, sub, err, vals, frame)
+        elif err is None and vals:
+            _read(chk, ev, p, pnu, sub, vals, frame)
+        elif code == 0x11 and pnu in PROFILE_PNUS:
+            # 92: profile parameters readable in every state (001_9461bb7bc8c2767b.txt:1830)
+            _v(chk, "BMP-PROFILE-PARAM-UNREADABLE", ev, f"read of P{pnu} refused with 0x11 after run-up", frame=frame)
+
+
+def _change(chk, ev, p, pnu, sub, err, vals, frame) -> None:
+    c = chk.cfg
+    if pnu == 65000:
+        v = vals[0] if vals else None
+        if not c.class4:
+            # 17: P65000 needs class 4 functionality (001_9461bb7bc8c2767b.txt:846)
+            _v(chk, "PRESET-CLASS4-DISABLED", ev, "P65000 change request while class 4 functionality is off",
+               frame=ev.get("request_frame", frame))
+            if err is None:
+                # 91: refusal expected [AMBIGUOUS] (001_9461bb7bc8c2767b.txt:2389-2391)
+                _v(chk, "BMP-CLASS4-WRITE-ACCEPTED", ev, "P65000 change accepted with class 4 functionality off", frame=frame)
+        R = c.modulus
+        if err is None and isinstance(v, int) and R is not None and v >= R:
+            # 87: P65000 beyond the range -> error 0x02 (001_9461bb7bc8c2767b.txt:847)
+            _v(chk, "BMP-PRESET-LIMIT-ACCEPTED", ev, f"P65000={v} >= R={R} accepted; expected error 0x02", frame=frame)
+        if err is None and isinstance(v, int):
+            chk.p65000 = v  # R-PAR-1: stored only, no preset (001_9461bb7bc8c2767b.txt:845)
+    ro = READ_ONLY.get(c.profile)
+    if ro and pnu in ro and err is None:
+        # 86: read-only parameters refuse changes with 0x01 (001_9461bb7bc8c2767b.txt:2041)
+        _v(chk, "BMP-WRITE-RO-ACCEPTED", ev, f"change of read-only P{pnu} answered positively; expected error 0x01", frame=frame)
+    if pnu == 971 and err is None and vals and vals[0] == 1 and c.profile == "lika":
+        chk.p971_pending = [frame, 0, ev.get("ts_ns", 0)]
+
+
+def _read(chk, ev, p, pnu, sub, vals, frame) -> None:
+    c = chk.cfg
+    v = vals[0]
+    if pnu == 922 and isinstance(v, int) and c.telegram and v != c.telegram:
+        # 65: P922 names the configured telegram (000_37bf2397999f1108.txt:1953-1956)
+        _v(chk, "TELEGRAM-SELECTION-MISMATCH", ev, f"P922 reads {v}; the AR runs telegram {c.telegram}", frame=frame)
+    elif pnu == 965 and sub == 1 and isinstance(v, int) and c.profile != "psm":
+        exp = 31 if c.compat == 0 else 41
+        if v != exp:
+            # 75: P965.1 = 31 in V3.1 mode, 41 in V4.1 (000_37bf2397999f1108.txt:2369-2372)
+            _v(chk, "P965-VERSION-MISMATCH", ev, f"P965.1 = {v} with compatibility mode {c.compat}; expected {exp}", frame=frame)
+    elif pnu == 979 and sub == 3 and isinstance(v, int) and 0 <= v < 32:
+        c.shift = v
+        c.sources["shift"] = f"P979.3 read (frame {frame})"
+        chk.shift_known = True
+    elif pnu == 980:
+        chk.p980 = (chk.p980 or set()) | {x for x in vals if isinstance(x, int) and x}
+    elif pnu == 971 and chk.p971_pending is not None:
+        if v == 1:
+            chk.p971_pending[1] += 1
+        else:
+            chk.p971_pending = None
+    elif pnu == 65000 and isinstance(v, int):
+        chk.p65000 = v
+
+
+def finish(chk) -> None:
+    if chk.p971_pending is not None and chk.p971_pending[1] > 0:
+        f, reads, ts = chk.p971_pending
+        # 90: P971 returns to 0 once stored (000_37bf2397999f1108.txt:1977-1979)
+        chk._emit("P971-NOT-CONFIRMED", f, ts, f"P971 still reads 1 in all {reads} reads after the store request")
+        chk.p971_pending = None
+
+
+def tg_length_problem(telegram: int, direction: str, length: int) -> str | None:
+    """#64: words when a data object's length does not fit its telegram (behaviour.md §1.1)."""
+    want = tg.length(telegram, direction)
+    return None if want == length else f"telegram {telegram} {direction} is {want} bytes, the AR maps {length}"
