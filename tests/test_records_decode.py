@@ -1,0 +1,254 @@
+"""pndiss.records against the manuals' own examples (spec/records.md) and the pairing rules."""
+import struct
+
+import pytest
+
+from pndiss.records import ParamPairer, decode_record, index_name, param_info, select_profile
+from pndiss.records.build import build_bf00, build_im0, build_param_request, build_param_response
+from pndiss.records.profidrive import decode_response
+from pndiss.proto.common import Malformed
+
+# ---- PROFIdrive base mode --------------------------------------------------------------------
+
+SCANCON_PRESET = bytes.fromhex("00020001" "1000FDE80000" "430100000064")  # 001_...:862-866
+
+
+def test_scancon_preset_write_example():
+    d = decode_record(0xB02E, SCANCON_PRESET, write=True, profile="scancon")
+    assert d["index_name"] == "PROFIDrive Parameter Access - Local"
+    assert (d["request_ref"], d["request_id"], d["axis"], d["no_of_parameters"]) == (0, 2, 0, 1)
+    assert d["request_id_name"] == "change parameter"
+    (p,) = d["params"]
+    assert (p["attribute"], p["count"], p["pnu"], p["subindex"]) == (0x10, 0, 65000, 0)
+    assert p["name"] == "Preset value"
+    assert (p["format"], p["no_of_values"], p["values"]) == (0x43, 1, [100])
+    assert "trailing_bytes" not in d
+
+
+def test_builder_reproduces_scancon_example():
+    assert build_param_request(0, 2, [{"pnu": 65000, "format": 0x43, "values": [100]}]) == SCANCON_PRESET
+
+
+@pytest.mark.parametrize("raw,code,sub", [("0082000144010002", 2, None), ("00820001440200020000", 2, 0)])
+def test_negative_responses(raw, code, sub):  # records.md §3.9 derived rows
+    d = decode_record(0xB02E, bytes.fromhex(raw), write=False)
+    assert d["response_id"] == 0x82 and not d["ok"]
+    (b,) = d["params"]
+    assert b["error"] == {"code": code, "text": "low or high limit exceeded"}
+    assert b.get("error_subindex") == sub
+
+
+def test_positive_change_response_has_no_blocks():
+    d = decode_record(0xB02E, bytes.fromhex("00020001"), write=False)
+    assert d["ok"] and d["params"] == [] and d["no_of_parameters"] == 1
+
+
+def test_negative_response_with_zero_blocks_only():
+    d = decode_record(0xB02E, bytes.fromhex("098100024000" "4000"), write=False)
+    assert [b["format_name"] for b in d["params"]] == ["Zero", "Zero"] and not d["ok"]
+
+
+def test_every_format_width():
+    blocks = [{"format": 0x02, "values": [-3]}, {"format": 0x03, "values": [-300, 7]},
+              {"format": 0x04, "values": [-100]}, {"format": 0x07, "values": [2**32 - 1]},
+              {"format": 0x08, "values": [1.5]}, {"format": 0x09, "values": ["ABC"]},
+              {"format": 0x0A, "values": [1, 2, 3]}, {"format": 0x0F, "values": [2.25]},
+              {"format": 0x37, "values": [-(2**40)]}, {"format": 0x38, "values": [2**63]},
+              {"format": 0x1F, "values": ["3d29"]}, {"format": 0x72, "values": [-5]},
+              {"format": 0x41, "values": [7]}, {"error": 0x16}]
+    d = decode_response(build_param_response(1, 0x81, blocks))
+    assert len(d["params"]) == len(blocks)
+    for b, got in zip(blocks, d["params"]):
+        if "error" in b:
+            assert got["error"]["code"] == 0x16
+        else:
+            assert got["values"] == b["values"], got
+
+
+def test_odd_blocks_are_padded_and_skipped():
+    raw = bytes.fromhex("0101000241010700" "41010800")
+    d = decode_record(0xB02E, raw, write=False)
+    assert [b["values"] for b in d["params"]] == [[7], [8]]
+
+
+@pytest.mark.parametrize("raw", ["0102", "01020001" "1000FDE8", "01020001" "1000FDE80000" "4302000000"])
+def test_truncated_param_records_are_malformed(raw):
+    with pytest.raises(Malformed):
+        decode_record(0xB02E, bytes.fromhex(raw), write=True)
+
+
+def _pair(req: bytes, rsp: bytes, profile="generic"):
+    pp = ParamPairer()
+    key = ("ar", 0, 1, 1)
+    pp.request(key, decode_record(0xB02E, req, write=True, profile=profile), 10, 1000)
+    return pp.response(key, decode_record(0xB02E, rsp, write=False, profile=profile), 12, 2000, profile=profile)
+
+
+def test_pairing_gives_every_value_its_address():
+    req = build_param_request(5, 1, [{"pnu": 65001, "subindex": 6, "count": 2}, {"pnu": 922}])
+    rsp = build_param_response(5, 1, [{"format": 0x07, "values": [0x401, 0xFFFFFFFF]}, {"format": 0x06, "values": [81]}])
+    ev = _pair(req, rsp, "lika")
+    assert ev["pairing"] == [] and ev["ok"] and ev["request_frame"] == 10 and ev["response_frame"] == 12
+    assert ev["request_id"] == "request parameter" and ev["response_id"] == 1
+    a, b = ev["params"]
+    assert (a["pnu"], a["subindex"], a["count"], a["values"]) == (65001, 6, 2, [0x401, 0xFFFFFFFF])
+    assert [e["name"] for e in a["elements"]] == ["encoder profile version", "operating time"]
+    assert (b["pnu"], b["name"], b["values"]) == (922, "Telegram selection", [81])
+
+
+def test_pairing_problems():
+    req = build_param_request(5, 2, [{"pnu": 65000, "format": 0x43, "values": [1]}], axis=1)
+    ev = _pair(req, build_param_response(6, 0x81, [{"error": 2}, {"error": 3}], axis=2))
+    text = " | ".join(ev["pairing"])
+    for frag in ("request ref mismatch", "response id mismatch", "axis not mirrored", "number of parameters"):
+        assert frag in text
+    pp = ParamPairer()
+    ev = pp.response("k", decode_response(bytes.fromhex("00020001")), 3, 0)
+    assert ev["pairing"] == ["no request"] and ev["request_frame"] is None
+
+
+def test_pairing_reports_overwritten_request():
+    pp = ParamPairer()
+    req = decode_record(0xB02E, build_param_request(1, 1, [{"pnu": 922}]), write=True)
+    pp.request("k", req, 1, 0)
+    pp.request("k", req, 2, 0)
+    ev = pp.response("k", decode_response(build_param_response(1, 1, [{"format": 0x06, "values": [81]}])), 3, 0)
+    assert ev["superseded_request_frames"] == [1] and ev["request_frame"] == 2
+
+
+def test_negative_change_keeps_written_value_and_error():
+    ev = _pair(SCANCON_PRESET, bytes.fromhex("0082000144010002"), "scancon")
+    (p,) = ev["params"]
+    assert p["written"] == {"format": 0x43, "values": [100]} and p["error"]["code"] == 2 and not ev["ok"]
+
+
+def test_param_database_profiles():
+    assert param_info(65000, "lika")["type"] == "U32" and param_info(65000, "scancon")["type"] == "I32"
+    assert param_info(65001, "psm")["subindex"][18].startswith("offset 64 bit")
+    assert param_info(65001, "lika")["subindex"][11] == "velocity measuring unit"
+    assert param_info(922)["access"] == "ro" and param_info(101, "psm")["name"].startswith("Sensor format")
+    assert param_info(101, "lika") is None
+    for pnu in (922, 925, 964, 965, 971, 974, 975, 979, 980, 61000, 61001, 65000, 65001):
+        info = param_info(pnu, "psm")
+        assert info and info["source"] and ".txt:" in info["source"]
+
+
+# ---- I&M ---------------------------------------------------------------------------------------
+
+def test_im0_lika_example():
+    # hand-built: Lika vendor 0x0239 (000_...:1962), HW 1, SW V1.1.0 (000_...:856-873), encoder profile
+    raw = (bytes.fromhex("0020003801000239") + b"XAC7716/16384PT-xx".ljust(20) + b"123456".ljust(16)
+           + bytes.fromhex("0001" "56010100" "0002" "3D00" "0000" "0101" "0000"))
+    d = decode_record(0xAFF0, raw, write=False)
+    assert d["index_name"] == "I&M0" and d["vendor_id"] == 0x0239 and d["vendor_name"].startswith("Lika")
+    assert d["order_id"] == "XAC7716/16384PT-xx" and d["serial_number"] == "123456"
+    assert d["sw_revision"] == "V1.1.0" and d["hw_revision"] == 1 and d["revision_counter"] == 2
+    assert d["profile_id"] == 0x3D00 and d["profile_name"] == "Encoder profile" and d["im_version"] == "1.1"
+    assert d["problems"] == []
+    assert build_im0(0x0239, "XAC7716/16384PT-xx", "123456", 1, ("V", 1, 1, 0), 2, 0x3D00, 0, (1, 1), 0) == raw
+
+
+def test_im0_short_and_im1():
+    with pytest.raises(Malformed):
+        decode_record(0xAFF0, build_im0()[:40], write=False)
+    im1 = struct.pack(">HHBB", 0x21, 0x38, 1, 0) + b"axis 1".ljust(32) + b"hall 2".ljust(22)
+    d = decode_record(0xAFF1, im1, write=True)
+    assert (d["tag_function"], d["tag_location"]) == ("axis 1", "hall 2")
+
+
+# ---- 0xBF00 user parameters --------------------------------------------------------------------
+
+def _bf00(b0, mupr, tmr, sol, vu, tail=bytes(12)):
+    return bytes([b0]) + mupr.to_bytes(8, "big") + tmr.to_bytes(8, "big") + bytes([sol, vu]) + tail
+
+
+def test_lika_defaults_xac7716():
+    # Lika defaults (000_...:3513-3532): class 4 on, compat 1 (V4.1), MUPR = 2^16, TMR = 2^30, SoL 1, steps/s
+    d = decode_record(0xBF00, _bf00(0x22, 1 << 16, 1 << 30, 1, 0), write=True, profile="lika")
+    assert (d["code_sequence"], d["class4"], d["preset_control"], d["scaling"], d["alarm_channel_control"],
+            d["compat"]) == (0, 1, 0, 0, 0, 1)
+    assert d["mupr"] == 65536 and d["tmr"] == 1 << 30 and d["revolutions"] == 16384
+    assert d["velocity_unit_name"] == "steps/s" and d["problems"] == [] and d["preset_affects_xist1"]
+
+
+def test_scancon_pc_worx_example():
+    # PC Worx screen: MUPR 8192, TMR 33554432, SoL 1, steps/s; SCANCON default scaling on (001_...:806, 2201-2203)
+    d = decode_record(0xBF00, _bf00(0x28, 8192, 33554432, 1, 0), write=True, profile="scancon")
+    assert d["scaling"] == 1 and d["compat"] == 1 and d["class4"] == 0
+    assert (d["mupr"], d["tmr"], d["max_master_sol_failures"]) == (8192, 33554432, 1) and d["problems"] == []
+    assert "diagnostic telegram" in d["alarm_channel_meaning"]
+
+
+def test_hohner_preset_control_is_inverted():
+    raw = _bf00(0x22, 8192, 1 << 25, 1, 3)
+    assert decode_record(0xBF00, raw, write=True, profile="hohner")["preset_affects_xist1"] is False
+    assert decode_record(0xBF00, raw, write=True, profile="lika")["preset_affects_xist1"] is True
+    assert decode_record(0xBF00, raw, write=True, profile="hohner")["velocity_unit_name"] == "RPM"
+
+
+def test_psm_record_at_ffff():
+    # PSM defaults (002_...:985-1009): class 4 1, preset control 1 (disabled), compat 1, rotary, SoL 0 allowed
+    raw = _bf00(0x26 | 0x40, 4096, 1 << 24, 0, 4, struct.pack(">f", 3000.0) + bytes(8))
+    d = decode_record(0xFFFF, raw, write=True, profile="psm")
+    assert d["index_name"].startswith("Encoder standard parameter")
+    assert d["encoder_type_name"] == "linear" and d["velocity_reference"] == 3000.0 and d["problems"] == []
+    assert not d["preset_affects_xist1"] and d["mupr_low"] == 4096 and d["tmr_high"] == 0
+    assert "data" in decode_record(0xFFFF, raw, write=True, profile="lika")
+
+
+@pytest.mark.parametrize("profile,raw,rules", [
+    ("lika", _bf00(0x22, 8192, 1 << 25, 1, 0)[:30], {"BF00-LENGTH"}),
+    ("lika", _bf00(0x62, 8192, 1 << 25, 1, 0), {"BF00-RESERVED-NONZERO"}),
+    ("lika", _bf00(0x22, 8192, 1 << 25, 1, 0, bytes(11) + b"\x01"), {"BF00-RESERVED-NONZERO"}),
+    ("scancon", _bf00(0x62, 8192, 1 << 25, 1, 0), set()),
+    ("lika", _bf00(0x22, 0, 1, 0, 4), {"BF00-VALUE-OUT-OF-RANGE"}),
+    ("psm", _bf00(0x22, 8192, 1 << 25, 0, 4), set()),
+    ("psm", _bf00(0x22, 8192, 1 << 25, 0, 5), {"BF00-VALUE-OUT-OF-RANGE"}),
+    ("generic", b"", {"BF00-LENGTH"}),
+])
+def test_bf00_problems(profile, raw, rules):
+    d = decode_record(0xBF00, raw, write=True, profile=profile)
+    assert {p["rule"] for p in d["problems"]} == rules
+    assert all(p["message"] for p in d["problems"])
+
+
+def test_bf00_out_of_range_counts_each_field():
+    d = decode_record(0xBF00, _bf00(0x22, 0, 1, 0, 4), write=True, profile="lika")
+    assert len(d["problems"]) == 4
+
+
+@pytest.mark.parametrize("profile", ["lika", "scancon", "hohner", "psm", "generic"])
+def test_build_bf00_round_trip(profile):
+    raw = build_bf00(profile, direction=1, scaling=1, mupr=3600, tmr=3600 * 512, max_master_sol_failures=3,
+                     velocity_unit=2)
+    d = decode_record(0xBF00, raw, write=True, profile=profile)
+    assert len(raw) == 31 and d["problems"] == []
+    assert (d["direction"], d["scaling"], d["mupr"], d["tmr"], d["max_master_sol_failures"], d["velocity_unit"]) \
+        == (1, 1, 3600, 3600 * 512, 3, 2)
+
+
+# ---- names and profiles -------------------------------------------------------------------------
+
+def test_index_names():
+    assert index_name(0xAFF0) == "I&M0" and index_name(0xB02F).endswith("Global")
+    assert index_name(0xBF00) == "Encoder user parameter data"
+    assert "0x1234" in index_name(0x1234)
+    d = decode_record(0x8028, b"\x01\x02", write=False)
+    assert d["data"] == "0102" and d["index_name"].startswith("RecordInputDataObjectElement")
+
+
+@pytest.mark.parametrize("args,profile", [
+    ((0x0239, 3), "lika"), ((0x002A, 0x0313), "generic"), ((None, None, "SAG-EIXXB-1213-XXXX"), "scancon"),
+    ((0x1234, 1, "SCANCON SAG"), "scancon"), ((None, None, "ExM58x-xxxPNxxxx1213"), "hohner"),
+    ((None, None, "ENA58IL-R11BA-B17"), "hohner"), ((None, None, "PS/PSM Type 0"), "psm"),
+    ((None, None, "LIKA ROTACOD"), "lika"), ((0x0099, None, "ET 200SP"), "generic"),
+])
+def test_select_profile(args, profile):
+    got, reason = select_profile(*args)
+    assert got == profile and reason
+
+
+def test_select_profile_reason_words():
+    assert select_profile(0x0239, 1, source="DCP") == ("lika", "vendor ID 0x0239 (Lika Electronic) from DCP")
+    prof, reason = select_profile(0x1234, 5)
+    assert prof == "generic" and "0x1234" in reason and "not a known encoder vendor" in reason
