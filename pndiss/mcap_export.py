@@ -230,12 +230,15 @@ class McapExporter:
 
     def _label(self, mac: str | None, name: str | None = None) -> str:
         """Topic label of a station: NameOfStation when known at first use, else the MAC."""
+        if not isinstance(name, str):
+            name = None
         if not mac:
             return _UNSAFE.sub("_", name) if name else "unknown"
+        mac = str(mac)
         lab = self._labels.get(mac)
         if lab is None:
             nm = name or self._names.get(mac)
-            lab = self._labels[mac] = _UNSAFE.sub("_", nm) if nm else mac.replace(":", "-")
+            lab = self._labels[mac] = _UNSAFE.sub("_", nm if nm else mac.replace(":", "-"))
         return lab
 
     def _learn(self, mac, name) -> None:
@@ -329,7 +332,7 @@ class McapExporter:
     def _station_chan(self, ev: dict, what: str, skey: str) -> _Chan:
         mac = ev.get("device_mac")
         self._learn(mac, ev.get("station"))
-        lab = self._label(mac, ev.get("station") if isinstance(ev.get("station"), str) else None)
+        lab = self._label(mac, ev.get("station"))
         ckey = (what, lab)
         return self._chans.get(ckey) or self._chan(ckey, f"/pn/{lab}/{what}", skey,
                                                    {"device_mac": mac, "station": ev.get("station")})

@@ -1,0 +1,364 @@
+"""MCAP export: every capture written, read back two ways (mcap-python, @mcap/core in Node),
+counts per topic against the analyzer's own events, schemas, time order, volume control."""
+from __future__ import annotations
+
+import glob
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+from collections import Counter, defaultdict
+
+import jsonschema
+import pytest
+from hypothesis import HealthCheck, given, settings as hsettings, strategies as st
+from mcap.reader import make_reader
+
+from pndiss.analyzer import analyze_file
+from pndiss.cli import main as cli_main
+from pndiss.mcap_export import McapExporter
+from pndiss.settings import Settings
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+NODE_DIR = os.path.join(ROOT, "tests", "node")
+PUBLIC = os.path.join(ROOT, "..", "shared", "captures", "public")
+CAPTURES = sorted(glob.glob(os.path.join(ROOT, "captures", "*.pcap*"))
+                  + glob.glob(os.path.join(PUBLIC, "*.pcap*")))
+
+
+# -- helpers ---------------------------------------------------------------------------------
+def read_back(path, strict=True):
+    """(per-topic counts, channels by topic, metadata, problems) reading the file in file order.
+    strict: also validate messages against their schemas and sequence against the frame."""
+    counts, chans, problems = Counter(), {}, []
+    last_t = {}
+    validators = {}
+    with open(path, "rb") as f:
+        r = make_reader(f)
+        for schema, ch, m in r.iter_messages(log_time_order=False):
+            counts[ch.topic] += 1
+            chans[ch.topic] = ch
+            if m.log_time < last_t.get(ch.id, 0):
+                problems.append(f"{ch.topic}: log time steps back at sequence {m.sequence}")
+            last_t[ch.id] = m.log_time
+            assert schema is not None and schema.encoding == "jsonschema" and ch.message_encoding == "json"
+            v = validators.get(schema.id)
+            if v is None:
+                v = validators[schema.id] = jsonschema.Draft202012Validator(json.loads(schema.data))
+            msg = json.loads(m.data)
+            if not strict:
+                continue
+            for e in v.iter_errors(msg):
+                problems.append(f"{ch.topic} frame {m.sequence}: {e.message}")
+            frame = msg.get("line") if schema.name == "foxglove.Log" else msg.get("frame")
+            if frame is not None and frame != m.sequence:
+                problems.append(f"{ch.topic}: sequence {m.sequence} != frame {frame}")
+        summary = r.get_summary()
+        meta = {md.name: md.metadata for md in r.iter_metadata()}
+    stats = summary.statistics.channel_message_counts
+    for cid, ch in summary.channels.items():
+        if stats.get(cid, 0) != counts[ch.topic]:
+            problems.append(f"{ch.topic}: statistics say {stats.get(cid, 0)}, read {counts[ch.topic]}")
+    return counts, chans, meta, problems
+
+
+def expected_by_kind(events):
+    """Messages the export must hold, from the analyzer's own events, per topic family."""
+    fam = Counter()
+    for ev in events:
+        k = ev["kind"]
+        if k == "rt":
+            if "cycle_counter" in ev:
+                fam["apdu"] += 1
+        elif k == "telegram":
+            fam["telegram"] += 1
+        elif k in ("record", "param", "record_result"):
+            fam["records"] += 1
+        else:
+            fam[k] += 1
+    return fam
+
+
+def family(topic):
+    parts = topic.split("/")
+    if topic == "/pndiss/violations":
+        return "violation"
+    if len(parts) == 3:  # /pn/<kind>
+        return {"alarms": "alarm"}.get(parts[2], parts[2])
+    if parts[3] == "apdu":
+        return "apdu"
+    if parts[-1] in ("setpoint", "actual"):
+        return "telegram"
+    return {"encoder_state": "state", "records": "records"}[parts[3]]
+
+
+_node_ready = None
+
+
+def node_reader(paths):
+    """Per-file results of the Node reader, or None when Node is missing (outside CI)."""
+    global _node_ready
+    if shutil.which("node") is None:
+        if os.environ.get("CI") == "true":
+            pytest.fail("node is needed for the independent MCAP reader (scripts/test installs it)")
+        return None
+    if _node_ready is None:
+        if not os.path.isdir(os.path.join(NODE_DIR, "node_modules", "@mcap", "core")):
+            subprocess.run(["npm", "install", "--silent", "--no-audit", "--no-fund"], cwd=NODE_DIR,
+                           check=True, timeout=300, capture_output=True)
+        _node_ready = True
+    p = subprocess.run(["node", os.path.join(NODE_DIR, "read_mcap.mjs"), *paths], capture_output=True,
+                       text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    return json.loads(p.stdout)
+
+
+# -- real captures ---------------------------------------------------------------------------
+@pytest.mark.skipif(not CAPTURES, reason="no captures")
+@pytest.mark.parametrize("cap", CAPTURES, ids=os.path.basename)
+def test_capture_roundtrip(cap, tmp_path):
+    out = str(tmp_path / "out.mcap")
+    events = []
+    settings = Settings()
+    exp = McapExporter(out, cap, settings)
+
+    def sink(ev):
+        events.append(ev)
+        exp.on_event(ev)
+    try:
+        a = analyze_file(cap, settings, sink)
+    finally:
+        exp.close()
+    counts, chans, meta, problems = read_back(out)
+    assert problems == []
+    # counts per topic family equal the analyzer's own event counts
+    fam = Counter()
+    for t, n in counts.items():
+        fam[family(t)] += n
+    want = expected_by_kind(events)
+    assert +fam == +want
+    assert a.kinds["violation"] == fam["violation"]
+    # finer: one channel per (src, dst, frame ID) of cyclic frames and per telegram direction,
+    # matched through the channel metadata rather than the topic text
+    rt_groups = Counter((e["src"], e["dst"], e["frame_id"]) for e in events
+                        if e["kind"] == "rt" and "cycle_counter" in e)
+    got = Counter()
+    for t, ch in chans.items():
+        if family(t) == "apdu":
+            got[(ch.metadata["src"], ch.metadata["dst"], int(ch.metadata["frame_id"], 16))] += counts[t]
+    assert got == rt_groups
+    tg_groups = Counter((e.get("device_mac"), str(e.get("slot")), str(e.get("subslot"))) for e in events
+                        if e["kind"] == "telegram")
+    got = Counter()
+    for t, ch in chans.items():
+        if family(t) == "telegram":
+            got[(ch.metadata.get("device_mac"), ch.metadata["slot"], ch.metadata["subslot"])] += counts[t]
+    assert got == tg_groups
+    # the metadata record names the capture and the settings in force
+    md = meta["pndiss"]
+    with open(cap, "rb") as f:
+        assert md["capture_sha256"] == hashlib.sha256(f.read()).hexdigest()
+    assert json.loads(md["settings"]) == json.loads(json.dumps(settings.as_dict()))
+    # the independent reader agrees
+    node = node_reader([out])
+    if node is not None:
+        res = node[out]
+        assert "error" not in res, res
+        assert res["badJson"] == 0
+        assert {t: n for t, n in res["topics"].items()} == dict(counts) | {t: 0 for t in res["topics"] if t not in counts}
+        assert res["metadata"]["pndiss"]["capture_sha256"] == md["capture_sha256"]
+
+
+# -- synthetic streams -----------------------------------------------------------------------
+DEV, CTRL = "00:0e:cf:00:00:01", "00:1b:1b:00:00:02"
+
+
+def tg(frame, ts, direction, words, **kw):
+    ev = {"frame": frame, "ts_ns": ts, "kind": "telegram", "direction": direction, "telegram": 81,
+          "station": "enc-1", "device_mac": DEV, "api": 0x3D00, "slot": 1, "subslot": 2,
+          "frame_id": 0x8001 if direction == "actual" else 0x8000,
+          "signals": {"G1_XIST1": words[0], "G1_ZSW": words[1]},
+          "bits": {"G1_ZSW.15": words[1] >> 15 & 1}}
+    ev.update(kw)
+    return ev
+
+
+def rt(frame, ts, cc, src=DEV, dst=CTRL, fid=0x8001, ds=0x35):
+    return {"frame": frame, "ts_ns": ts, "kind": "rt", "src": src, "dst": dst, "frame_id": fid,
+            "frame_class": "RTC1", "cycle_counter": cc, "ds": ds, "transfer_status": 0, "c_sdu_len": 40}
+
+
+def export(tmp_path, events, **kw):
+    out = str(tmp_path / "s.mcap")
+    exp = McapExporter(out, None, Settings(), **kw)
+    for ev in events:
+        exp.on_event(ev)
+    exp.close()
+    return out, exp
+
+
+def test_synthetic_topics_and_log(tmp_path):
+    evs = [
+        {"frame": 1, "ts_ns": 10, "kind": "ar", "station": "enc-1", "device_mac": DEV, "controller_mac": CTRL},
+        rt(2, 1_000, 7, src=CTRL, dst=DEV, fid=0x8000),
+        tg(2, 1_000, "setpoint", (0, 0x0400)),
+        rt(3, 2_000, 7),
+        tg(3, 2_000, "actual", (123, 0x8000)),
+        {"frame": 3, "ts_ns": 2_000, "kind": "state", "station": "enc-1", "device_mac": DEV, "state": "OPERATE"},
+        {"frame": 4, "ts_ns": 3_000, "kind": "record", "station": "enc-1", "device_mac": DEV, "op": "write",
+         "index": 0xBF00, "data": b"\x01\x02"},
+        {"frame": 5, "ts_ns": 4_000, "kind": "violation", "rule": "R-X", "side": "encoder", "severity": "warning",
+         "last_frame": 6, "message": "late ack"},
+        {"frame": 6, "ts_ns": 5_000, "kind": "dcp", "src": DEV, "dst": CTRL},
+        {"frame": 7, "ts_ns": 6_000, "kind": "malformed", "layer": "pn_rt", "reason": "short"},
+        {"frame": 8, "ts_ns": 7_000, "kind": "mystery", "x": float("nan")},
+    ]
+    out, exp = export(tmp_path, evs)
+    counts, chans, meta, problems = read_back(out)
+    assert problems == []
+    assert dict(counts) == {
+        "/pn/enc-1/apdu/0x8000": 1, "/pn/enc-1/1.2/tg81/setpoint": 1, "/pn/enc-1/apdu/0x8001": 1,
+        "/pn/enc-1/1.2/tg81/actual": 1, "/pn/enc-1/encoder_state": 1, "/pn/enc-1/records": 1,
+        "/pndiss/violations": 1, "/pn/dcp": 1, "/pn/malformed": 1, "/pn/ar": 1, "/pn/mystery": 1}
+    assert chans["/pn/enc-1/1.2/tg81/actual"].metadata["telegram"] == "81"
+    assert chans["/pn/enc-1/apdu/0x8000"].metadata["device_mac"] == DEV  # named after the device, not the sender
+    with open(out, "rb") as f:
+        msgs = {ch.topic: (s, json.loads(m.data)) for s, ch, m in make_reader(f).iter_messages()}
+    s, log = msgs["/pndiss/violations"]
+    assert s.name == "foxglove.Log"
+    assert log["level"] == 3 and log["name"] == "R-X" and log["line"] == 5
+    assert log["timestamp"] == {"sec": 0, "nsec": 4000}
+    assert "frames 5-6" in log["message"] and "late ack" in log["message"]
+    assert msgs["/pn/mystery"][1]["x"] is None  # NaN cannot go into JSON
+    assert msgs["/pn/enc-1/records"][1]["data"] == "0102"
+    tgs = json.loads(msgs["/pn/enc-1/1.2/tg81/actual"][0].data)
+    assert set(tgs["properties"]["signals"]["properties"]) == {"G1_XIST1", "G1_ZSW"}
+
+
+def test_station_label_without_name(tmp_path):
+    out, _ = export(tmp_path, [rt(1, 5, 1, src="aa:bb:cc:dd:ee:ff", dst="11:22:33:44:55:66")])
+    counts, *_ = read_back(out)
+    assert list(counts) == ["/pn/aa-bb-cc-dd-ee-ff/apdu/0x8001"]
+
+
+def test_time_clamped_per_channel(tmp_path):
+    # a capture whose clock steps back, and a violation reported late for an earlier frame
+    evs = [rt(1, 5_000, 1), rt(2, 4_000, 2), rt(3, 6_000, 3),
+           {"frame": 3, "ts_ns": 6_000, "kind": "violation", "rule": "R-A", "side": "encoder", "severity": "error", "message": "m"},
+           {"frame": 1, "ts_ns": 5_000, "kind": "violation", "rule": "R-B", "side": "encoder", "severity": "info", "message": "m"}]
+    out, _ = export(tmp_path, evs)
+    counts, _, _, problems = read_back(out)
+    assert problems == [] and counts["/pndiss/violations"] == 2
+    with open(out, "rb") as f:
+        pub = [(m.log_time, m.publish_time) for _, ch, m in make_reader(f).iter_messages(log_time_order=False)
+               if ch.topic.endswith("0x8001")]
+    assert pub == [(5_000, 5_000), (5_000, 4_000), (6_000, 6_000)]
+
+
+def test_apdu_deltas(tmp_path):
+    evs = [rt(i + 1, 1_000_000 * i, (0xFFF0 + 32 * i) & 0xFFFF) for i in range(4)]
+    out, _ = export(tmp_path, evs)
+    with open(out, "rb") as f:
+        msgs = [json.loads(m.data) for _, _, m in make_reader(f).iter_messages()]
+    assert "d_cycle" not in msgs[0]
+    assert [m["d_cycle"] for m in msgs[1:]] == [32, 32, 32]
+    assert [m["dt_ns"] for m in msgs[1:]] == [1_000_000] * 3
+
+
+def _model(words, times, on_change, decimate, keyframe_ns):
+    """Which samples volume control keeps, written out plainly."""
+    kept, last_w, last_t = [], object(), None
+    for i, (w, t) in enumerate(zip(words, times)):
+        if not on_change:
+            keep = i % decimate == 0
+        else:
+            keep = w != last_w or last_t is None or t - last_t >= keyframe_ns or (decimate > 1 and i % decimate == 0)
+            last_w = w
+        if keep:
+            kept.append(i)
+            last_t = t
+    return kept
+
+
+@pytest.mark.parametrize("on_change,decimate", [(False, 1), (False, 5), (True, 1), (True, 7)])
+def test_volume_control(tmp_path, on_change, decimate):
+    n = 400
+    period = 4_000_000  # 4 ms cycle: a keyframe every 250 samples
+    words = [(i // 60) * 10 for i in range(n)]  # position steps every 60 cycles
+    times = [i * period for i in range(n)]
+    evs = [tg(i + 1, times[i], "actual", (words[i], 0)) for i in range(n)]
+    out, exp = export(tmp_path, evs, on_change=on_change, decimate=decimate)
+    with open(out, "rb") as f:
+        frames = [m.sequence for _, _, m in make_reader(f).iter_messages()]
+    want = [i + 1 for i in _model(words, times, on_change, decimate, 1_000_000_000)]
+    assert frames == want
+    assert exp.dropped == n - len(want)
+    if on_change:
+        assert len(want) < n
+
+
+@pytest.mark.parametrize("comp", ["none", "lz4", "zstd"])
+def test_compression(tmp_path, comp):
+    pytest.importorskip("lz4") if comp == "lz4" else None
+    evs = [rt(i + 1, i * 1000, i) for i in range(300)]
+    out, _ = export(tmp_path, evs, compression=comp, chunk_size=2000)
+    counts, _, _, problems = read_back(out)
+    assert problems == [] and counts["/pn/00-0e-cf-00-00-01/apdu/0x8001"] == 300
+    with open(out, "rb") as f:
+        chunks = make_reader(f).get_summary().chunk_indexes
+    assert len(chunks) > 1
+    assert {c.compression for c in chunks} == {"" if comp == "none" else comp}
+    node = node_reader([out])
+    if node is not None:
+        assert node[out]["topics"] == dict(counts)
+
+
+# -- arbitrary events: a file or a clear error, never a broken MCAP --------------------------
+_scalar = st.one_of(st.none(), st.booleans(), st.integers(-2**70, 2**70), st.floats(), st.text(max_size=8),
+                    st.binary(max_size=8))
+_value = st.recursive(_scalar, lambda c: st.lists(c, max_size=3) | st.dictionaries(st.text(max_size=5), c, max_size=3),
+                      max_leaves=6)
+_event = st.fixed_dictionaries(
+    {"frame": st.integers(0, 2**33), "ts_ns": st.integers(-5, 2**63), "kind": st.sampled_from(
+        ["rt", "telegram", "state", "record", "param", "violation", "dcp", "lldp", "alarm", "malformed", "rpc", "x/y"])},
+    optional={"cycle_counter": st.integers(0, 0xFFFF), "frame_id": st.one_of(st.integers(0, 0xFFFF), _scalar),
+              "src": _scalar, "dst": _scalar, "device_mac": _scalar, "station": _value, "slot": _scalar,
+              "subslot": _scalar, "telegram": _scalar, "direction": _scalar, "signals": _value, "bits": _value,
+              "severity": _scalar, "rule": _scalar, "last_frame": _scalar, "message": _scalar, "extra": _value})
+
+
+@hsettings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.lists(_event, max_size=12), st.booleans(), st.integers(1, 4))
+def test_arbitrary_events(tmp_path, evs, on_change, decimate):
+    out, exp = export(tmp_path, evs, on_change=on_change, decimate=decimate)
+    counts, _, _, problems = read_back(out, strict=False)
+    assert problems == []
+    assert sum(counts.values()) + exp.dropped == sum(
+        1 for e in evs if e["kind"] != "rt" or "cycle_counter" in e)
+
+
+# -- command line ----------------------------------------------------------------------------
+SMALL = [c for c in CAPTURES if os.path.getsize(c) < 2_000_000]
+
+
+@pytest.mark.skipif(not SMALL, reason="no captures")
+def test_cli_export_and_analyze(tmp_path):
+    cap = max(SMALL, key=os.path.getsize)
+    a, b = str(tmp_path / "a.mcap"), str(tmp_path / "b.mcap")
+    assert cli_main(["export", cap, "-o", a, "-q"]) == 0
+    assert cli_main(["analyze", cap, "--mcap", b, "-q", "--no-progress"]) == 0
+    ca, cb = read_back(a)[0], read_back(b)[0]
+    assert ca == cb and sum(ca.values()) > 0
+    c = str(tmp_path / "c.mcap")
+    assert cli_main(["export", cap, "-o", c, "-q", "--on-change", "--compression", "none"]) == 0
+    cc = read_back(c)[0]
+    assert set(cc) == set(ca) and sum(cc.values()) <= sum(ca.values())
+
+
+def test_cli_errors(tmp_path, capsys):
+    assert cli_main(["export", str(tmp_path / "missing.pcap"), "-o", str(tmp_path / "x.mcap")]) == 2
+    if SMALL:
+        assert cli_main(["export", SMALL[0], "-o", str(tmp_path / "x.mcap"), "--decimate", "0"]) == 2
+        assert cli_main(["export", SMALL[0], "-o", str(tmp_path / "nodir" / "x.mcap")]) == 2
+    assert "error" in capsys.readouterr().err
