@@ -123,7 +123,7 @@ def test_negative_change_keeps_written_value_and_error():
 
 
 def test_param_database_profiles():
-    assert param_info(65000, "lika")["type"] == "U32" and param_info(65000, "scancon")["type"] == "I32"
+    assert param_info(65000, "lika")["type"] == "Unsigned32" and param_info(65000, "scancon")["type_code"] == 0x04
     assert param_info(65001, "psm")["subindex"][18].startswith("offset 64 bit")
     assert param_info(65001, "lika")["subindex"][11] == "velocity measuring unit"
     assert param_info(922)["access"] == "ro" and param_info(101, "psm")["name"].startswith("Sensor format")

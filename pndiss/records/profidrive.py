@@ -84,6 +84,9 @@ VENDOR_PARAMS: dict[str, dict[int, dict]] = {p: {int(k): v for k, v in t.items()
                                              for p, t in _DB["vendor_params"].items()}
 
 
+TYPE_CODES = {name: code for code, (name, _, _) in FORMATS.items() if code < 0x40 or code > 0x44}
+
+
 def param_info(pnu: int, profile: str = "generic") -> dict | None:
     """What the manuals say about ``pnu`` for ``profile``: name, type, access, subindex names."""
     e = VENDOR_PARAMS.get(profile, {}).get(pnu) or PARAMS.get(pnu)
@@ -92,6 +95,7 @@ def param_info(pnu: int, profile: str = "generic") -> dict | None:
     out = {"name": e["name"], "type": e.get("type_by_profile", {}).get(profile, e["type"]),
            "access": e.get("access_by_profile", {}).get(profile, e["access"]), "source": e["source"],
            "array": e.get("array", False)}
+    out["type_code"] = TYPE_CODES.get(out["type"])  # the format byte of the declared type, if it has one
     subs = dict(e.get("subindex", {}))
     subs.update(e.get("subindex_by_profile", {}).get(profile, {}))
     out["subindex"] = {int(k): v for k, v in subs.items()}
