@@ -329,7 +329,8 @@ def _decode_block(data: bytes, o: int, end: int, prefix: str | None, service_id:
     elif opt == 6:
         b.update(_initiative(v))  # tshark decodes the value whatever the suboption
     elif opt == 0xFF and sub == 0xFF:
-        pass  # ALL selector: no value
+        if v:  # the ALL selector has no value; keep stray bytes visible
+            b["undecoded"] = v.hex()
     else:
         dec = VALUE_DECODERS.get((opt, sub))
         if dec is not None:
