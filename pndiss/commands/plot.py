@@ -1,0 +1,53 @@
+"""``pndiss plot CAPTURE -o timeline.png|.html``: position, speed, status bits and violations."""
+from __future__ import annotations
+
+import os
+import sys
+
+from .analyze import add_settings_args, check_capture_path, settings_from_args
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("plot", help="draw a timeline (PNG needs pndiss[plot]; HTML needs nothing)")
+    p.add_argument("capture", help="pcap or pcapng file")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.png|OUT.html",
+                   help="picture to write; the suffix picks the format")
+    p.add_argument("--max-points", type=int, default=4000, metavar="N",
+                   help="samples kept per curve (longer captures are thinned evenly)")
+    add_settings_args(p)
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from ..analyzer import analyze_file
+    from ..capture import CaptureError
+    from ..errors import UsageError
+    from ..plot import PlotUnavailable, Timeline, render_html, render_png
+
+    check_capture_path(args.capture)
+    ext = os.path.splitext(args.output)[1].lower()
+    if ext not in (".png", ".html", ".htm"):
+        raise UsageError(f"{args.output}: the output must end in .png or .html")
+    if args.max_points < 2:
+        raise UsageError("--max-points must be 2 or more")
+    if ext == ".png":  # fail before the analysis, not after it
+        try:
+            import matplotlib  # noqa: F401
+        except ImportError:
+            raise UsageError("PNG output needs matplotlib: pip install 'pndiss[plot]' "
+                             "(or write .html, which needs nothing)") from None
+    settings = settings_from_args(args)
+    tl = Timeline(args.max_points)
+    try:
+        analyze_file(args.capture, settings, tl.on_event)
+    except CaptureError as e:
+        print(f"pndiss: error: {e} ({e.frames} frames read before it); plotting what was read",
+              file=sys.stderr)
+    title = os.path.basename(args.capture)
+    try:
+        (render_png if ext == ".png" else render_html)(tl, args.output, title)
+    except PlotUnavailable as e:
+        raise UsageError(str(e)) from None
+    except OSError as e:
+        raise UsageError(f"cannot write {args.output}: {e.strerror}") from None
+    return 0

@@ -1,0 +1,276 @@
+"""Timeline picture of a capture: position and speed per encoder, status bits as lanes,
+violation markers with rule IDs (docs/mcap.md, "Timeline").
+
+``Timeline`` is an event sink with bounded memory: each numeric series keeps at most
+``max_points`` samples (when full it drops every other one and halves its sampling rate), bit
+lanes keep only their transitions. ``render_png`` needs matplotlib (``pip install pndiss[plot]``);
+``render_html`` writes a self-contained page with an inline SVG and needs nothing.
+"""
+from __future__ import annotations
+
+import html
+
+# Signal names that carry position / speed, first match wins (telegram tables, cyclic.md §2:
+# G1_XIST1 = position; NIST_A 16-bit / NIST_B 32-bit speed).
+POSITION_SIGNALS = ("G1_XIST1", "XIST1", "G1_XIST2", "position")
+SPEED_SIGNALS = ("NIST_B", "NIST_A", "speed", "velocity")
+MAX_LANES = 16
+MAX_TRANSITIONS = 5000
+MAX_MARKERS = 300
+SEV_COLOURS = {"error": "#d62728", "warning": "#ff7f0e", "info": "#1f77b4"}
+
+
+class Series:
+    """Bounded (t, value) samples: every ``stride``-th sample, stride doubling when full."""
+    __slots__ = ("t", "v", "stride", "n", "max")
+
+    def __init__(self, max_points: int):
+        self.t: list[int] = []
+        self.v: list[float] = []
+        self.stride, self.n, self.max = 1, 0, max_points
+
+    def add(self, t: int, v) -> None:
+        self.n += 1
+        if (self.n - 1) % self.stride:
+            return
+        self.t.append(t)
+        self.v.append(v)
+        if len(self.t) >= self.max:
+            del self.t[1::2], self.v[1::2]
+            self.stride *= 2
+
+
+class Lane:
+    """One bit over time, as its transitions: [(t, value)], first entry = first sample."""
+    __slots__ = ("changes", "last", "truncated")
+
+    def __init__(self):
+        self.changes: list[tuple[int, int]] = []
+        self.last = None
+        self.truncated = False
+
+    def add(self, t: int, v: int) -> None:
+        if v != self.last:
+            self.last = v
+            if len(self.changes) < MAX_TRANSITIONS:
+                self.changes.append((t, v))
+            else:
+                self.truncated = True
+
+
+class Encoder:
+    def __init__(self, label: str, max_points: int):
+        self.label = label
+        self.position = Series(max_points)
+        self.speed = Series(max_points)
+        self.position_name = self.speed_name = None
+        self.lanes: dict[str, Lane] = {}
+
+
+def _flat_bits(bits: dict, prefix: str = ""):
+    """(name, 0/1) pairs of a bits dict, nested dicts flattened with '.'."""
+    for k, v in bits.items():
+        name = f"{prefix}{k}"
+        if isinstance(v, dict):
+            yield from _flat_bits(v, name + ".")
+        elif isinstance(v, (bool, int)) and not isinstance(v, float):
+            yield name, 1 if v else 0
+
+
+def _num(v):
+    return v if isinstance(v, (int, float)) and not isinstance(v, bool) and v == v else None
+
+
+class Timeline:
+    def __init__(self, max_points: int = 4000):
+        self.max_points = max_points
+        self.encoders: dict[tuple, Encoder] = {}
+        self.violations: list[tuple[int, str, str]] = []  # (t, rule, severity), first MAX_MARKERS
+        self.violation_count = 0
+        self.first_ts: int | None = None
+        self.last_ts: int | None = None
+        self._names: dict = {}
+
+    def on_event(self, ev: dict) -> None:
+        ts = ev.get("ts_ns")
+        if not isinstance(ts, int):
+            return
+        if self.first_ts is None or ts < self.first_ts:
+            self.first_ts = ts
+        if self.last_ts is None or ts > self.last_ts:
+            self.last_ts = ts
+        kind = ev.get("kind")
+        if kind == "telegram":
+            self._telegram(ev, ts)
+        elif kind == "violation":
+            self.violation_count += 1
+            if len(self.violations) < MAX_MARKERS:
+                self.violations.append((ts, str(ev.get("rule", "?")), str(ev.get("severity", "error"))))
+
+    def _telegram(self, ev: dict, ts: int) -> None:
+        key = (str(ev.get("device_mac")), str(ev.get("slot")), str(ev.get("subslot")))
+        enc = self.encoders.get(key)
+        if enc is None:
+            st = ev.get("station") if isinstance(ev.get("station"), str) else None
+            tg = ev.get("telegram")
+            enc = self.encoders[key] = Encoder(
+                f"{st or key[0]} {key[1]}.{key[2]}" + (f" tg{tg}" if tg is not None else ""), self.max_points)
+        setpoint = str(ev.get("direction", "")).lower() in ("setpoint", "output", "out", "o", "controller")
+        sig = ev.get("signals")
+        if isinstance(sig, dict) and not setpoint:
+            if enc.position_name is None:
+                enc.position_name = next((n for n in POSITION_SIGNALS if _num(sig.get(n)) is not None), None)
+            if enc.speed_name is None:
+                enc.speed_name = next((n for n in SPEED_SIGNALS if _num(sig.get(n)) is not None), None)
+            if enc.position_name is not None and _num(sig.get(enc.position_name)) is not None:
+                enc.position.add(ts, sig[enc.position_name])
+            if enc.speed_name is not None and _num(sig.get(enc.speed_name)) is not None:
+                enc.speed.add(ts, sig[enc.speed_name])
+        bits = ev.get("bits")
+        if isinstance(bits, dict):
+            side = "ctrl" if setpoint else "enc"
+            for name, v in _flat_bits(bits):
+                lane = enc.lanes.get(f"{side} {name}")
+                if lane is None:
+                    lane = enc.lanes[f"{side} {name}"] = Lane()
+                lane.add(ts, v)
+
+    def shown_lanes(self, enc: Encoder) -> list[tuple[str, Lane]]:
+        """Lanes worth a row: the bits that ever changed (else the first few), at most MAX_LANES."""
+        moving = [(n, l) for n, l in enc.lanes.items() if len(l.changes) > 1]
+        return (moving or list(enc.lanes.items())[:4])[:MAX_LANES]
+
+    def sec(self, t: int) -> float:
+        return (t - (self.first_ts or 0)) / 1e9
+
+
+# -- PNG (matplotlib) ---------------------------------------------------------------------------
+class PlotUnavailable(Exception):
+    pass
+
+
+def render_png(tl: Timeline, path: str, title: str = "") -> None:
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise PlotUnavailable("PNG output needs matplotlib: pip install 'pndiss[plot]' "
+                              "(or write .html, which needs nothing)") from None
+    encs = list(tl.encoders.values())
+    rows = []  # (kind, encoder)
+    for e in encs:
+        rows.append(("motion", e))
+        if tl.shown_lanes(e):
+            rows.append(("lanes", e))
+    if not rows:
+        rows.append(("empty", None))
+    heights = [1.0 if k != "lanes" else max(0.6, 0.28 * len(tl.shown_lanes(e))) for k, e in rows]
+    fig, axes = plt.subplots(len(rows), 1, sharex=True, squeeze=False,
+                             figsize=(11, 1.2 + 2.2 * sum(heights)), gridspec_kw={"height_ratios": heights})
+    axes = [a[0] for a in axes]
+    end = tl.sec(tl.last_ts) if tl.last_ts is not None else 1.0
+    for ax, (kind, e) in zip(axes, rows):
+        if kind == "motion":
+            if e.position.t:
+                ax.plot([tl.sec(t) for t in e.position.t], e.position.v, color="#1f77b4", lw=1.2,
+                        drawstyle="steps-post", label=e.position_name)
+            ax.set_ylabel(f"{e.position_name or 'position'}", color="#1f77b4", fontsize=8)
+            ax.set_title(e.label, loc="left", fontsize=9)
+            if e.speed.t:
+                ax2 = ax.twinx()
+                ax2.plot([tl.sec(t) for t in e.speed.t], e.speed.v, color="#2ca02c", lw=1.0, label=e.speed_name)
+                ax2.set_ylabel(e.speed_name, color="#2ca02c", fontsize=8)
+                ax2.tick_params(labelsize=7)
+        elif kind == "lanes":
+            lanes = tl.shown_lanes(e)
+            for i, (name, lane) in enumerate(lanes):
+                y0 = len(lanes) - 1 - i
+                xs = [tl.sec(t) for t, _ in lane.changes] + [end]
+                ys = [y0 + 0.7 * v for _, v in lane.changes]
+                ys.append(ys[-1])
+                ax.step(xs, ys, where="post", lw=1.1, color="#444")
+                ax.fill_between(xs, y0, ys, step="post", alpha=0.25, color="#9467bd")
+            ax.set_yticks([len(lanes) - 1 - i + 0.35 for i in range(len(lanes))])
+            ax.set_yticklabels([n for n, _ in lanes], fontsize=7)
+            ax.set_ylim(-0.2, len(lanes))
+        else:
+            ax.text(0.5, 0.5, "no telegram samples in this capture", ha="center", va="center",
+                    transform=ax.transAxes, color="#666")
+            ax.set_yticks([])
+        ax.tick_params(labelsize=7)
+        ax.grid(True, axis="x", alpha=0.3)
+        for t, rule, sev in tl.violations:
+            ax.axvline(tl.sec(t), color=SEV_COLOURS.get(sev, "#d62728"), lw=0.9, alpha=0.8)
+    top = axes[0]
+    for t, rule, sev in tl.violations[:60]:  # labels only for the first ones: legible
+        top.annotate(rule, (tl.sec(t), 1.0), xycoords=("data", "axes fraction"), rotation=60,
+                     fontsize=6, color=SEV_COLOURS.get(sev, "#d62728"), va="bottom")
+    axes[-1].set_xlabel("time since first frame [s]")
+    v = f"{tl.violation_count} violation(s)" if tl.violation_count else "no violations"
+    fig.suptitle(f"{title}  —  {v}" if title else v, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+# -- HTML (inline SVG, no dependencies, no network) ------------------------------------------------
+def render_html(tl: Timeline, path: str, title: str = "") -> None:
+    W, LEFT, RIGHT = 1100, 170, 20
+    span = max((tl.last_ts or 0) - (tl.first_ts or 0), 1)
+    x = lambda t: LEFT + (t - (tl.first_ts or 0)) * (W - LEFT - RIGHT) / span  # noqa: E731
+    parts, y = [], 30
+    esc = html.escape
+
+    def line(ts, vs, y0, h, colour):
+        lo, hi = min(vs), max(vs)
+        sc = h / (hi - lo) if hi > lo else 0
+        pts = []
+        for t, v in zip(ts, vs):
+            pts.append(f"{x(t):.1f},{y0 + h - (v - lo) * sc:.1f}")
+        parts.append(f'<polyline fill="none" stroke="{colour}" stroke-width="1.2" points="{" ".join(pts)}"/>')
+        parts.append(f'<text x="{LEFT - 6}" y="{y0 + 8}" class="ax" fill="{colour}">{hi:g}</text>'
+                     f'<text x="{LEFT - 6}" y="{y0 + h}" class="ax" fill="{colour}">{lo:g}</text>')
+
+    for e in tl.encoders.values():
+        parts.append(f'<text x="4" y="{y}" class="h">{esc(e.label)}</text>')
+        y += 8
+        if e.position.t:
+            line(e.position.t, e.position.v, y, 90, "#1f77b4")
+            parts.append(f'<text x="4" y="{y + 40}" fill="#1f77b4">{esc(e.position_name)}</text>')
+        if e.speed.t:
+            line(e.speed.t, e.speed.v, y + 100, 60, "#2ca02c")
+            parts.append(f'<text x="4" y="{y + 130}" fill="#2ca02c">{esc(e.speed_name)}</text>')
+        y += 170
+        for name, lane in tl.shown_lanes(e):
+            pts, prev = [], None
+            for t, v in lane.changes:
+                yy = y + 14 - 12 * v
+                if prev is not None:
+                    pts.append(f"{x(t):.1f},{prev:.1f}")
+                pts.append(f"{x(t):.1f},{yy:.1f}")
+                prev = yy
+            pts.append(f"{W - RIGHT},{prev:.1f}")
+            parts.append(f'<text x="4" y="{y + 12}">{esc(name)}</text>'
+                         f'<polyline fill="none" stroke="#444" points="{" ".join(pts)}"/>')
+            y += 20
+        y += 20
+    if not tl.encoders:
+        parts.append(f'<text x="{LEFT}" y="{y + 20}">no telegram samples in this capture</text>')
+        y += 40
+    for t, rule, sev in tl.violations:
+        c = SEV_COLOURS.get(sev, "#d62728")
+        parts.append(f'<line x1="{x(t):.1f}" y1="14" x2="{x(t):.1f}" y2="{y}" stroke="{c}">'
+                     f'<title>{esc(rule)} ({esc(sev)}) at {tl.sec(t):.6f} s</title></line>'
+                     f'<text x="{x(t) + 2:.1f}" y="12" fill="{c}" style="font-size:9px">{esc(rule)}</text>')
+    parts.append(f'<text x="{LEFT}" y="{y + 14}" class="ax">0 s</text>'
+                 f'<text x="{W - RIGHT}" y="{y + 14}" class="ax" text-anchor="end">{span / 1e9:.3f} s</text>')
+    v = f"{tl.violation_count} violation(s)" if tl.violation_count else "no violations"
+    doc = (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{esc(title)} timeline</title>"
+           "<style>body{font-family:sans-serif}svg text{font-size:11px}.h{font-weight:bold}"
+           ".ax{font-size:9px;text-anchor:end}</style></head><body>"
+           f"<h3>{esc(title)} — {v}</h3>"
+           f'<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{y + 24}">{"".join(parts)}</svg>'
+           "</body></html>\n")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(doc)
