@@ -368,7 +368,7 @@ class Checker:
             self._emit("PRESET-REQ-STUCK", self.fc, self.ts, f"G1_STW.12 still 1 {self.D} cycles after G1_ZSW.12 rose",
                        side=None, cycles=self.D)
         if pre is not None and pre["done"] and PREQ and PDONE and pre.get("after") is not None and pos2 is not None \
-                and pre["mode"] == 1 and pre["P"] and standstill:
+                and pre["mode"] == 1 and pre["P"] and ppos2 == pre["after"]:
             # 30: holding PREQ must not re-execute (relative shift applied twice) [INFERENCE] §2.4 R-PRE-1
             if pos2 == P.expected_after_preset(1, pre["P"], pre["after"], self.R) and pos2 != pre["after"]:
                 self._hit("PRESET-REEXECUTED", f"position moved by the preset value again ({pre['after']} -> {pos2}) while G1_STW.12 was held")

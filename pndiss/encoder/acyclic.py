@@ -16,8 +16,9 @@ READ_ONLY = {"lika": {922, 964, 965, 975, 979, 980, 61001, 65001},
 PROFILE_PNUS = {922, 964, 965, 975, 979, 980, 65000, 65001}    # profile parameters readable after run-up (#92)
 ABORTING_ERRORS = {0x05, 0x16, 0x17, 0x18}       # 001_9461bb7bc8c2767b.txt:2089, 2099 (#85)
 # words of the ParamPairer's pairing problems -> rule (behaviour.md §9.10 #76, #81)
-PAIRING_RULES = (("pipelin", "BMP-PIPELINED"), ("before the response", "BMP-PIPELINED"),
-                 ("ref", "BMP-NOT-MIRRORED"), ("axis", "BMP-NOT-MIRRORED"), ("number of param", "BMP-NOT-MIRRORED"))
+PAIRING_RULES = (("overwritten", "BMP-PIPELINED"), ("response id mismatch", "BMP-RESPID-MISMATCH"),
+                 ("ref", "BMP-NOT-MIRRORED"), ("axis", "BMP-NOT-MIRRORED"), ("number of param", "BMP-NOT-MIRRORED"),
+                 ("value blocks for", "BMP-NOT-MIRRORED"))
 RECORD_RULES = {"BF00-LENGTH", "BF00-RESERVED-NONZERO", "BF00-VALUE-OUT-OF-RANGE", "BMP-BAD-REQUEST",
                 "BMP-REQREF-ZERO", "BMP-NEG-FORMAT", "BMP-ILLEGAL-REQID-RESPONSE", "BMP-RESPID-MISMATCH"}
 
@@ -34,57 +35,27 @@ def _v(chk, rule, ev, msg, frame=None, side=None):
     chk._emit(rule, ev.get("frame", 0) if frame is None else frame, ev.get("ts_ns", 0), msg, side=side)
 
 
-def _decoded_problems(chk, ev, done: set) -> None:
-    """Problems the records decoder already found (rule ID + words): report each once."""
-    for p in (ev.get("decoded") or {}).get("problems", ()) or ():
-        rule = p.get("rule") if isinstance(p, dict) else (p[0] if isinstance(p, (list, tuple)) and p else None)
-        words = p.get("text", p.get("message", "")) if isinstance(p, dict) else " ".join(str(x) for x in p[1:])
-        if rule in RECORD_RULES and rule not in done:
-            done.add(rule)
-            _v(chk, rule, ev, str(words) or rule)
-
-
 def _record(chk, ev: dict) -> None:
     idx = ev.get("index")
+    if idx in (0xB02E, 0xB02F) and ev.get("op") == "write":
+        _bmp_request(chk, ev)
+        return
     if idx not in BF00_INDEXES or ev.get("op") != "write":
         return
     if idx == 0xFFFF and chk.cfg.profile != "psm":
         return
     c = chk.cfg
     chk.bf00_seen = True
-    problems = []
-    done: set = set()
-    data = bytes.fromhex(ev.get("data") or "") if isinstance(ev.get("data"), str) else bytes(ev.get("data") or b"")
-    n = ev.get("length", len(data))
-    if n != BF00_LEN:
-        problems.append(f"length {n}")
-        # 67: 31 bytes (000_37bf2397999f1108.txt:2171)
-        _v(chk, "BF00-LENGTH", ev, f"0x{idx:04X} written with {n} bytes; expected {BF00_LEN}")
-        done.add("BF00-LENGTH")
-    if c.profile == "lika" and len(data) >= 1 and ((data[0] & 0xC0) or any(data[19:31])):
-        problems.append("reserved bits")
-        # 68: LIKA byte 0 bits 6-7 and bytes 19-30 are reserved (000_37bf2397999f1108.txt:2195, 2211)
-        _v(chk, "BF00-RESERVED-NONZERO", ev, f"0xBF00 reserved content set (byte 0 = 0x{data[0]:02X}, bytes 19-30 = {data[19:31].hex()})")
-        done.add("BF00-RESERVED-NONZERO")
+    problems: list[str] = []
     d = ev.get("decoded") or {}
-    rng = []
-    mupr, tmr = d.get("mupr"), d.get("tmr")
-    if mupr is not None and (mupr < 1 or (c.st_phys and mupr > c.st_phys)):
-        rng.append(f"MUPR={mupr} outside [1, {c.st_phys or '?'}]")
-    if tmr is not None and (tmr < 2 or (c.st_phys and c.mt_phys and tmr > c.st_phys * c.mt_phys)):
-        rng.append(f"TMR={tmr} outside [2, {(c.st_phys or 0) * (c.mt_phys or 0) or '?'}]")
-    if d.get("max_master_sol_failures") == 0 and c.profile != "psm":
-        rng.append("max master sign-of-life failures = 0")
-    vu = d.get("velocity_unit")
-    if vu is not None and vu > (4 if c.profile == "psm" else 3):
-        rng.append(f"velocity unit {vu}")
-    if rng:
-        problems.extend(rng)
-        # 69: value ranges of the parameter set (000_37bf2397999f1108.txt:2395-2480)
-        _v(chk, "BF00-VALUE-OUT-OF-RANGE", ev, "0xBF00 " + "; ".join(rng))
-        done.add("BF00-VALUE-OUT-OF-RANGE")
-    _decoded_problems(chk, ev, done)
-    problems.extend(r for r in done if r not in ("BF00-LENGTH", "BF00-RESERVED-NONZERO", "BF00-VALUE-OUT-OF-RANGE"))
+    if "problems" in d:  # pndiss.records already judged #67-69 (records/userparams.py)
+        for p in d["problems"]:
+            rule = p.get("rule") if isinstance(p, dict) else None
+            if rule in RECORD_RULES:
+                problems.append(p.get("message", rule))
+                _v(chk, rule, ev, "0x%04X: %s" % (idx, p.get("message", rule)))
+    else:
+        _own_bf00_checks(chk, ev, idx, d, problems)
     # the captured parameter set is now in force (behaviour.md §2.0: re-read whenever written)
     for key, attr in (("compat", "compat"), ("class4", "class4"), ("preset_control", "preset_control"),
                       ("scaling", "scaling"), ("direction", "direction"), ("code_sequence", "direction"),
@@ -107,6 +78,67 @@ def _record(chk, ev: dict) -> None:
         keys = ("direction", "code_sequence", "mupr", "tmr")
         if any(prev.get(k) != d.get(k) for k in keys if k in d or k in prev):
             chk.params_changed = True
+
+
+def _own_bf00_checks(chk, ev, idx, d, problems) -> None:
+    """#67-69 from the raw bytes, when no records decoder judged them."""
+    c = chk.cfg
+    data = bytes.fromhex(ev.get("data") or "") if isinstance(ev.get("data"), str) else bytes(ev.get("data") or b"")
+    n = ev.get("length", len(data))
+    if n != BF00_LEN:
+        problems.append(f"length {n}")
+        # 67: 31 bytes (000_37bf2397999f1108.txt:2171)
+        _v(chk, "BF00-LENGTH", ev, f"0x{idx:04X} written with {n} bytes; expected {BF00_LEN}")
+    if c.profile == "lika" and len(data) >= 1 and ((data[0] & 0xC0) or any(data[19:31])):
+        problems.append("reserved bits")
+        # 68: LIKA byte 0 bits 6-7 and bytes 19-30 are reserved (000_37bf2397999f1108.txt:2195, 2211)
+        _v(chk, "BF00-RESERVED-NONZERO", ev, f"0xBF00 reserved content set (byte 0 = 0x{data[0]:02X})")
+    rng = []
+    mupr, tmr = d.get("mupr"), d.get("tmr")
+    if mupr is not None and (mupr < 1 or (c.st_phys and mupr > c.st_phys)):
+        rng.append(f"MUPR={mupr} outside [1, {c.st_phys or '?'}]")
+    if tmr is not None and (tmr < 2 or (c.st_phys and c.mt_phys and tmr > c.st_phys * c.mt_phys)):
+        rng.append(f"TMR={tmr} outside [2, {(c.st_phys or 0) * (c.mt_phys or 0) or '?'}]")
+    if d.get("max_master_sol_failures") == 0 and c.profile != "psm":
+        rng.append("max master sign-of-life failures = 0")
+    vu = d.get("velocity_unit")
+    if vu is not None and vu > (4 if c.profile == "psm" else 3):
+        rng.append(f"velocity unit {vu}")
+    if rng:
+        problems.extend(rng)
+        # 69: value ranges of the parameter set (000_37bf2397999f1108.txt:2395-2480)
+        _v(chk, "BF00-VALUE-OUT-OF-RANGE", ev, "0xBF00 " + "; ".join(rng))
+
+
+def _bmp_request(chk, ev: dict) -> None:
+    """#79: a request written to the PAP must be well formed (001_9461bb7bc8c2767b.txt:2013-2030)."""
+    d = ev.get("decoded") or {}
+    if d.get("kind") != "parameter request":
+        return
+    bad = []
+    rid = d.get("request_id")
+    if not (rid in (1, 2) or (isinstance(rid, int) and 0x40 <= rid <= 0x7F)):
+        bad.append(f"request ID 0x{rid:02X}" if isinstance(rid, int) else "request ID")
+    n = d.get("no_of_parameters")
+    if isinstance(n, int) and not 1 <= n <= 39:
+        bad.append(f"{n} parameters")
+    if (d.get("length") or 0) > 240:
+        bad.append(f"length {d['length']} > 240")
+    for p in d.get("params") or ():
+        a, cnt, pnu, sub = p.get("attribute"), p.get("count"), p.get("pnu"), p.get("subindex")
+        if isinstance(a, int) and (a & 0x0F or a & 0xF0 not in (0x10, 0x20, 0x30)):
+            bad.append(f"attribute 0x{a:02X}")
+        if isinstance(cnt, int) and cnt > 234:
+            bad.append(f"{cnt} elements")
+        if pnu == 0:
+            bad.append("PNU 0")
+        if sub == 0xFFFF:
+            bad.append("subindex 0xFFFF")
+        nv = p.get("no_of_values")
+        if rid == 2 and isinstance(nv, int) and isinstance(cnt, int) and cnt and nv != cnt:
+            bad.append(f"PNU {pnu}: {nv} values for {cnt} elements")
+    if bad:
+        _v(chk, "BMP-BAD-REQUEST", ev, "parameter request: " + "; ".join(bad))
 
 
 def _param(chk, ev: dict) -> None:
@@ -132,6 +164,13 @@ def _param(chk, ev: dict) -> None:
         chk.last_req_ref = ref
     params = ev.get("params") or []
     rid = ev.get("response_id")
+    qid = ev.get("request_id_code")
+    if isinstance(qid, int) and not (qid in (1, 2) or 0x40 <= qid <= 0x7F) and isinstance(rid, int):
+        codes = [p["error"].get("code") for p in params if isinstance(p.get("error"), dict)]
+        if rid != 0x80 or (codes and codes[0] != 0x21):
+            # 80: an illegal request ID is answered 0x80 / error 0x21 (001_9461bb7bc8c2767b.txt:2073)
+            _v(chk, "BMP-ILLEGAL-REQID-RESPONSE", ev, f"request ID 0x{qid:02X} answered with response ID 0x{rid:02X}"
+               + (f", error 0x{codes[0]:02X}" if codes else "") + "; expected 0x80 with error 0x21", frame=frame)
     if isinstance(rid, int) and rid & 0x80 == 0 and any(p.get("error") for p in params):
         # 82: a positive response cannot carry errors (001_9461bb7bc8c2767b.txt:1914-1920)
         _v(chk, "BMP-RESPID-MISMATCH", ev, f"positive response ID 0x{rid:02X} with a parameter error", frame=frame)
@@ -164,6 +203,7 @@ def _param(chk, ev: dict) -> None:
 
 def _change(chk, ev, p, pnu, sub, err, vals, frame) -> None:
     c = chk.cfg
+    vals = (p.get("written") or {}).get("values") or vals  # a positive change answer has no values
     if pnu == 65000:
         v = vals[0] if vals else None
         if not c.class4:
@@ -190,10 +230,12 @@ def _change(chk, ev, p, pnu, sub, err, vals, frame) -> None:
 def _read(chk, ev, p, pnu, sub, vals, frame) -> None:
     c = chk.cfg
     v = vals[0]
+    _datatype(chk, ev, p, pnu, frame)
     if pnu == 922 and isinstance(v, int) and c.telegram and v != c.telegram:
         # 65: P922 names the configured telegram (000_37bf2397999f1108.txt:1953-1956)
         _v(chk, "TELEGRAM-SELECTION-MISMATCH", ev, f"P922 reads {v}; the AR runs telegram {c.telegram}", frame=frame)
-    elif pnu == 965 and sub == 1 and isinstance(v, int) and c.profile != "psm":
+    elif pnu == 965 and sub == 1 and c.profile != "psm" and _as_int(v) is not None:
+        v = _as_int(v)
         exp = 31 if c.compat == 0 else 41
         if v != exp:
             # 75: P965.1 = 31 in V3.1 mode, 41 in V4.1 (000_37bf2397999f1108.txt:2369-2372)
@@ -211,6 +253,31 @@ def _read(chk, ev, p, pnu, sub, vals, frame) -> None:
             chk.p971_pending = None
     elif pnu == 65000 and isinstance(v, int):
         chk.p65000 = v
+
+
+def _datatype(chk, ev, p, pnu, frame) -> None:
+    """#89: a read response states the parameter's own data type (001_9461bb7bc8c2767b.txt:2029, 2081-2083)."""
+    try:
+        from ..records import param_info
+        from ..records.profidrive import FORMATS
+    except ImportError:
+        return
+    info = param_info(pnu, chk.cfg.profile) if pnu is not None else None
+    want = info.get("type") if info else None
+    got = p.get("format_name")
+    names = {v[0] for v in FORMATS.values()}
+    if want in names and got in names and want != got and p.get("attribute", 0x10) & 0xF0 == 0x10:
+        _v(chk, "BMP-DATATYPE", ev, f"P{pnu} read as {got}; its data type is {want}", frame=frame)
+
+
+def _as_int(v):
+    """Values arrive as ints, or as hex strings for octet-string types (records/profidrive.py)."""
+    if isinstance(v, int):
+        return v
+    try:
+        return int(str(v), 16)
+    except ValueError:
+        return None
 
 
 def finish(chk) -> None:

@@ -1,0 +1,168 @@
+"""Every cyclic rule of behaviour.md §9.1-9.8: a short table of cycles that triggers it, and one
+that must not (per vendor variant where the rule differs). Fed straight into the sans-IO checker.
+
+Row format (telegram 81): "STW2_ENC G1_STW | ZSW2_ENC G1_ZSW G1_XIST1 G1_XIST2".
+"""
+import pytest
+
+from encoder_table import rule_ids, run, sol_rows
+
+G = "0x1400 0x2000 | 0x1200 0x2000 5 5"          # control by PLC, XIST2 requested and sent
+REQ = "0x1400 0x3000 | 0x1200 0x2000 5 5"        # preset requested (absolute, P65000 = 0)
+DONE = "0x1400 0x3000 | 0x1200 0x3000 0 0"       # preset executed: position = 0
+REL = "0x1400 0x2000 | 0x1200 0x2000 0 0"        # request released, PDONE cleared
+ISO = dict(iso=True)
+
+SOL = [
+    # rule, config, bad rows, good rows
+    ("SOL-MASTER-ZERO", ISO, sol_rows([1, 2, 3, 0, 0], [1, 2, 3, 4, 5]), sol_rows([1, 2, 3, 4, 5], [1, 2, 3, 4, 5])),
+    ("SOL-MASTER-SKIP", ISO, sol_rows([1, 2, 4, 5], [1, 2, 3, 4]), sol_rows([14, 15, 1, 2], [1, 2, 3, 4])),
+    ("SOL-MASTER-STALL", ISO, sol_rows([1, 2, 2, 3], [1, 2, 3, 4]), sol_rows([1, 2, 3, 4], [1, 2, 3, 4])),
+    ("SOL-MASTER-WINDOW", dict(iso=True, k=2), sol_rows([1, 1, 2, 3, 3, 4, 4], [1, 2, 3, 4, 5, 6, 7]),
+     sol_rows([1, 1, 2, 2, 3, 3, 4], [1, 2, 3, 4, 5, 6, 7])),
+    ("SOL-DEVICE-ZERO", ISO, sol_rows([1, 2, 3, 4], [1, 2, 0, 0]), sol_rows([1, 2, 3, 4], [1, 2, 3, 4])),
+    ("SOL-DEVICE-SKIP", ISO, sol_rows([1, 2, 3, 4], [1, 2, 4, 5]), sol_rows([1, 2, 3, 4], [15, 1, 2, 3])),
+    ("SOL-DEVICE-EARLY-START", ISO, sol_rows([1, 1, 1, 2], [0, 0, 3, 4]), sol_rows([1, 1, 2, 3], [0, 0, 3, 4])),
+    ("SOL-DEVICE-ZERO-RT", {}, [G.replace("0x1200", "0x0200")] * 3, [G] * 3),
+    ("SOL-FAULT-MISSING", ISO, sol_rows([1, 2, 2, 2, 2, 2, 2], [1, 2, 3, 4, 5, 6, 7]),
+     sol_rows([1, 2, 2], [1, 2, 3]) + sol_rows([2, 2, 2, 2], [4, 5, 6, 7], g1zsw="0x8000", x="5 0x0F02")),
+    ("SOL-FAULT-SPURIOUS", ISO, sol_rows([1, 2, 3], [1, 2, 3]) + sol_rows([4, 5], [4, 5], g1zsw="0x8000", x="5 0x0F02"),
+     sol_rows([1, 2, 2], [1, 2, 3]) + sol_rows([2, 2, 2, 2], [4, 5, 6, 7], g1zsw="0x8000", x="5 0x0F02")),
+    ("SOL-FAULT-CLEARED-WITHOUT-ACK", {}, ["0x1400 0x2000 | 0x1200 0x8000 5 0x0F02"] * 2 + [G] * 2,
+     ["0x1400 0x2000 | 0x1200 0x8000 5 0x0F02", "0x1400 0xA000 | 0x1200 0x8800 5 0x0F02", G, G]),
+    ("SYNC-FAULT-DLS-NONZERO", ISO, sol_rows([1, 2, 3], [1, 2, 3]) + sol_rows([4, 5], [4, 5], g1zsw="0x8000", x="5 0x0F04"),
+     sol_rows([1, 2, 3], [1, 2, 3]) + sol_rows([4, 5], [0, 0], g1zsw="0x8000", x="5 0x0F04")),
+]
+
+CONTROL = [
+    ("CTRLREQ-MISMATCH", {}, [G.replace("0x1200", "0x1000")] * 4, [G] * 4),
+    ("CTRLREQ-MISMATCH", dict(profile="psm"), [G] * 4, [G.replace("0x1200", "0x1400")] * 4),  # PS/PSM: bit 10
+    ("CTRLREQ-SET-IN-COMPAT", dict(compat=0), [G] * 2, [G.replace("0x1200", "0x1000")] * 2),
+    ("CMD-WITHOUT-CONTROL", {}, ["0x1000 0x0000 | 0x1000 0x0000 5 0", "0x1000 0x2000 | 0x1000 0x0000 5 0"],
+     ["0x1400 0x0000 | 0x1200 0x0000 5 0", "0x1400 0x2000 | 0x1200 0x2000 5 5"]),
+    ("CMD-EXECUTED-WITHOUT-CONTROL", {}, [("0x1000 0x2000 | 0x1000 0x0000 5 0", 3), "0x1000 0x2000 | 0x1000 0x2000 5 5"],
+     [("0x1000 0x2000 | 0x1000 0x0000 5 0", 4)]),
+]
+
+PRESET = [
+    ("PRESET-CLASS4-DISABLED", dict(class4=0), [G, REQ, REQ], [G, G, G]),
+    ("PRESET-EXECUTED-WHEN-NOT-ALLOWED", dict(class4=0), [G, REQ, DONE], [G, REQ, REQ]),
+    ("PRESET-EXECUTED-WHEN-NOT-ALLOWED", {}, ["0x1400 0x4000 | 0x1200 0x4000 0 0", "0x1400 0x5000 | 0x1200 0x5000 0 0"],
+     ["0x1400 0x4000 | 0x1200 0x4000 0 0", "0x1400 0x5000 | 0x1200 0x4000 0 0"]),          # parked
+    ("PRESET-ACK-MISSING", {}, [G, (REQ, 15)], [G, REQ, (DONE, 3), REL]),
+    ("PRESET-ACK-SPURIOUS", {}, [G, G, "0x1400 0x2000 | 0x1200 0x3000 5 5"], [G, REQ, DONE]),
+    ("PRESET-ACK-DROPPED", {}, [G, REQ, DONE, DONE, DONE, "0x1400 0x3000 | 0x1200 0x2000 0 0"], [G, REQ, DONE, DONE, REL]),
+    ("PRESET-ACK-NOT-CLEARED", {}, [G, REQ, DONE, ("0x1400 0x2000 | 0x1200 0x3000 0 0", 4)], [G, REQ, DONE, REL, REL, REL]),
+    ("PRESET-REQ-EARLY-RELEASE", {}, [G, REQ, G], [G, REQ, DONE, REL]),
+    ("PRESET-REQ-STUCK", {}, [G, REQ, (DONE, 15)], [G, REQ, DONE, DONE, REL]),
+    ("PRESET-MODE-CHANGED", dict(l_max=5, preset_deadline_ms=20), [G, REQ, "0x1400 0x3800 | 0x1200 0x2000 5 5"],
+     [G, REQ, REQ, DONE]),
+    ("PRESET-NOT-STANDSTILL", {}, ["0x1400 0x2000 | 0x1200 0x2000 3 3", "0x1400 0x2000 | 0x1200 0x2000 4 4", REQ],
+     [G, G, REQ, DONE]),
+    ("PRESET-VALUE-WRONG", {}, [G, G, REQ, "0x1400 0x3000 | 0x1200 0x3000 5 5"], [G, G, REQ, DONE]),
+    ("PRESET-REEXECUTED", {}, [{"kind": "param", "request_id": "change parameter", "ok": True, "request_ref": 1,
+                                "params": [{"pnu": 65000, "subindex": 0, "values": [], "error": None, "written": {"values": [1000]}}]},
+                               G, G, "0x1400 0x3800 | 0x1200 0x2000 5 5", "0x1400 0x3800 | 0x1200 0x3000 1005 1005",
+                               "0x1400 0x3800 | 0x1200 0x3000 2005 2005"],
+     [{"kind": "param", "request_id": "change parameter", "ok": True, "request_ref": 1,
+       "params": [{"pnu": 65000, "subindex": 0, "values": [], "error": None, "written": {"values": [1000]}}]},
+      G, G, "0x1400 0x3800 | 0x1200 0x2000 5 5", ("0x1400 0x3800 | 0x1200 0x3000 1005 1005", 3)]),
+    ("XIST-DURING-STORE", dict(preset_deadline_ms=30), [G, G, REQ, ("0x1400 0x3000 | 0x1200 0x2000 0 0", 12)],
+     [G, G, REQ, ("0x1400 0x3000 | 0x1200 0x2000 0 0", 5), DONE]),
+]
+
+XIST = [
+    ("ABSVAL-ACK-MISSING", {}, [("0x1400 0x2000 | 0x1200 0x0000 5 0", 3)], [G] * 3),
+    ("ABSVAL-ACK-STUCK", {}, [("0x1400 0x0000 | 0x1200 0x2000 5 5", 3)], [("0x1400 0x0000 | 0x1200 0x0000 5 0", 3)]),
+    ("ZSW-ATX-AND-SERR", {}, ["0x1400 0x2000 | 0x1200 0xA000 5 0x1001"], ["0x1400 0x2000 | 0x1200 0x8000 5 0x1001"]),
+    ("XIST2-NOT-ZERO", {}, ["0x1400 0x0000 | 0x1200 0x0000 5 5"], ["0x1400 0x0000 | 0x1200 0x0000 5 0"]),
+    ("XIST2-INCONSISTENT", {}, ["0x1400 0x2000 | 0x1200 0x2000 5 6"], [G]),
+    ("XIST2-INCONSISTENT", dict(profile="scancon", shift=7, class4=1, preset_control=0),
+     ["0x1400 0x2000 | 0x1200 0x2000 0x001D2B64 0x001D2B64"],
+     ["0x1400 0x2000 | 0x1200 0x2000 0x0E95B200 0x001D2B64"]),                 # SCANCON 4.0 example
+    ("POSITION-OUT-OF-RANGE", {}, ["0x1400 0x2000 | 0x1200 0x2000 33554432 33554432"],
+     ["0x1400 0x2000 | 0x1200 0x2000 33554431 33554431"]),
+    ("POSITION-DISCONTINUITY", dict(profile="scancon", shift=0), [G, "0x1400 0x2000 | 0x1200 0x2000 16777221 16777221"],
+     ["0x1400 0x2000 | 0x1200 0x2000 33554431 33554431", "0x1400 0x2000 | 0x1200 0x2000 0 0"]),
+]
+
+PARK_ERR = [
+    ("PARK-ACK-MISSING", {}, [("0x1400 0x4000 | 0x1200 0x0000 5 0", 3)], [("0x1400 0x4000 | 0x1200 0x4000 0 0", 3)]),
+    ("PARK-ACK-NOT-CLEARED", {}, [("0x1400 0x0000 | 0x1200 0x4000 0 0", 3)], [("0x1400 0x0000 | 0x1200 0x0000 5 0", 3)]),
+    ("PARK-OUTPUTS-NOT-CLEARED", {}, ["0x1400 0x4000 | 0x1200 0x4000 5 0"], ["0x1400 0x4000 | 0x1200 0x4000 0 0"]),
+    ("PARK-ERROR-REPORTED", {}, ["0x1400 0x4000 | 0x1200 0x4000 0 0", "0x1400 0x4000 | 0x1200 0xC000 0 0x1001"],
+     [("0x1400 0x4000 | 0x1200 0x4000 0 0", 2)]),
+    ("PARK-ERRORS-NOT-CLEARED", {}, ["0x1400 0x0000 | 0x1200 0x8000 0 0x1001", ("0x1400 0x4000 | 0x1200 0xC000 0 0x1001", 3)],
+     ["0x1400 0x0000 | 0x1200 0x8000 0 0x1001", ("0x1400 0x4000 | 0x1200 0x4000 0 0", 3)]),
+    ("PARK-WHILE-RUNNING", {}, ["0x1400 0x2000 | 0x1200 0x2000 3 3", "0x1400 0x2000 | 0x1200 0x2000 4 4",
+                                "0x1400 0x6000 | 0x1200 0x4000 0 0"], [G, G, "0x1400 0x6000 | 0x1200 0x4000 0 0"]),
+    ("SERR-CODE-INVALID", {}, ["0x1400 0x2000 | 0x1200 0x8000 5 0"], ["0x1400 0x2000 | 0x1200 0x8000 5 0x1001"]),
+    ("SERR-CODE-INVALID", {}, ["0x1400 0x2000 | 0x1200 0x8000 5 0x1234"], ["0x1400 0x2000 | 0x1200 0x8000 5 0x1002"]),
+    ("ACKIP-MISSING", {}, ["0x1400 0x2000 | 0x1200 0x8000 5 0x1001", ("0x1400 0xA000 | 0x1200 0x8000 5 0x1001", 3)],
+     ["0x1400 0x2000 | 0x1200 0x8000 5 0x1001", "0x1400 0xA000 | 0x1200 0x8800 5 0x1001", G]),
+    ("ACKIP-MISSING", dict(profile="scancon", shift=0),
+     ["0x1400 0x2000 | 0x1200 0x8000 5 0x1001", ("0x1400 0xA000 | 0x1200 0x8000 5 0x1001", 4)],
+     ["0x1400 0x2000 | 0x1200 0x8000 5 0x1001", "0x1400 0xA000 | 0x1200 0x8000 5 0x1001", G]),  # reset within a cycle
+    ("ACKIP-SPURIOUS", {}, [G, "0x1400 0x2000 | 0x1200 0x8800 5 0x1001"],
+     ["0x1400 0x2000 | 0x1200 0x8000 5 0x1001", "0x1400 0xA000 | 0x1200 0x8800 5 0x1001"]),
+    ("ACKIP-STUCK", {}, ["0x1400 0xA000 | 0x1200 0x8800 5 0x1001", ("0x1400 0x2000 | 0x1200 0x2800 5 5", 3)],
+     ["0x1400 0xA000 | 0x1200 0x8800 5 0x1001", ("0x1400 0x2000 | 0x1200 0x2000 5 5", 3)]),
+    ("SERR-CLEARED-WITHOUT-ACK", {}, ["0x1400 0x2000 | 0x1200 0x8000 5 0x1001", G],
+     ["0x1400 0x2000 | 0x1200 0x8000 5 0x1001", "0x1400 0xA000 | 0x1200 0x8800 5 0x1001", G]),
+    ("SERR-XIST2-NOT-RESTORED", {}, ["0x1400 0xA000 | 0x1200 0x8800 5 0x1001", ("0x1400 0x2000 | 0x1200 0x0000 5 0", 3)],
+     ["0x1400 0xA000 | 0x1200 0x8800 5 0x1001", ("0x1400 0x2000 | 0x1200 0x2000 5 5", 3)]),
+    ("SACK-WITHOUT-ERROR", {}, [G, "0x1400 0xA000 | 0x1200 0x2000 5 5"], [G, G]),
+    ("SACK-HELD", {}, ["0x1400 0x2000 | 0x1200 0x8000 5 0x1001", ("0x1400 0xA000 | 0x1200 0x8800 5 0x1001", 15)],
+     ["0x1400 0x2000 | 0x1200 0x8000 5 0x1001", ("0x1400 0xA000 | 0x1200 0x8800 5 0x1001", 3), G]),
+    ("FAULT-PRESENT-INCONSISTENT", dict(profile="psm"), ["0x1400 0x2000 | 0x1400 0x8000 5 0x1001"],
+     ["0x1400 0x2000 | 0x1408 0x8000 5 0x1001"]),
+]
+
+RESERVED = [
+    ("RESERVED-BIT-SET-STW2", {}, ["0x1401 0x2000 | 0x1200 0x2000 5 5"], [G]),
+    ("RESERVED-BIT-SET-STW2", dict(profile="psm"), ["0x1402 0x2000 | 0x1400 0x2000 5 5"],
+     ["0x1481 0x2000 | 0x1400 0x2000 5 5"]),                                   # PS/PSM: bits 0, 7 defined
+    ("RESERVED-BIT-SET-G1STW", {}, ["0x1400 0x2001 | 0x1200 0x2000 5 5"], [G]),
+    ("RESERVED-BIT-SET-G1STW", dict(profile="psm"), ["0x1400 0x2100 | 0x1400 0x2000 5 5"],
+     ["0x1400 0x2001 | 0x1400 0x2000 5 5"]),                                   # PS/PSM: bits 0-7 function request
+    ("RESERVED-BIT-SET-ZSW2", {}, ["0x1400 0x2000 | 0x1201 0x2000 5 5"], [G]),
+    ("RESERVED-BIT-SET-ZSW2", dict(profile="psm"), ["0x1400 0x2000 | 0x1600 0x2000 5 5"],
+     ["0x1400 0x2000 | 0x148F 0x2000 5 5"]),                                   # PS/PSM: 0-3, 7, 10 defined
+    ("RESERVED-BIT-SET-G1ZSW", {}, ["0x1400 0x2000 | 0x1200 0x2001 5 5"], [G]),
+    ("RESERVED-BIT-SET-G1ZSW", dict(profile="psm"), ["0x1400 0x2000 | 0x1400 0x2400 5 5"],
+     ["0x1400 0x2000 | 0x1400 0x2301 5 5"]),
+]
+
+CASES = SOL + CONTROL + PRESET + XIST + PARK_ERR + RESERVED
+
+
+@pytest.mark.parametrize("rule,cfg,bad,good", CASES, ids=[f"{c[0]}-{i}" for i, c in enumerate(CASES)])
+def test_rule_triggers_and_not(rule, cfg, bad, good):
+    assert rule in rule_ids(bad, **cfg), f"{rule} not raised by its table"
+    assert rule not in rule_ids(good, **cfg), f"{rule} raised by a conforming table"
+
+
+def test_vendor_variant_rules_do_not_apply_elsewhere():
+    # LIKA-only rules are silent for SCANCON on the same cycles (behaviour.md §9.5 #39, §9.6 #47)
+    assert "XIST2-NOT-ZERO" not in rule_ids(["0x1400 0x0000 | 0x1200 0x0000 5 5"], profile="scancon", shift=0)
+    assert "PARK-OUTPUTS-NOT-CLEARED" not in rule_ids(["0x1400 0x4000 | 0x1200 0x4000 5 0"], profile="scancon")
+    assert "SERR-CODE-INVALID" not in rule_ids(["0x1400 0x2000 | 0x1200 0x8000 5 0x1234"], profile="hohner")
+
+
+def test_violation_fields_and_coalescing():
+    evs = run([G.replace("0x1200", "0x1000")] * 6 + [G] * 2 + [G.replace("0x1200", "0x1000")] * 4)
+    mism = [e for e in evs if e["rule"] == "CTRLREQ-MISMATCH"]
+    # two runs of the condition -> two events, each with first/last frame and the catalogue's side/severity
+    assert [(e["frame"], e["last_frame"]) for e in mism] == [(2, 5), (8, 11)]
+    assert all(e["side"] == "encoder" and e["severity"] == "error" and "behaviour.md" in e["source"] for e in mism)
+    assert "expected 1" in mism[0]["message"]
+
+
+def test_controller_violation_names_setpoint_frame():
+    from pndiss.encoder import Checker
+    from encoder_table import make_cfg, parse
+    chk = Checker(make_cfg())
+    sp, ac = parse("0x1401 0x2000 | 0x1200 0x2000 5 5", 81)
+    chk.cycle(10, 0, sp, ac, sp_frame=9)
+    ev = [e for e in chk.finish() if e["kind"] == "violation"]
+    assert ev[0]["rule"] == "RESERVED-BIT-SET-STW2" and ev[0]["frame"] == 9 and ev[0]["side"] == "controller"
