@@ -41,6 +41,7 @@ class Analyzer:
         self.first_ts: int | None = None
         self.last_ts: int | None = None
         self.stations = st.Stations()
+        self.dcp_tracker = dcp.DcpTracker()
         self.session = SessionTracker(self)
         self.cyclic = CyclicTracker(self)
         # (frame, ts) of the frame being processed, for events emitted by trackers
@@ -121,10 +122,15 @@ class Analyzer:
         if cls.startswith("DCP"):
             d = dcp.decode(pdu, body, frame_id)
             d.update(frame=fn, ts_ns=ts, kind="dcp", src=src, dst=dst, frame_id=frame_id)
+            extras = d.pop("events", ())  # e.g. invalid NameOfStation
             self.emit(d)
             self.stations.from_dcp(d, src, dst)
-            for extra in d.pop("events", ()):  # e.g. invalid NameOfStation
+            for extra in extras:
+                if extra["kind"] == "violation":
+                    extra.setdefault("last_frame", fn)
                 self.event(**extra)
+            for v in self.dcp_tracker.on_dcp(d, src, dst):  # duplicate name, occupied IP
+                self.emit(v)
         elif cls.startswith("Alarm"):
             d = alarm.decode(pdu, body, frame_id)
             d.update(frame=fn, ts_ns=ts, kind="alarm", src=src, dst=dst, frame_id=frame_id)
