@@ -264,3 +264,40 @@ def read_res(seq, ar_uuid, api, slot, subslot, index, data: bytes):
     return R.IODReadRes(seqNum=seq, ARUUID=ar_uuid, API=api, slotNumber=slot, subslotNumber=subslot,
                         padding=b"\0\0", index=index, recordDataLength=len(data),
                         RWPadding=b"\0" * 20) / Raw(data)
+
+
+# ------------------------------------------------------------------------------------- alarms
+# RTA header and AlarmNotification / AlarmAck blocks: wire.md §7.1-7.3 (tshark packet-dcerpc-pn-io.c
+# dissect_PNIO_RTA, dissect_AlarmNotification_block, dissect_Alarm_ack_block). Own bytes: scapy's
+# PNIORealTimeAcyclicPDUHeader puts the PDU type in the wrong nibble (wire.md §7.1).
+RTA_DATA, RTA_ACK = 1, 3
+
+
+def rta(src, dst, *, high: bool, dst_ep: int, src_ep: int, pdu_type: int, send_seq: int, ack_seq: int,
+        sdu: bytes = b"") -> bytes:
+    hdr = struct.pack(">HHBBHHH", dst_ep, src_ep, 0x10 | pdu_type, 0x11, send_seq, ack_seq, len(sdu))
+    fid = 0xFC01 if high else 0xFE01
+    return _eth(src, dst, Raw(struct.pack(">H", fid) + hdr + sdu), vlan=6 if high else 5, etype=ETH_PNRT)
+
+
+def alarm_notification(*, high: bool, alarm_type: int, api: int, slot: int, subslot: int, module_ident: int,
+                       submodule_ident: int, seq: int, channel_error: int | None, appears: bool) -> bytes:
+    # AlarmSpecifier: seq bits 0-10, ChannelDiagnosis bit 11, SubmoduleDiagnosisState bit 13,
+    # ARDiagnosisState bit 15 (wire.md §7.2)
+    spec = (seq & 0x7FF) | ((1 << 11) if channel_error is not None else 0) | ((0xA000) if appears else 0)
+    body = struct.pack(">HIHHIIH", alarm_type, api, slot, subslot, module_ident, submodule_ident, spec)
+    if channel_error is not None:
+        # USI 0x8000 ChannelDiagnosis: ChannelNumber 0x8000 (whole submodule), ChannelProperties
+        # specifier 1 appears / 2 disappears in bits 11-12, ChannelErrorType (wire.md §7.3)
+        props = (1 if appears else 2) << 11
+        body += struct.pack(">HHHH", 0x8000, 0x8000, props, channel_error)
+    bt = 0x0001 if high else 0x0002
+    return struct.pack(">HHBB", bt, len(body) + 2, 1, 0) + body
+
+
+def alarm_ack_block(*, high: bool, alarm_type: int, api: int, slot: int, subslot: int, seq: int,
+                    appears: bool, channel: bool = True) -> bytes:
+    spec = (seq & 0x7FF) | ((1 << 11) if channel else 0) | (0xA000 if appears else 0)
+    body = struct.pack(">HIHHHI", alarm_type, api, slot, subslot, spec, 0)
+    bt = 0x8001 if high else 0x8002
+    return struct.pack(">HHBB", bt, len(body) + 2, 1, 0) + body

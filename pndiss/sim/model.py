@@ -75,8 +75,9 @@ class Encoder:
         self.p = dict(params)
         self.shaft, self.cycle_s = shaft, cycle_s
         # Control requested: ZSW2_ENC bit 9 (Lika/SCANCON/Hohner), bit 10 on PS/PSM (cyclic.md §5.2)
-        self.ctrl_req_bit = 10 if profile == "psm" else 9
+        self.ctrl_req_bit = T.bit_position("zsw2_enc", "control_requested", profile)
         self.offset = 0
+        self.offset_xist1_base = 0   # XIST1 offset when presets do not affect it
         self.preset_value = 0
         self.sol = 0               # encoder sign-of-life, 0 until the controller's one starts
         self.last_c_sol = None
@@ -88,6 +89,13 @@ class Encoder:
         self.last_trig = 0
         # fault knobs set by scenarios / injections: name -> bool or value
         self.faults: dict = {}
+
+    def apply_preset(self, raw: int, relative: bool) -> None:
+        tmr = self.p["tmr"]
+        if relative:
+            self.offset = (self.offset + self.preset_value) % tmr
+        else:
+            self.offset = (self.preset_value + self.faults.get("preset_error", 0) - raw) % tmr
 
     def raw_counts(self, t: float) -> tuple[int, float]:
         rev, rpm = self.shaft.at(t)
@@ -110,15 +118,18 @@ class Encoder:
         tmr = self.p["tmr"]
         stw2, g1stw = out.get("stw2_enc", 0), out.get("g1_stw", 0)
         ctrl = bool(stw2 & 0x0400) or not self.p.get("compat", 1)
-        # --- preset (G1_STW.12 rising edge, mode bit 11), cyclic.md §7.2
-        if ctrl and g1stw & 0x1000 and not self.preset_ack and not f.get("preset_ack_missing"):
-            if g1stw & 0x0800:
-                self.offset = (self.offset + self.preset_value) % tmr
-            else:
-                self.offset = (self.preset_value - raw) % tmr
-            self.preset_ack = True
-        elif not g1stw & 0x1000 and not f.get("preset_ack_stuck"):
-            self.preset_ack = False
+        # --- preset (G1_STW.12 request, mode bit 11), cyclic.md §7.2; needs class 4 (§7.2 preconditions)
+        allowed = ctrl or f.get("ignore_ctrl")
+        if allowed and g1stw & 0x1000 and not self.preset_ack and not f.get("preset_ack_missing") \
+                and (self.p.get("class4", 1) or f.get("ignore_class4")):
+            self.preset_wait = getattr(self, "preset_wait", 0) + 1
+            if self.preset_wait > f.get("preset_delay", 0):
+                self.apply_preset(raw, bool(g1stw & 0x0800))
+                self.preset_ack = True
+        elif not g1stw & 0x1000:
+            self.preset_wait = 0
+            if not f.get("preset_ack_stuck"):
+                self.preset_ack = False
         # cyclic preset telegrams: bit 31/63 trigger (cyclic.md §10)
         for name in ("g1_xist_preset_b", "g1_xist_preset_c"):
             if name in out:
@@ -126,7 +137,8 @@ class Encoder:
                 v = out[name]
                 trig = v >> (bits - 1)
                 if trig and not self.last_trig:
-                    self.offset = ((v & ((1 << (bits - 1)) - 1)) - raw) % tmr
+                    pv = min(v & ((1 << (bits - 1)) - 1), tmr - 1)   # clamped to R-1 (cyclic.md §10)
+                    self.offset = (pv + f.get("cyclic_preset_error", 0) - raw) % tmr
                 self.last_trig = trig
         if "g1_xist_preset_b1" in out:  # telegram 89: STW2_ENC bit 0 trigger, ZSW2_ENC bit 0 ack [derived]
             if stw2 & 1 and not self.last_trig:
@@ -134,9 +146,9 @@ class Encoder:
             self.last_trig = stw2 & 1
         pos = (raw + self.offset) % tmr
         # --- parking (cyclic.md §7.3)
-        self.parked = bool(g1stw & 0x4000) and ctrl
+        self.parked = bool(g1stw & 0x4000) and allowed
         # --- sensor error and its acknowledgement (cyclic.md §7.4)
-        if self.error_code and g1stw & 0x8000 and ctrl:
+        if self.error_code and g1stw & 0x8000 and allowed:
             self.ack_busy = 1
         elif self.ack_busy and not g1stw & 0x8000:
             self.ack_busy = 0
@@ -158,10 +170,16 @@ class Encoder:
         zsw2 = sol << 12
         if ctrl and self.p.get("compat", 1):
             zsw2 |= 1 << self.ctrl_req_bit
+        if self.error_code and self.profile == "psm":
+            zsw2 |= 0x0008   # PS/PSM ZSW2_ENC bit 3 "fault present" (cyclic.md §5.2)
         if self.telegram == 89 and stw2 & 1:
             zsw2 |= 1  # XIST_PRESET_ACK [derived, cyclic.md §10]
         g1zsw = 0
-        xist1 = pos if not self.p.get("preset_control") else raw
+        # G1_XIST1 preset control: 0 = preset affects XIST1 (L/S/P), inverted on Hohner (records.md §5.2)
+        affects = (not self.p.get("preset_control")) != (self.profile == "hohner")
+        if f.get("xist1_preset_inverted"):
+            affects = not affects
+        xist1 = pos if affects else (raw + self.offset_xist1_base) % tmr
         xist2 = 0
         if self.parked:
             g1zsw = 0x4000
@@ -170,7 +188,7 @@ class Encoder:
             if self.error_code:
                 g1zsw |= 0x8000
                 xist2 = self.error_code
-            elif g1stw & 0x2000 and ctrl:
+            elif g1stw & 0x2000 and allowed:
                 g1zsw |= 0x2000
                 xist2 = pos
             if self.preset_ack:

@@ -28,6 +28,12 @@ class Scenario:
 
     def __init__(self):
         self.injections: list[Injection] = []
+        self.param_override: dict = {}      # pnu -> (device-values transform, tags)
+        self.dcp_extra: list = []           # ("name"|"ip", station index, value, tags)
+        self.bmp_extra: list = []           # injections with an access(sess, st, ts, dev)
+        self.connect_tags = ()
+        self.first_cyclic_tags = ()
+        self.reject_bf00 = False
 
     def prepare(self, sess: SimSession, params: dict) -> None:
         self.cycles = sess.cfg.cycles
@@ -45,6 +51,14 @@ class Scenario:
     def cycle(self, sess, k, st, plc, enc, last_in) -> None:
         pass
 
+    def after_plc(self, sess, k, st, out, tags) -> None:
+        for inj in self.injections:
+            inj.after_plc(sess, k, st, out, tags)
+
+    def after_enc(self, sess, k, st, actual, tags) -> None:
+        for inj in self.injections:
+            inj.after_enc(sess, k, st, actual, tags)
+
     def patch(self, sess, k, st, out_frame, in_frame, tags_o, tags_i) -> None:
         for inj in self.injections:
             inj.patch(sess, k, st, out_frame, in_frame, tags_o, tags_i)
@@ -56,30 +70,43 @@ class Scenario:
 
 class Preset(Scenario):
     name = "preset"
-    help = "standstill; P65000 = 1000 written over 0xB02E, then the G1_STW.12/G1_ZSW.12 preset handshake"
+    help = "standstill; P65000 = 1000 written over 0xB02E, then the G1_STW.12/G1_ZSW.12 preset handshake (telegrams 86-89/100/101/860: the cyclic preset trigger)"
     shaft = ((0.0, 0.0, 0.0), (0.1, 0.0, 30.0), (0.3, 30.0, 0.0), (0.45, 0.0, 0.0))
     value = 1000
+    mode = 0                 # G1_STW.11: 0 absolute, 1 relative (cyclic.md §5.3)
+    hold_request = False     # never give up waiting for the acknowledgement
+    hold_after_ack = 0       # cycles the PLC keeps the request after the acknowledgement
+    trigger_cycles = 5       # cycles the cyclic preset trigger bit stays set (cyclic.md §10)
+    skip_p65000 = False
 
     def prepare(self, sess, params):
+        self.cycles = sess.cfg.cycles
+        self.k_req = self.at(0.5)
         super().prepare(sess, params)
-        k = self.at(0.5)
-        for st in sess.stations:
-            sess.write_param(sess.cyc_ts(k - 40), st, 65000, self.value, tags=getattr(self, "write_tags", ()))
-        self.k_req = k
+        if not self.skip_p65000:
+            for st in sess.stations:
+                sess.write_param(sess.cyc_ts(self.k_req - 40), st, 65000, self.value)
+        self.acked = None
 
     def cycle(self, sess, k, st, plc, enc, last_in):
-        if k == 1:
+        cyclic_preset = "g1_stw" not in plc.out_fields.names
+        if k == 1 and not cyclic_preset:
             enc.preset_value = self.value
         if k == self.k_req:
-            plc.preset_req = True
-            if plc.preset_out is None and "g1_stw" not in plc.out_fields.names:
+            if cyclic_preset:
                 plc.preset_out, plc.preset_trig = self.value, True
+                enc.preset_value = min(self.value, enc.p["tmr"] - 1)
+            else:
+                plc.preset_req, plc.preset_mode = True, self.mode
         elif plc.preset_req and last_in and last_in.get("g1_zsw", 0) & 0x1000:
-            plc.preset_req = False   # step 3 of the handshake (cyclic.md §7.2)
-        elif plc.preset_trig and k >= self.k_req + 5:
-            plc.preset_trig = False  # cyclic preset telegrams: trigger bit back to 0 (cyclic.md §10)
-        if k == self.k_req + 200 and plc.preset_req:  # never acknowledged: give up
-            plc.preset_req = False
+            if self.acked is None:
+                self.acked = k
+            if k >= self.acked + self.hold_after_ack:
+                plc.preset_req = False   # step 3 of the handshake (cyclic.md §7.2)
+        elif plc.preset_trig and k >= self.k_req + self.trigger_cycles:
+            plc.preset_trig = False      # cyclic preset telegrams: trigger bit back to 0 (cyclic.md §10)
+        if k == self.k_req + 200 and plc.preset_req and not self.hold_request:
+            plc.preset_req = False       # never acknowledged: give up
 
 
 class Parking(Scenario):
@@ -96,18 +123,32 @@ class Parking(Scenario):
 
 class SensorError(Scenario):
     name = "sensor-error"
-    help = "the encoder reports sensor error 0x1001 (G1_ZSW.15, code in G1_XIST2), the cause goes away, the PLC acknowledges (G1_STW.15 / G1_ZSW.11)"
-    code = 0x1001   # memory error (cyclic.md §9)
+    help = "the encoder reports sensor error 0x1001 (G1_ZSW.15, code in G1_XIST2) with a diagnosis alarm, the cause goes away, the PLC acknowledges (G1_STW.15 / G1_ZSW.11), the diagnosis disappears"
+    code = 0x1001            # memory error (cyclic.md §9)
+    channel_error = 0x9000   # Lika alarm-channel ChannelErrorType "memory error" (cyclic.md §9 note)
+    ack_cycles = None        # give up acknowledging after this many cycles (None: wait for G1_ZSW.11)
+    ack_hold = 0             # keep G1_STW.15 this many cycles after G1_ZSW.11
+    no_ack = False
 
     def cycle(self, sess, k, st, plc, enc, last_in):
         if k == self.at(0.3):
             enc.error_code, enc.error_cleared = self.code, False
+            sess.alarm(sess.cyc_ts(k) + 300_000, st, appears=True, channel_error=self.channel_error)
         elif k == self.at(0.45):
             enc.error_cleared = True
-        elif k == self.at(0.5):
+        elif k == self.at(0.5) and not self.no_ack:
             plc.ack = True
-        elif plc.ack and last_in and last_in.get("g1_zsw", 0) & 0x0800:
-            plc.ack = False
+            self.ack_from = k
+            self.ackip = None
+        elif k == self.at(0.55):
+            sess.alarm(sess.cyc_ts(k) + 300_000, st, appears=False, channel_error=self.channel_error)
+        if plc.ack:
+            if self.ack_cycles is not None and k >= self.ack_from + self.ack_cycles:
+                plc.ack = False
+            elif last_in and last_in.get("g1_zsw", 0) & 0x0800:
+                self.ackip = k if self.ackip is None else self.ackip
+                if k >= self.ackip + self.ack_hold:
+                    plc.ack = False
 
 
 class SolMasterSkip(Scenario):
@@ -136,6 +177,12 @@ class Injection:
     rule = ""
     side = None
     why = ""
+    scenario = None     # scenario the fault needs (None: any)
+    telegram = None     # telegram the fault needs
+    profile = None      # profile the fault needs
+    encoders = 1        # encoders the fault needs
+    also = ()           # rules the same wire fault necessarily breaks too
+    settings: dict = {}  # analyzer settings needed to see the fault
 
     def __init__(self, rule: str, cycle: int | None):
         self.rule, self.cycle_arg = rule, cycle
@@ -143,14 +190,23 @@ class Injection:
 
     def prepare(self, sess, sc, params):
         self.k = self.cycle_arg if self.cycle_arg is not None else sc.at(0.5)
-        sess.injected.append({"rule": self.rule, "side": self.side or RULES[self.rule]["side"],
-                              "cycle": self.k, "tag": self.tag, "how": self.why})
+        self.tmr = params["tmr"]
         self.setup(sess, sc, params)
+        sess.injected.append({"rule": self.rule, "side": self.side or RULES[self.rule]["side"],
+                              "cycle": self.k, "tag": self.tag, "how": self.why,
+                              "also_possible": list(getattr(self, "also", ())),
+                              "settings": dict(getattr(self, "settings", {}))})
 
     def setup(self, sess, sc, params):
         pass
 
     def before_cycle(self, sess, k, st, plc, enc, last_in):
+        pass
+
+    def after_plc(self, sess, k, st, out, tags):
+        pass
+
+    def after_enc(self, sess, k, st, actual, tags):
         pass
 
     def patch(self, sess, k, st, o, i, tags_o, tags_i):

@@ -33,7 +33,7 @@ PROFILES = {
                  order_id="XAC7716/16384PT", bf00_index=0xBF00),
     "scancon": dict(vendor_id=0x0249, device_id=0x0001, vendor_text="SCANCON SAG",
                     order_id="SAG-EIXXB-1213-0000", bf00_index=0xBF00),
-    "hohner": dict(vendor_id=0x0259, device_id=0x0001, vendor_text="HOHNER ENCODER",
+    "hohner": dict(vendor_id=0x0259, device_id=0x0001, vendor_text="ExM58 PN Encoder",
                    order_id="ExM58x-xxxPNxxxx1213", bf00_index=0xBF00),
     "psm": dict(vendor_id=0x0269, device_id=0x0001, vendor_text="PSM Encoder Standard",
                 order_id="PSM-ENC-PN", bf00_index=0xFFFF),     # PS/PSM record 0xFFFF (records.md §5.1)
@@ -42,27 +42,6 @@ PROFILES = {
 }
 DAP_MODULE = 0x00000001            # [sim choice]
 MAP_SUBMODULE = 0x0000FFFF         # SCANCON's MAP submodule ident 0xFFFF, low confidence (network.md §1.8)
-
-
-def _profiles_from_records():
-    """Prefer the records helper's vendor IDs (select_profile must recognise ours)."""
-    try:
-        from ..records import VENDORS, select_profile  # type: ignore
-    except Exception:
-        return
-    for prof, d in PROFILES.items():
-        for vid, name in VENDORS.items():
-            if prof in str(name).lower().replace("/", "").replace(" ", "") or \
-                    (prof == "psm" and "psm" in str(name).lower()):
-                try:
-                    if select_profile(vid, d["device_id"])[0] == prof:
-                        d["vendor_id"] = vid
-                except Exception:
-                    pass
-                break
-
-
-_profiles_from_records()
 
 
 def module_ident(telegram: int) -> int:
@@ -105,7 +84,7 @@ def mac(n: int, dev: int) -> str:
 class Station:
     """Addresses and AR data of one encoder."""
 
-    def __init__(self, i: int, cfg: Config, rng: random.Random):
+    def __init__(self, i: int, cfg: Config, rng: random.Random, extra_in: int = 0):
         self.i = i
         self.mac = mac(1, i + 1)
         self.port_macs = (mac(2, i + 1), mac(3, i + 1))
@@ -117,7 +96,7 @@ class Station:
         self.out_fid = 0x8001 + 2 * i
         self.rpc_port = 0xC000 + i           # controller's RPC port for this AR
         self.dev_port = 0xC100 + i           # device's port for its own requests (ApplicationReady)
-        sp, ac = T.length(cfg.telegram, "setpoint"), T.length(cfg.telegram, "actual")
+        sp, ac = T.length(cfg.telegram, "setpoint"), T.length(cfg.telegram, "actual") + extra_in
         self.out_len, self.in_len = sp, ac
         # Input CR: lone IOPS for DAP submodules and MAP, then the telegram data + IOPS, then the
         # IOCS of the telegram's output (wire.md §2.6); output CR: data + IOPS, then IOCS for all.
@@ -138,7 +117,7 @@ CTRL_MAC = mac(1, 0)
 CTRL_PORT_MAC = mac(2, 0)
 CTRL_IP = "192.168.0.1"
 CTRL_NAME = "plc"
-CTRL_VENDOR, CTRL_DEVICE = 0x0279, 0x0002   # [sim choice]
+CTRL_VENDOR, CTRL_DEVICE = 0x0289, 0x0001   # [sim choice]
 
 
 def cyclic_header(src: str, dst: str, frame_id: int) -> bytes:
@@ -274,6 +253,21 @@ class SimSession:
                      "dcp.set_ip")
             self.add(self.ms(base + 4.3), F.dcp_set_res(st.mac, CTRL_MAC, x, 1, 2), "dcp.set_res")
             self.facts["dcp"].append({"station": st.name, "ip": st.ip, "mac": st.mac})
+        for j, (what, si, value, tags) in enumerate(sc.dcp_extra if sc else ()):
+            st = self.stations[si]
+            ts = self.ms(10 + 10 * n + 1 + 0.5 * j)
+            x = self.xid = self.xid + 1
+            if what == "name":   # the device refuses an invalid name: BlockError 3 "suboption not set"
+                bad = not all(c.isalnum() or c in "-." for c in value.decode("latin-1"))
+                self.add(ts, F.dcp_set_name(CTRL_MAC, st.mac, x, value), "dcp.set_name", tags)
+                self.add(ts + 300_000, F.dcp_set_res(st.mac, CTRL_MAC, x, 2, 2, 3 if bad else 0), "dcp.set_res", tags)
+            else:
+                self.add(ts, F.dcp_set_ip(CTRL_MAC, st.mac, x, value, "255.255.255.0", "0.0.0.0"), "dcp.set_ip", tags)
+                self.add(ts + 300_000, F.dcp_set_res(st.mac, CTRL_MAC, x, 1, 2), "dcp.set_res", tags)
+                x = self.xid = self.xid + 1    # then the right address again
+                self.add(ts + 400_000, F.dcp_set_ip(CTRL_MAC, st.mac, x, st.ip, "255.255.255.0", "0.0.0.0"),
+                         "dcp.set_ip")
+                self.add(ts + 450_000, F.dcp_set_res(st.mac, CTRL_MAC, x, 1, 2), "dcp.set_res")
         # --- Connect, 0xBF00, PrmEnd per station
         t = 10 + 10 * n + 5
         for st in self.stations:
@@ -307,7 +301,10 @@ class SimSession:
                    "velocity_unit": params["velocity_unit"]}
             encs[st.i] = dev
             for j, pnu in enumerate((922, 964, 965, 979, 65001)):
-                self.read_param(self.cyc_ts(k + 10 + 5 * j), st, pnu, dev)
+                fn, tags = sc.param_override.get(pnu, (None, ())) if sc and st.i == 0 else (None, ())
+                self.read_param(self.cyc_ts(k + 10 + 5 * j), st, pnu, fn(dev) if fn else dev, tags=tags)
+            for inj in (sc.bmp_extra if sc and st.i == 0 else ()):
+                inj.access(self, st, self.cyc_ts(inj.k), dev)
         # --- cyclic
         self.run_cyclic(params, encs)
         # --- Release at the end
@@ -360,15 +357,15 @@ class SimSession:
                                       (API_ENC, SLOT_ENC, module_ident(cfg.telegram), subs_enc)])]
         res = [F.ar_block_res(st.ar_uuid, st.session_key, st.mac), F.iocr_block_res(1, 1, st.in_fid),
                F.iocr_block_res(2, 2, st.out_fid), F.alarm_cr_block_res()]
-        self.rpc_call(ts, st, 0, req, res, what="connect")
+        self.rpc_call(ts, st, 0, req, res, what="connect",
+                      tags=self.scenario.connect_tags if self.scenario and st.i == 0 else ())
 
-    def read_param(self, ts, st, pnu, dev, tags=()):
-        fmt, fn = recdata.PNU_VALUES[pnu]
-        vals = fn(dev)
-        ref = self.next_ref()
+    def read_param(self, ts, st, pnu, dev, tags=(), *, response=None, ref=None):
+        fmt, vals = recdata.read_block(pnu, dev, self.cfg.profile)
+        ref = self.next_ref() if ref is None else ref
         count = len(vals) if len(vals) > 1 else 0
         req = recdata.param_request(ref, 1, [(pnu, 0, count, None, fmt)])
-        res = recdata.param_response(ref, 1, [(fmt, vals)])
+        res = recdata.param_response(ref, 1, [(fmt, vals)]) if response is None else response
         self.bmp(ts, st, req, res, tags=tags, what=f"p{pnu}")
         self.facts["params"].append({"station": st.name, "pnu": pnu, "values": vals, "request_ref": ref})
 
@@ -382,6 +379,30 @@ class SimSession:
         self.bmp(ts, st, req, res, tags=tags, what=f"p{pnu}.change")
         self.facts["params"].append({"station": st.name, "pnu": pnu, "write": value, "error": error,
                                      "request_ref": ref})
+
+    # ------------------------------------------------------------------ alarms
+    def alarm(self, ts, st, *, appears: bool, channel_error: int | None, tags=()):
+        """Diagnosis appears/disappears from the device, the controller's AlarmAck, the device's
+        transport ACK (low priority RTA, wire.md §7). Endpoints: controller 1, device 2 (AlarmCR)."""
+        ds = getattr(st, "alarm_send", 0)
+        cs = getattr(st, "alarm_ctrl_send", 0)
+        st.alarm_seq = getattr(st, "alarm_seq", 0) + 1
+        atype = 0x0001 if appears else 0x000C   # Diagnosis / Diagnosis disappears (wire.md §7.2)
+        note = F.alarm_notification(high=False, alarm_type=atype, api=API_ENC, slot=SLOT_ENC, subslot=SUB_TEL,
+                                    module_ident=module_ident(self.cfg.telegram),
+                                    submodule_ident=submodule_ident(self.cfg.telegram), seq=st.alarm_seq,
+                                    channel_error=channel_error, appears=appears)
+        self.add(ts, F.rta(st.mac, CTRL_MAC, high=False, dst_ep=1, src_ep=2, pdu_type=F.RTA_DATA, send_seq=ds,
+                           ack_seq=(cs - 1) & 0xFFFF, sdu=note), "alarm.notification", tags)
+        ack = F.alarm_ack_block(high=False, alarm_type=atype, api=API_ENC, slot=SLOT_ENC, subslot=SUB_TEL,
+                                seq=st.alarm_seq, appears=appears, channel=channel_error is not None)
+        self.add(ts + 400_000, F.rta(CTRL_MAC, st.mac, high=False, dst_ep=2, src_ep=1, pdu_type=F.RTA_DATA,
+                                     send_seq=cs, ack_seq=ds, sdu=ack), "alarm.ack", tags)
+        self.add(ts + 700_000, F.rta(st.mac, CTRL_MAC, high=False, dst_ep=1, src_ep=2, pdu_type=F.RTA_ACK,
+                                     send_seq=(ds + 1) & 0xFFFF, ack_seq=cs), "alarm.rta_ack", tags)
+        st.alarm_send, st.alarm_ctrl_send = (ds + 1) & 0xFFFF, (cs + 1) & 0xFFFF
+        self.facts["alarms"].append({"station": st.name, "alarm_type": atype, "appears": appears,
+                                     "channel_error_type": channel_error})
 
     # ------------------------------------------------------------------ cyclic
     def run_cyclic(self, params, devs):
@@ -408,6 +429,12 @@ class SimSession:
             for _a, _s, _ss, o in st.in_iocs:
                 in_t[h + o] = IOXS_GOOD
             out_t[-2], in_t[-2] = DATA_STATUS, DATA_STATUS
+            if sc is not None and sc.reject_bf00:
+                # a conforming device refuses a bad 0xBF00: parameterisation error 0x1002 in G1_XIST2
+                # and a 0x9011 channel diagnosis (cyclic.md §9; 000_37bf2397999f1108.txt:2605-2639)
+                enc.error_code = 0x1002
+                self.alarm(self.cyc_ts(2) + 300_000, st, appears=True, channel_error=0x9011,
+                           tags=sc.bf00_tags)
             cc0 = (self.rng.randrange(1 << 16), self.rng.randrange(1 << 16))
             per.append((st, enc, plc, out_t, in_t, cc0))
         last_in = {st.i: None for st in self.stations}
@@ -418,7 +445,11 @@ class SimSession:
                 if sc is not None:
                     sc.before_cycle(self, k, st, plc, enc, last_in[st.i])
                 out = plc.step(k, last_in[st.i])
+                if sc is not None:
+                    sc.after_plc(self, k, st, out, tags_o)
                 actual = enc.step(k, out)
+                if sc is not None:
+                    sc.after_enc(self, k, st, actual, tags_i)
                 last_in[st.i] = actual
                 ob = out_l.encode(out)
                 ib = in_l.encode(actual)
@@ -430,6 +461,8 @@ class SimSession:
                 struct.pack_into(">H", i, len(i) - 4, (cc0[1] + k * step) & 0xFFFF)
                 if sc is not None:
                     sc.patch(self, k, st, o, i, tags_o, tags_i)
+                    if k == 0 and st.i == 0:
+                        tags_o |= set(sc.first_cyclic_tags)
                 self.add(t + 20_000 * st.i, bytes(o), "cyclic.out", tags_o)
                 self.add(t + self.cycle_ns // 2 + 20_000 * st.i, bytes(i), "cyclic.in", tags_i)
             if k and k % 5000 == 0:   # LLDP every 5 s (IEEE 802.1AB default msgTxInterval)
