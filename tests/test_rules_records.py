@@ -1,0 +1,102 @@
+"""Record / parameter rules (behaviour.md §9.9 #65-71, 75; §9.10 BMP-*): record and param events
+as the session helper emits them, fed to the checker with a few cycles around them."""
+import pytest
+
+from encoder_table import rule_ids, run
+
+G = "0x1400 0x2000 | 0x1200 0x2000 5 5"
+BAD_CODE = "0x1400 0x2000 | 0x1200 0x8000 5 0x1002"
+
+
+def param(pnu, values=(), *, change=False, error=None, sub=0, ref=1, rid=None, qid=None, pairing=(), fmt=None, more=()):
+    p = {"pnu": pnu, "subindex": sub, "values": [] if change else list(values), "error": error,
+         "format_name": fmt, "attribute": 0x10}
+    if change:
+        p["written"] = {"values": list(values)}
+    ev = {"kind": "param", "request_id": "change parameter" if change else "request parameter",
+          "request_id_code": qid if qid is not None else (2 if change else 1), "request_ref": ref,
+          "response_id": rid if rid is not None else ((0x82 if change else 0x81) if error else (2 if change else 1)),
+          "ok": error is None, "params": [p, *more], "pairing": list(pairing)}
+    return ev
+
+
+def bf00(decoded=None, data="00" * 31, length=31):
+    return {"kind": "record", "op": "write", "index": 0xBF00, "length": length, "data": data,
+            "decoded": decoded if decoded is not None else {"compat": 1, "class4": 1, "mupr": 8192, "tmr": 8192 * 4096,
+                                                             "problems": []}}
+
+
+ERR = lambda code: {"code": code, "text": "x"}  # noqa: E731
+
+CASES = [
+    ("TELEGRAM-SELECTION-MISMATCH", {}, [param(922, [83]), G], [param(922, [81]), G]),
+    ("P965-VERSION-MISMATCH", {}, [param(965, ["001f"], sub=1), G], [param(965, ["0029"], sub=1), G]),
+    ("P965-VERSION-MISMATCH", dict(compat=0), [param(965, [41], sub=1), G], [param(965, [31], sub=1), G]),
+    ("BF00-LENGTH", {}, [bf00({"problems": [{"rule": "BF00-LENGTH", "message": "30 bytes"}]}, length=30), G], [bf00(), G]),
+    ("BF00-LENGTH", {}, [bf00({}, data="00" * 30, length=30), G], [bf00({}), G]),             # own check
+    ("BF00-RESERVED-NONZERO", {}, [bf00({}, data="c0" + "00" * 30), G], [bf00({}), G]),
+    ("BF00-VALUE-OUT-OF-RANGE", {}, [bf00({"mupr": 0, "tmr": 100}), G], [bf00({"mupr": 100, "tmr": 100}), G]),
+    ("BF00-ERROR-NOT-REPORTED", {}, [bf00({"mupr": 0}), (G, 15)], [bf00({"mupr": 0}), G, (BAD_CODE, 3)]),
+    ("BF00-VALID-REJECTED", {}, [bf00(), G, BAD_CODE], [bf00(), G, G]),
+    ("PRESET-CLASS4-DISABLED", dict(class4=0), [param(65000, [10], change=True, error=ERR(0x11)), G],
+     [param(65001, [1]), G]),
+    ("PRESET-WITHOUT-NEW-PARAMS", dict(prev_bf00={"mupr": 4096, "tmr": 4096 * 4096, "direction": 0}),
+     [bf00(), (G, 3)], [bf00(), G, "0x1400 0x3000 | 0x1200 0x2000 5 5", "0x1400 0x3000 | 0x1200 0x3000 0 0"]),
+    ("BMP-PIPELINED", {}, [param(922, [81], pairing=["request(s) in frame(s) 3 overwritten before their response was read"])],
+     [param(922, [81])]),
+    ("BMP-REQREF-ZERO", {}, [param(922, [81], ref=0)], [param(922, [81], ref=7)]),
+    ("BMP-REQREF-NOT-CHANGED", {}, [param(922, [81], ref=5), param(922, [81], ref=5)],
+     [param(922, [81], ref=5), param(922, [81], ref=6)]),
+    ("BMP-ILLEGAL-REQID-RESPONSE", {}, [param(922, qid=5, rid=0x81, error=ERR(0x21))],
+     [param(922, qid=5, rid=0x80, error=ERR(0x21))]),
+    ("BMP-NOT-MIRRORED", {}, [param(922, [81], pairing=["request ref mismatch (request 0x01, response 0x02)"])],
+     [param(922, [81])]),
+    ("BMP-RESPID-MISMATCH", {}, [param(922, error=ERR(0x00), rid=0x01)], [param(922, error=ERR(0x00))]),
+    ("BMP-NEG-FORMAT", {}, [param(922, error=ERR(0x123))], [param(922, error=ERR(0x23))]),
+    ("BMP-MULTI-NOT-ABORTED", {},
+     [param(65000, [1], change=True, error=ERR(0x05), more=[{"pnu": 971, "subindex": 0, "values": [], "error": None}])],
+     [param(65000, [1], change=True, error=ERR(0x05), more=[{"pnu": 971, "subindex": 0, "values": [], "error": ERR(0x05)}])]),
+    ("BMP-WRITE-RO-ACCEPTED", {}, [param(922, [81], change=True)], [param(922, [81], change=True, error=ERR(0x01))]),
+    ("BMP-PRESET-LIMIT-ACCEPTED", {}, [param(65000, [1 << 25], change=True)], [param(65000, [(1 << 25) - 1], change=True)]),
+    ("BMP-UNKNOWN-PNU", {}, [param(980, [922, 65000]), param(1234, [1])], [param(980, [922, 65000]), param(1234, error=ERR(0x00))]),
+    ("BMP-DATATYPE", {}, [param(65000, [1], fmt="Integer32")], [param(65000, [1], fmt="Unsigned32")]),
+    ("P971-NOT-CONFIRMED", {}, [param(971, [1], change=True), param(971, [1]), param(971, [1])],
+     [param(971, [1], change=True), param(971, [1]), param(971, [0])]),
+    ("BMP-CLASS4-WRITE-ACCEPTED", dict(class4=0), [param(65000, [1], change=True)],
+     [param(65000, [1], change=True, error=ERR(0x11))]),
+    ("BMP-PROFILE-PARAM-UNREADABLE", {}, [param(922, error=ERR(0x11))], [param(922, [81])]),
+]
+
+
+@pytest.mark.parametrize("rule,cfg,bad,good", CASES, ids=[f"{c[0]}-{i}" for i, c in enumerate(CASES)])
+def test_record_rule(rule, cfg, bad, good):
+    assert rule in rule_ids(bad, **cfg)
+    assert rule not in rule_ids(good, **cfg)
+
+
+def test_bmp_bad_request_from_record():
+    rec = {"kind": "record", "op": "write", "index": 0xB02E,
+           "decoded": {"kind": "parameter request", "request_id": 0x05, "no_of_parameters": 1, "length": 10,
+                       "params": [{"attribute": 0x11, "count": 0, "pnu": 0, "subindex": 0}]}}
+    ok = {"kind": "record", "op": "write", "index": 0xB02E,
+          "decoded": {"kind": "parameter request", "request_id": 0x01, "no_of_parameters": 1, "length": 10,
+                      "params": [{"attribute": 0x10, "count": 0, "pnu": 922, "subindex": 0}]}}
+    ev = run([rec])
+    assert [e["rule"] for e in ev] == ["BMP-BAD-REQUEST"]
+    assert "request ID 0x05" in ev[0]["message"] and "PNU 0" in ev[0]["message"] and "attribute 0x11" in ev[0]["message"]
+    assert run([ok]) == []
+
+
+def test_p65000_write_sets_preset_value_for_the_arithmetic():
+    # LIKA worked example (behaviour.md §4.4 #1): pos 5000, P65000 = 1000, relative -> 6000
+    pre = [param(65000, [1000], change=True), "0x1400 0x2000 | 0x1200 0x2000 5000 5000",
+           "0x1400 0x2000 | 0x1200 0x2000 5000 5000", "0x1400 0x3800 | 0x1200 0x2000 5000 5000"]
+    assert "PRESET-VALUE-WRONG" not in rule_ids(pre + ["0x1400 0x3800 | 0x1200 0x3000 6000 6000"])
+    assert "PRESET-VALUE-WRONG" in rule_ids(pre + ["0x1400 0x3800 | 0x1200 0x3000 1000 1000"])
+
+
+def test_bf00_in_force_reconfigures_the_checker():
+    # a captured 0xBF00 with compat = 0 switches CREQ to 'held at 0' (behaviour.md §2.2)
+    rows = [bf00({"compat": 0, "problems": []}), "0x1400 0x2000 | 0x1200 0x2000 5 5"]
+    assert "CTRLREQ-SET-IN-COMPAT" in rule_ids(rows)
+    assert "CTRLREQ-SET-IN-COMPAT" not in rule_ids(rows[1:])
