@@ -15,38 +15,11 @@ import pytest
 from pndiss.records import decode_record
 from pndiss.records.build import build_im0, build_param_request, build_param_response
 from records_rpc import read_pair, write_pair, write_pcap
-from tsharkdiff import need_tshark, norm, walk
+from tsharkdiff import need_tshark, norm, tshark_ek, walk
 
 HERE = os.path.dirname(__file__)
 with open(os.path.join(HERE, "tshark_map", "records.json")) as _f:
     MAP = json.load(_f)
-
-
-def _field_name(layer: str, key: str) -> str:
-    """ek key -> tshark field with '_' for '.'; ek prefixes the protocol's filter name, which can
-    differ from the layer name (fields pn_io.* sit in layer pn_io_device)."""
-    if key.startswith(layer + "_"):
-        key = key[len(layer) + 1:]
-    for i in range(1, len(key)):
-        if key[i] == "_" and key[i + 1:].startswith(key[:i] + "_"):
-            return key[i + 1:]
-    return key
-
-
-def _ek(path: str) -> dict[int, dict[str, list]]:
-    out = subprocess.run([need_tshark(), "-n", "-r", path, "-T", "ek"], capture_output=True, text=True,
-                         check=True).stdout
-    frames = {}
-    for line in out.splitlines():
-        if not line.startswith('{"timestamp"'):
-            continue
-        layers = json.loads(line)["layers"]
-        fields: dict[str, list] = {}
-        for lname, body in layers.items():
-            for k, v in (body if isinstance(body, dict) else {}).items():
-                fields.setdefault(_field_name(lname, k), []).extend(v if isinstance(v, list) else [v])
-        frames[int(layers["frame"]["frame_frame_number"])] = fields
-    return frames
 
 
 def _cases(rng: random.Random):
@@ -115,7 +88,7 @@ def test_records_equal_tshark(tmp_path):
         frames += pair
     pcap = str(tmp_path / "records.pcap")
     write_pcap(pcap, frames)
-    ts = _ek(pcap)
+    ts = tshark_ek(pcap)
     compared, diffs, fields_seen = 0, [], set()
     for fn, (idx, data, write) in expect.items():
         ev = {"kind": "record", "decoded": decode_record(idx, data, write=write)}
@@ -145,11 +118,11 @@ def test_float_and_string_values_equal_tshark(tmp_path):
     rsp2 = build_param_response(4, 1, [{"format": 0x09, "values": ["ACURO"]}])
     pcap = str(tmp_path / "f.pcap")
     write_pcap(pcap, read_pair(1, 0xB02E, rsp) + read_pair(2, 0xB02E, rsp2))
-    ts = _ek(pcap)
+    ts = tshark_ek(pcap)
     d1 = decode_record(0xB02E, rsp, write=False)
     d2 = decode_record(0xB02E, rsp2, write=False)
-    assert [float(v) for v in ts[2]["pn_io_profidrive_parameter_value_float"]] == d1["params"][0]["values"]
-    assert ts[4]["pn_io_profidrive_parameter_value_str"][0] == d2["params"][0]["values"][0]
+    assert [float(v) for v in ts[2]["pn_io_pn_io_profidrive_parameter_value_float"]] == d1["params"][0]["values"]
+    assert ts[4]["pn_io_pn_io_profidrive_parameter_value_str"][0] == d2["params"][0]["values"][0]
 
 
 def test_index_names_equal_tshark_info_column(tmp_path):
