@@ -133,7 +133,32 @@ RESERVED = [
      ["0x1400 0x2000 | 0x1400 0x2301 5 5"]),
 ]
 
-CASES = SOL + CONTROL + PRESET + XIST + PARK_ERR + RESERVED
+PRESET_X1 = [
+    # G1_XIST1 preset control, per-vendor coding (behaviour.md §7 D14): LIKA 1 = disabled, HOHNER 0 = disabled
+    ("PRESET-XIST1-AFFECTED-WHEN-DISABLED", dict(preset_control=1), [G, G, REQ, DONE],
+     [G, G, REQ, "0x1400 0x3000 | 0x1200 0x3000 5 0"]),
+    ("PRESET-XIST1-AFFECTED-WHEN-DISABLED", dict(profile="hohner", class4=1, preset_control=0), [G, G, REQ, DONE],
+     [G, G, REQ, "0x1400 0x3000 | 0x1200 0x3000 5 0"]),
+    ("PRESET-XIST1-NOT-AFFECTED-WHEN-ENABLED", dict(preset_control=0), [G, G, REQ, "0x1400 0x3000 | 0x1200 0x3000 5 0"],
+     [G, G, REQ, DONE]),
+    ("PRESET-XIST1-NOT-AFFECTED-WHEN-ENABLED", dict(profile="hohner", class4=1, preset_control=1),
+     [G, G, REQ, "0x1400 0x3000 | 0x1200 0x3000 5 0"], [G, G, REQ, DONE]),
+]
+
+T860 = dict(profile="scancon", telegram=860, shift=0)   # rows: "G1_XIST_PRESET_B | position NIST_B"
+PRESET_TELEGRAMS = [
+    ("PRESET860-VALUE-OUT-OF-RANGE", T860, ["0 | 5 0", "0x82000000 | 5 0"], ["0 | 5 0", "0x80000064 | 5 0"]),
+    ("PRESET860-WRONG", T860, [("0 | 5 0", 3), "0x80000064 | 5 0", ("0 | 5 0", 14)],
+     [("0 | 5 0", 3), "0x80000064 | 5 0", ("0 | 100 0", 14)]),
+    ("PRESET860-TRIGGER-HELD", T860, [("0 | 5 0", 3), ("0x80000064 | 100 0", 15)],
+     [("0 | 5 0", 3), ("0x80000064 | 100 0", 2), ("0 | 100 0", 13)]),
+    ("PRESET89-ACK-MISSING", dict(profile="psm", telegram=89), ["0x1400 0 | 0x1400 5 0", ("0x1401 100 | 0x1400 5 0", 14)],
+     ["0x1400 0 | 0x1400 5 0", ("0x1401 100 | 0x1401 100 0", 14)]),
+    ("NIST-SIGN", dict(telegram=83), ["0x1400 0x2000 | 0x1200 0x2000 %d %d -10" % (i, i) for i in range(5, 11)],
+     ["0x1400 0x2000 | 0x1200 0x2000 %d %d 10" % (i, i) for i in range(5, 11)]),
+]
+
+CASES = SOL + CONTROL + PRESET + PRESET_X1 + PRESET_TELEGRAMS + XIST + PARK_ERR + RESERVED
 
 
 @pytest.mark.parametrize("rule,cfg,bad,good", CASES, ids=[f"{c[0]}-{i}" for i, c in enumerate(CASES)])
