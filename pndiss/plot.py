@@ -12,8 +12,9 @@ import html
 
 # Signal names that carry position / speed, first match wins (telegram tables, cyclic.md §2:
 # G1_XIST1 = position; NIST_A 16-bit / NIST_B 32-bit speed).
-POSITION_SIGNALS = ("G1_XIST1", "XIST1", "G1_XIST2", "position")
-SPEED_SIGNALS = ("NIST_B", "NIST_A", "speed", "velocity")
+# Matched without regard to case (the telegram decoder names them in lower case).
+POSITION_SIGNALS = ("g1_xist1", "xist1", "g1_xist2", "position")
+SPEED_SIGNALS = ("nist_b", "nist_a", "speed", "velocity")
 MAX_LANES = 16
 MAX_TRANSITIONS = 5000
 MAX_MARKERS = 300
@@ -73,8 +74,18 @@ def _flat_bits(bits: dict, prefix: str = ""):
         name = f"{prefix}{k}"
         if isinstance(v, dict):
             yield from _flat_bits(v, name + ".")
-        elif isinstance(v, (bool, int)) and not isinstance(v, float):
-            yield name, 1 if v else 0
+        elif isinstance(v, (bool, int)):
+            yield name, v
+
+
+def _pick(sig: dict, wanted) -> str | None:
+    """Key of ``sig`` that is the first of ``wanted`` (any case) with a numeric value."""
+    low = {str(k).lower(): k for k in sig}
+    for n in wanted:
+        k = low.get(n)
+        if k is not None and _num(sig[k]) is not None:
+            return k
+    return None
 
 
 def _num(v):
@@ -87,9 +98,10 @@ class Timeline:
         self.encoders: dict[tuple, Encoder] = {}
         self.violations: list[tuple[int, str, str]] = []  # (t, rule, severity), first MAX_MARKERS
         self.violation_count = 0
-        self.first_ts: int | None = None
+        self.first_ts: int | None = None   # earliest event
         self.last_ts: int | None = None
-        self._names: dict = {}
+        self.t0: int | None = None         # first telegram sample: the time axis starts there
+        self._multi: set[str] = set()      # multi-bit fields (sign-of-life): no lane
 
     def on_event(self, ev: dict) -> None:
         ts = ev.get("ts_ns")
@@ -108,6 +120,8 @@ class Timeline:
                 self.violations.append((ts, str(ev.get("rule", "?")), str(ev.get("severity", "error"))))
 
     def _telegram(self, ev: dict, ts: int) -> None:
+        if self.t0 is None:
+            self.t0 = ts
         key = (str(ev.get("device_mac")), str(ev.get("slot")), str(ev.get("subslot")))
         enc = self.encoders.get(key)
         if enc is None:
@@ -119,9 +133,9 @@ class Timeline:
         sig = ev.get("signals")
         if isinstance(sig, dict) and not setpoint:
             if enc.position_name is None:
-                enc.position_name = next((n for n in POSITION_SIGNALS if _num(sig.get(n)) is not None), None)
+                enc.position_name = _pick(sig, POSITION_SIGNALS)
             if enc.speed_name is None:
-                enc.speed_name = next((n for n in SPEED_SIGNALS if _num(sig.get(n)) is not None), None)
+                enc.speed_name = _pick(sig, SPEED_SIGNALS)
             if enc.position_name is not None and _num(sig.get(enc.position_name)) is not None:
                 enc.position.add(ts, sig[enc.position_name])
             if enc.speed_name is not None and _num(sig.get(enc.speed_name)) is not None:
@@ -130,18 +144,29 @@ class Timeline:
         if isinstance(bits, dict):
             side = "ctrl" if setpoint else "enc"
             for name, v in _flat_bits(bits):
-                lane = enc.lanes.get(f"{side} {name}")
+                name = f"{side} {name}"
+                if v is not True and v is not False and v != 0 and v != 1:
+                    if name not in self._multi:
+                        self._multi.add(name)
+                        enc.lanes.pop(name, None)
+                    continue
+                lane = enc.lanes.get(name)
                 if lane is None:
-                    lane = enc.lanes[f"{side} {name}"] = Lane()
-                lane.add(ts, v)
+                    if name in self._multi:
+                        continue
+                    lane = enc.lanes[name] = Lane()
+                lane.add(ts, 1 if v else 0)
 
     def shown_lanes(self, enc: Encoder) -> list[tuple[str, Lane]]:
         """Lanes worth a row: the bits that ever changed (else the first few), at most MAX_LANES."""
         moving = [(n, l) for n, l in enc.lanes.items() if len(l.changes) > 1]
         return (moving or list(enc.lanes.items())[:4])[:MAX_LANES]
 
+    def origin(self) -> int:
+        return self.t0 if self.t0 is not None else (self.first_ts or 0)
+
     def sec(self, t: int) -> float:
-        return (t - (self.first_ts or 0)) / 1e9
+        return (t - self.origin()) / 1e9
 
 
 # -- PNG (matplotlib) ---------------------------------------------------------------------------
@@ -176,7 +201,8 @@ def render_png(tl: Timeline, path: str, title: str = "") -> None:
                 ax.plot([tl.sec(t) for t in e.position.t], e.position.v, color="#1f77b4", lw=1.2,
                         drawstyle="steps-post", label=e.position_name)
             ax.set_ylabel(f"{e.position_name or 'position'}", color="#1f77b4", fontsize=8)
-            ax.set_title(e.label, loc="left", fontsize=9)
+            ax.text(0.005, 0.97, e.label, transform=ax.transAxes, fontsize=9, va="top", weight="bold",
+                    bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none"})
             if e.speed.t:
                 ax2 = ax.twinx()
                 ax2.plot([tl.sec(t) for t in e.speed.t], e.speed.v, color="#2ca02c", lw=1.0, label=e.speed_name)
@@ -202,11 +228,21 @@ def render_png(tl: Timeline, path: str, title: str = "") -> None:
         ax.grid(True, axis="x", alpha=0.3)
         for t, rule, sev in tl.violations:
             ax.axvline(tl.sec(t), color=SEV_COLOURS.get(sev, "#d62728"), lw=0.9, alpha=0.8)
-    top = axes[0]
-    for t, rule, sev in tl.violations[:60]:  # labels only for the first ones: legible
-        top.annotate(rule, (tl.sec(t), 1.0), xycoords=("data", "axes fraction"), rotation=60,
-                     fontsize=6, color=SEV_COLOURS.get(sev, "#d62728"), va="bottom")
-    axes[-1].set_xlabel("time since first frame [s]")
+    # one label per cluster of markers (its distinct rule IDs), at most 60 labels: legible
+    gap = (max(end, 1e-9) - min(0.0, tl.sec(tl.first_ts or 0))) / 60
+    clusters: list[list] = []
+    for t, rule, sev in sorted(tl.violations):
+        xs = tl.sec(t)
+        if clusters and xs - clusters[-1][0] < gap:
+            if rule not in clusters[-1][1]:
+                clusters[-1][1].append(rule)
+        else:
+            clusters.append([xs, [rule], sev])
+    for xs, rules, sev in clusters[:60]:
+        text = ", ".join(rules[:3]) + (f" +{len(rules) - 3}" if len(rules) > 3 else "")
+        axes[0].annotate(text, (xs, 1.0), xycoords=("data", "axes fraction"), rotation=60,
+                         fontsize=6, color=SEV_COLOURS.get(sev, "#d62728"), va="bottom")
+    axes[-1].set_xlabel("time since the first cyclic sample [s]" if tl.t0 is not None else "time since first frame [s]")
     v = f"{tl.violation_count} violation(s)" if tl.violation_count else "no violations"
     fig.suptitle(f"{title}  —  {v}" if title else v, fontsize=10)
     fig.tight_layout()
@@ -217,8 +253,9 @@ def render_png(tl: Timeline, path: str, title: str = "") -> None:
 # -- HTML (inline SVG, no dependencies, no network) ------------------------------------------------
 def render_html(tl: Timeline, path: str, title: str = "") -> None:
     W, LEFT, RIGHT = 1100, 170, 20
-    span = max((tl.last_ts or 0) - (tl.first_ts or 0), 1)
-    x = lambda t: LEFT + (t - (tl.first_ts or 0)) * (W - LEFT - RIGHT) / span  # noqa: E731
+    lo_t = min(tl.origin(), *(t for t, _, _ in tl.violations)) if tl.violations else tl.origin()
+    span = max((tl.last_ts or 0) - lo_t, 1)
+    x = lambda t: LEFT + (t - lo_t) * (W - LEFT - RIGHT) / span  # noqa: E731
     parts, y = [], 30
     esc = html.escape
 
@@ -263,8 +300,8 @@ def render_html(tl: Timeline, path: str, title: str = "") -> None:
         parts.append(f'<line x1="{x(t):.1f}" y1="14" x2="{x(t):.1f}" y2="{y}" stroke="{c}">'
                      f'<title>{esc(rule)} ({esc(sev)}) at {tl.sec(t):.6f} s</title></line>'
                      f'<text x="{x(t) + 2:.1f}" y="12" fill="{c}" style="font-size:9px">{esc(rule)}</text>')
-    parts.append(f'<text x="{LEFT}" y="{y + 14}" class="ax">0 s</text>'
-                 f'<text x="{W - RIGHT}" y="{y + 14}" class="ax" text-anchor="end">{span / 1e9:.3f} s</text>')
+    parts.append(f'<text x="{LEFT}" y="{y + 14}" class="ax">{tl.sec(lo_t):.3f} s</text>'
+                 f'<text x="{W - RIGHT}" y="{y + 14}" class="ax" text-anchor="end">{tl.sec(lo_t + span):.3f} s</text>')
     v = f"{tl.violation_count} violation(s)" if tl.violation_count else "no violations"
     doc = (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{esc(title)} timeline</title>"
            "<style>body{font-family:sans-serif}svg text{font-size:11px}.h{font-weight:bold}"
