@@ -1,0 +1,916 @@
+-- pndiss.lua: PROFINET rotary encoder (PROFIdrive Encoder Profile V4.x) telegrams, records and
+-- violation rules for Wireshark/tshark >= 4.0 (Lua 5.2). Field names and values match the Python
+-- core (pndiss): pndiss.<signal>, pndiss.<signal>.<bit>, pndiss.param.*, pndiss.bf00.*, pndiss.rule.
+--
+-- Tables (telegram layouts, bit maps, names, rule catalogue) are generated from the Python tables
+-- into pndiss_tables.lua by tools/gen_lua.py; this file holds only logic.
+--
+-- Structure:
+--   1. tables and fields           4. Connect learning (postdissector, field extractors)
+--   2. preferences                 5. records: 0xB02E/0xB02F pairing, 0xBF00, I&M0
+--   3. maps: Connect > map > none  6. cyclic heuristic on the pn_io list + rules (first pass only)
+
+local bit = bit32 or bit  -- Lua 5.2 has bit32; some builds ship the BitOp 'bit' module only
+
+-- 1. tables -------------------------------------------------------------------------------------
+local function script_dir()
+    local src = debug.getinfo(1, "S").source
+    return (src:sub(1, 1) == "@" and src:sub(2):match("^(.*[/\\])")) or ""
+end
+-- Wireshark's dofile only searches its own folders: read the tables next to this file ourselves
+local function load_tables()
+    local path = script_dir() .. "pndiss_tables.lua"
+    local fh = assert(io.open(path, "rb"), "pndiss: cannot open " .. path)
+    local text = fh:read("*a")
+    fh:close()
+    return assert(load(text, "@" .. path, "t", {}))()
+end
+local T = load_tables()
+
+local pndiss = Proto("pndiss", "PROFINET encoder (pndiss)")
+local F = {}          -- abbrev -> ProtoField
+local fields = pndiss.fields
+
+local function field(abbrev, ctor, name, ...)
+    local f = ctor(abbrev, name, ...)
+    F[abbrev] = f
+    fields[#fields + 1] = f
+    return f
+end
+
+-- per-object header fields (telegram event keys)
+field("pndiss.telegram", ProtoField.uint16, "Telegram")
+field("pndiss.direction", ProtoField.string, "Direction")
+field("pndiss.telegram_source", ProtoField.string, "Telegram from")
+field("pndiss.api", ProtoField.uint32, "API", base.HEX)
+field("pndiss.slot", ProtoField.uint16, "Slot")
+field("pndiss.subslot", ProtoField.uint16, "Subslot", base.HEX)
+field("pndiss.iops", ProtoField.uint8, "IOPS", base.HEX)
+field("pndiss.judged", ProtoField.bool, "Judged (DataValid, RUN, IOPS good)")
+field("pndiss.profile", ProtoField.string, "Device profile")
+field("pndiss.station", ProtoField.string, "Station")
+
+-- signals: size/sign from the table; control/status words in hex, values in decimal
+local UCTOR = {[1] = ProtoField.uint8, [2] = ProtoField.uint16, [4] = ProtoField.uint32, [8] = ProtoField.uint64}
+local SCTOR = {[1] = ProtoField.int8, [2] = ProtoField.int16, [4] = ProtoField.int32, [8] = ProtoField.int64}
+local sig_names = {}
+for name in pairs(T.signals) do sig_names[#sig_names + 1] = name end
+table.sort(sig_names)
+for _, name in ipairs(sig_names) do
+    local s = T.signals[name]
+    local word = T.bitmaps[name] ~= nil and s.size <= 4
+    field("pndiss." .. name, (s.signed and SCTOR or UCTOR)[s.size], s.title, (word and not s.signed) and base.HEX or base.DEC)
+end
+-- bits: one field per (signal, bit name); profile variants share the name (positions may differ)
+for _, sig in ipairs(sig_names) do
+    for _, b in ipairs(T.bitmaps[sig] or {}) do
+        local ab = "pndiss." .. sig .. "." .. b.name
+        if not F[ab] then field(ab, ProtoField.uint8, b.title) end
+    end
+end
+field("pndiss.g1_xist2.error", ProtoField.string, "G1_XIST2 error code")
+
+-- records / parameters (record and param events)
+field("pndiss.record.op", ProtoField.string, "Record access")
+field("pndiss.record.index", ProtoField.uint16, "Record index", base.HEX)
+field("pndiss.record.index_name", ProtoField.string, "Record index name")
+field("pndiss.record.length", ProtoField.uint32, "Record data length")
+field("pndiss.param.kind", ProtoField.string, "Parameter access")
+field("pndiss.param.request_ref", ProtoField.uint8, "Request reference", base.HEX)
+field("pndiss.param.request_id", ProtoField.string, "Request ID")
+field("pndiss.param.response_id", ProtoField.uint8, "Response ID", base.HEX)
+field("pndiss.param.axis", ProtoField.uint8, "Axis / DO-ID")
+field("pndiss.param.request_frame", ProtoField.framenum, "Request in frame")
+field("pndiss.param.ok", ProtoField.bool, "Positive response")
+field("pndiss.param.pnu", ProtoField.uint16, "Parameter number")
+field("pndiss.param.subindex", ProtoField.uint16, "Subindex")
+field("pndiss.param.name", ProtoField.string, "Parameter name")
+field("pndiss.param.format", ProtoField.uint8, "Format", base.HEX)
+field("pndiss.param.value", ProtoField.string, "Value")
+field("pndiss.param.error_code", ProtoField.uint16, "Error number", base.HEX)
+field("pndiss.param.error", ProtoField.string, "Error")
+field("pndiss.param.pairing", ProtoField.string, "Pairing problem")
+local BF00_INT = {"flags", "code_sequence", "direction", "class4", "preset_control", "scaling",
+                  "alarm_channel_control", "compat", "max_master_sol_failures", "velocity_unit"}
+for _, n in ipairs(BF00_INT) do field("pndiss.bf00." .. n, ProtoField.uint8, n) end
+field("pndiss.bf00.mupr", ProtoField.uint64, "Measuring units per revolution")
+field("pndiss.bf00.tmr", ProtoField.uint64, "Total measuring range")
+field("pndiss.bf00.velocity_unit_name", ProtoField.string, "Velocity unit")
+field("pndiss.bf00.problem", ProtoField.string, "Problem")
+field("pndiss.im0.profile_id", ProtoField.uint16, "I&M0 profile ID", base.HEX)
+field("pndiss.im0.profile_name", ProtoField.string, "I&M0 profile")
+field("pndiss.rule", ProtoField.string, "Violated rule")
+
+-- expert infos: one per catalogue rule the plugin implements (filterable: pndiss.rule.<ID>)
+local SEV = {error = expert.severity.ERROR, warning = expert.severity.WARN, info = expert.severity.NOTE}
+local E = {}
+for _, id in ipairs(T.plugin_rules) do
+    local r = T.rules[id]
+    E[id] = ProtoExpert.new("pndiss.rule." .. id, id .. " (" .. r.section .. ")", expert.group.PROTOCOL, SEV[r.severity])
+end
+E.malformed = ProtoExpert.new("pndiss.malformed", "pndiss: malformed", expert.group.MALFORMED, expert.severity.WARN)
+local experts = {}
+for _, e in pairs(E) do experts[#experts + 1] = e end
+pndiss.experts = experts
+
+-- 2. preferences ---------------------------------------------------------------------------------
+pndiss.prefs.map = Pref.string("Manual map", "",
+    "FrameID[:input|output]=telegram[@offset], comma separated (e.g. 0x8000:input=81,0x8001:output=81); "
+    .. "used for frames no Connect describes (like pndiss --map)")
+pndiss.prefs.profile = Pref.enum("Device profile", 1, "auto = from I&M0 / DCP vendor and order ID",
+    {{1, "auto", 1}, {2, "lika", 2}, {3, "scancon", 3}, {4, "hohner", 4}, {5, "psm", 5}, {6, "generic", 6}}, false)
+pndiss.prefs.telegram = Pref.uint("Telegram", 0, "telegram when neither Connect nor map tells it (0 = guess from length)")
+local PROFILE_PREF = {"auto", "lika", "scancon", "hohner", "psm", "generic"}
+
+-- 3. maps ----------------------------------------------------------------------------------------
+-- Connect-derived maps: key "fid|src|dst" -> {direction, device, controller, station, ar, objects}
+local maps, map_cache = {}, {}
+local usermap = {}     -- fid -> {direction, telegram, offset}
+local profiles = {}    -- device MAC -> profile (I&M0 / DCP)
+local DRIVE_APIS = {[0x3A00] = true, [0x3D00] = true}   -- spec/network.md §1.7
+
+local function tg_len(t, dir)
+    local n = 0
+    for _, s in ipairs(T.telegrams[t][dir]) do n = n + T.signals[s].size end
+    return n
+end
+
+-- session.guess_telegram: both lengths must fit; 87 (4/4) and 86/860 (4/8) only on drive APIs
+local function guess_telegram(out_len, in_len, api)
+    if out_len == nil or in_len == nil then return nil end
+    for _, row in ipairs(T.telegram_lengths) do
+        if row[2] == out_len and row[3] == in_len then
+            if not DRIVE_APIS[api] and ((out_len == 4 and in_len == 4) or (out_len == 4 and in_len == 8)) then
+                return nil
+            end
+            return row[1]
+        end
+    end
+end
+
+-- cyclic.py: one-direction length guess, standard telegrams (81-84) first
+local function guess_one(len, dir)
+    local best
+    for _, row in ipairs(T.telegram_lengths) do
+        local t = row[1]
+        if (dir == "actual" and row[3] == len) or (dir == "setpoint" and row[2] == len) then
+            if T.telegrams[t].standard then return t end
+            if best == nil or t < best then best = t end
+        end
+    end
+    return best
+end
+
+local function parse_usermap(s)
+    usermap = {}
+    for item in tostring(s or ""):gmatch("[^,%s]+") do
+        local fid, dir, t, off = item:match("^(%w+):?(%a*)=(%d+)@?(%d*)$")
+        fid = fid and tonumber(fid)
+        if fid and T.telegrams[tonumber(t)] then
+            usermap[fid] = {direction = (dir == "output") and "output" or "input", telegram = tonumber(t),
+                            offset = tonumber(off) or 0}
+        end
+    end
+end
+
+function pndiss.prefs_changed()
+    parse_usermap(pndiss.prefs.map)
+    map_cache = {}
+end
+
+local function profile_for(mac)
+    local p = PROFILE_PREF[pndiss.prefs.profile] or "auto"
+    if p ~= "auto" then return p end
+    return profiles[mac] or "generic"
+end
+
+-- compile one data object: telegram, layout rows {name, offset, size, signed}
+local function compile_obj(o, direction)
+    local dir = direction == "output" and "setpoint" or "actual"
+    local t, src = o.telegram, o.telegram_source
+    if t == nil and pndiss.prefs.telegram ~= 0 and T.telegrams[pndiss.prefs.telegram] then
+        t, src = pndiss.prefs.telegram, "settings.telegram"
+    end
+    if t == nil then
+        t = guess_one(o.length, dir)
+        src = "length (guess)"
+    end
+    if t == nil or T.telegrams[t] == nil then return nil end
+    local rows, off = {}, 0
+    for _, name in ipairs(T.telegrams[t][dir]) do
+        local s = T.signals[name]
+        rows[#rows + 1] = {name = name, off = off, size = s.size, signed = s.signed}
+        off = off + s.size
+    end
+    if o.length < off then return nil end     -- cyclic.py skips objects shorter than the telegram
+    return {o = o, telegram = t, source = src, dir = dir, rows = rows, len = off}
+end
+
+local function lookup(fid, src, dst)
+    local key = fid .. "|" .. src .. "|" .. dst
+    local c = map_cache[key]
+    if c ~= nil then return c or nil end
+    local fm = maps[key]
+    if fm == nil and usermap[fid] then
+        local u = usermap[fid]
+        local inp = u.direction == "input"
+        local L = tg_len(u.telegram, inp and "actual" or "setpoint")
+        fm = {direction = u.direction, device = inp and src or dst, controller = inp and dst or src,
+              objects = {{api = 0, slot = 0, subslot = 0, offset = u.offset, length = L,
+                          telegram = u.telegram, telegram_source = "map"}}}
+    end
+    local out = false
+    if fm then
+        local objs = {}
+        for _, o in ipairs(fm.objects) do
+            if o.length and o.length > 0 then
+                local c2 = compile_obj(o, fm.direction)
+                if c2 then objs[#objs + 1] = c2 end
+            end
+        end
+        if #objs > 0 then out = {fm = fm, objs = objs} end
+    end
+    map_cache[key] = out
+    return out or nil
+end
+
+-- 4. Connect learning -----------------------------------------------------------------------------
+local X = {}
+for _, n in ipairs({"pn_io.opnum", "pn_io.block_type", "pn_io.ar_uuid", "pn_io.cminitiator_mac_add",
+                    "pn_io.cmresponder_macadd", "pn_io.iocr_type", "pn_io.iocr_reference", "pn_io.frame_id",
+                    "pn_io.data_length", "pn_io.api", "pn_io.slot_nr", "pn_io.subslot_nr",
+                    "pn_io.io_data_object.frame_offset", "pn_io.iocs_frame_offset", "pn_io.data_description",
+                    "pn_io.submodule_data_length", "pn_io.length_iops", "pn_io.length_iocs",
+                    "pn_io.module_ident_number", "pn_io.submodule_ident_number", "pn_io.iocr_multicast_mac_add",
+                    "pn_io.index", "pn_io.im_profile_id", "pn_io.vendor_id_high", "pn_io.vendor_id_low",
+                    "pn_io.order_id", "dcerpc.pkt_type", "dcerpc.dg_act_id", "dcerpc.dg_seqnum",
+                    "pn_rt.frame_id", "pn_rt.cycle_counter", "pn_rt.ds_valid", "pn_rt.ds_operate",
+                    "pn_dcp.suboption_vendor_id", "pn_dcp.suboption_device_id", "pn_dcp.suboption_device_devicevendorvalue"}) do
+    X[n] = Field.new(n)
+end
+
+-- all non-generated occurrences of a field, with offsets (wire order)
+local function all(name)
+    local out = {}
+    for _, fi in ipairs({X[name]()}) do
+        if not fi.generated then out[#out + 1] = fi end
+    end
+    return out
+end
+
+-- blocks of the PNIO stub: {type, s, e} from BlockType + BlockLength read in the source tvb
+local function blocks()
+    local out = {}
+    for _, fi in ipairs(all("pn_io.block_type")) do
+        local tvb = fi.source
+        if tvb and fi.offset + 4 <= tvb:len() then
+            local blen = tvb(fi.offset + 2, 2):uint()
+            out[#out + 1] = {type = fi.value, s = fi.offset, e = fi.offset + 4 + blen, tvb = tvb}
+        end
+    end
+    return out
+end
+
+local function inside(list, b)
+    local out = {}
+    for _, fi in ipairs(list) do
+        if fi.offset >= b.s and fi.offset < b.e then out[#out + 1] = fi end
+    end
+    return out
+end
+
+-- value of the last field in list before offset off (the enclosing slot/subslot/api of an entry)
+local function before(list, off)
+    local v
+    for _, fi in ipairs(list) do
+        if fi.offset < off then v = fi.value else break end
+    end
+    return v
+end
+
+local pending_connects = {}   -- "act|seq" -> request summary
+
+local function connect_request(key)
+    local bl = blocks()
+    local req = {iocrs = {}, expected = {}}
+    local api, slot, sub = all("pn_io.api"), all("pn_io.slot_nr"), all("pn_io.subslot_nr")
+    for _, b in ipairs(bl) do
+        if b.type == 0x0101 then
+            local u, m = inside(all("pn_io.ar_uuid"), b), inside(all("pn_io.cminitiator_mac_add"), b)
+            req.ar = u[1] and tostring(u[1])
+            req.controller = m[1] and tostring(m[1].value)
+        elseif b.type == 0x0102 then
+            local function first(n) local l = inside(all(n), b); return l[1] and l[1].value end
+            local cr = {type = first("pn_io.iocr_type"), ref = first("pn_io.iocr_reference"),
+                        frame_id = first("pn_io.frame_id"), data_length = first("pn_io.data_length"),
+                        mcast = first("pn_io.iocr_multicast_mac_add"), objects = {}}
+            local ba, bs, bss = inside(api, b), inside(slot, b), inside(sub, b)
+            for _, fo in ipairs(inside(all("pn_io.io_data_object.frame_offset"), b)) do
+                cr.objects[#cr.objects + 1] = {api = before(ba, fo.offset), slot = before(bs, fo.offset),
+                                               subslot = before(bss, fo.offset), offset = fo.value}
+            end
+            req.iocrs[#req.iocrs + 1] = cr
+        elseif b.type == 0x0104 then
+            local ba, bs, bss = inside(api, b), inside(slot, b), inside(sub, b)
+            local dd, iops = inside(all("pn_io.data_description"), b), inside(all("pn_io.length_iops"), b)
+            for _, l in ipairs(inside(all("pn_io.submodule_data_length"), b)) do
+                local k = table.concat({before(ba, l.offset) or 0, before(bs, l.offset) or 0,
+                                        before(bss, l.offset) or 0}, "/")
+                local e = req.expected[k] or {}
+                local d = before(dd, l.offset)
+                local io = nil
+                for _, fi in ipairs(iops) do if fi.offset > l.offset then io = fi.value break end end
+                if d == 1 then e.input = {l.value, io or 1} elseif d == 2 then e.output = {l.value, io or 1} end
+                req.expected[k] = e
+            end
+        end
+    end
+    pending_connects[key] = req
+end
+
+local function connect_response(key, pinfo)
+    local req = pending_connects[key]
+    pending_connects[key] = nil
+    if req == nil or req.controller == nil then return end
+    local bl = blocks()
+    local device = tostring(pinfo.dl_src)
+    local res_fid = {}
+    for _, b in ipairs(bl) do
+        if b.type == 0x8101 then
+            local m = inside(all("pn_io.cmresponder_macadd"), b)
+            if m[1] then device = tostring(m[1].value) end
+        elseif b.type == 0x8102 then
+            local r, f = inside(all("pn_io.iocr_reference"), b), inside(all("pn_io.frame_id"), b)
+            if r[1] and f[1] then res_fid[r[1].value] = f[1].value end
+        end
+    end
+    for _, cr in ipairs(req.iocrs) do
+        local direction = ({[1] = "input", [2] = "output", [3] = "input"})[cr.type]
+        if direction then
+            local fid = res_fid[cr.ref] or cr.frame_id
+            local s, d = device, req.controller
+            if direction == "output" then s, d = req.controller, device end
+            if cr.type == 3 and cr.mcast then d = tostring(cr.mcast) end
+            local fm = {direction = direction, device = device, controller = req.controller, ar = req.ar, objects = {}}
+            for _, o in ipairs(cr.objects) do
+                local e = req.expected[table.concat({o.api or 0, o.slot or 0, o.subslot or 0}, "/")] or {}
+                local mine = e[direction] or {0, 1}
+                local obj = {api = o.api, slot = o.slot, subslot = o.subslot, offset = o.offset, length = mine[1]}
+                if e.input and e.output then
+                    obj.telegram = guess_telegram(e.output[1], e.input[1], o.api)
+                    if obj.telegram then obj.telegram_source = "length" end
+                end
+                fm.objects[#fm.objects + 1] = obj
+            end
+            maps[fid .. "|" .. s .. "|" .. d] = fm
+        end
+    end
+    map_cache = {}
+end
+
+-- 5. records --------------------------------------------------------------------------------------
+local pairer = {}   -- param key -> {req, frame}
+local frame_cache = {}   -- frame number -> list of {kind, ...} to show (computed on the first pass)
+
+local function u8(t, o) return t(o, 1):uint() end
+local function u16(t, o) return t(o, 2):uint() end
+
+local function param_name(pnu, profile)
+    local v = T.vendor_params[profile]
+    return (v and v[pnu]) or T.params[pnu] or ("P" .. pnu)
+end
+
+-- a value block at off: returns block, next offset (nil + reason when it does not fit)
+local function value_block(t, off, len)
+    if off + 2 > len then return nil, "value block header truncated" end
+    local fmt, n = u8(t, off), u8(t, off + 1)
+    local spec = T.param_formats[fmt]
+    if spec == nil then return nil, string.format("format 0x%02X unknown", fmt) end
+    local size = spec.size
+    local e = off + 2 + size * n
+    if e > len then return nil, "values truncated" end
+    local blk = {format = fmt, n = n, values = {}}
+    for i = 0, n - 1 do
+        local o = off + 2 + i * size
+        local code = spec.code
+        local v
+        if code == "B" or code == "H" or code == "I" then v = tostring(t(o, size):uint())
+        elseif code == "b" or code == "h" or code == "i" then v = tostring(t(o, size):int())
+        elseif code == "q" then v = tostring(t(o, 8):int64())
+        elseif code == "Q" then v = tostring(t(o, 8):uint64())
+        elseif code == "f" then v = tostring(t(o, 4):float())
+        elseif code == "d" then v = tostring(t(o, 8):float())
+        elseif code == "str" then v = nil
+        elseif code == "hex" then v = t(o, size):bytes():tohex():lower()
+        end
+        if v then blk.values[#blk.values + 1] = v end
+    end
+    if spec.code == "str" then blk.values[1] = t(off + 2, size * n):raw() end
+    if fmt == 0x44 and n > 0 then
+        local c = t(off + 2, 2):uint()
+        blk.error = {code = c, text = T.param_errors[c] or
+            ((c >= 0x65 and c <= 0xFF) and "manufacturer-specific error" or
+             (c <= 0xFF and "reserved error number" or "error number above 0x00FF (high byte reserved)"))}
+    end
+    if (e - off) % 2 == 1 and e < len then e = e + 1 end   -- odd byte counts padded to a word
+    return blk, e
+end
+
+local function decode_request(t, len, profile)
+    if len < 4 then return nil, "parameter request header truncated" end
+    local r = {ref = u8(t, 0), id = u8(t, 1), axis = u8(t, 2), n = u8(t, 3), params = {}}
+    local off = 4
+    for i = 1, r.n do
+        if off + 6 > len then return nil, "parameter address truncated" end
+        local pnu = u16(t, off + 2)
+        r.params[i] = {attribute = u8(t, off), count = u8(t, off + 1), pnu = pnu, subindex = u16(t, off + 4),
+                       name = param_name(pnu, profile)}
+        off = off + 6
+    end
+    if r.id == 2 then
+        for i = 1, r.n do
+            local blk, e = value_block(t, off, len)
+            if not blk then return nil, e end
+            r.params[i].written = blk
+            off = e
+        end
+    end
+    return r
+end
+
+local function decode_response(t, len)
+    if len < 4 then return nil, "parameter response header truncated" end
+    local r = {ref = u8(t, 0), id = u8(t, 1), axis = u8(t, 2), n = u8(t, 3), blocks = {}}
+    local off = 4
+    if r.id ~= 2 then
+        for i = 1, r.n do
+            if off >= len and r.id == 0x80 then break end
+            local blk, e = value_block(t, off, len)
+            if not blk then return nil, e end
+            r.blocks[i] = blk
+            off = e
+        end
+    end
+    r.ok = (r.id == 1 or r.id == 2)
+    for _, b in ipairs(r.blocks) do if b.format == 0x44 then r.ok = false end end
+    return r
+end
+
+local function decode_bf00(t, len, profile)
+    local d = {problems = {}}
+    if len ~= 31 then d.problems[#d.problems + 1] = "BF00-LENGTH" end
+    if len >= 1 then
+        local b0 = u8(t, 0)
+        d.flags = b0
+        for _, fb in ipairs(T.bf00_flags) do d[fb[1]] = bit.band(bit.rshift(b0, fb[2]), 1) end
+        d.direction = d.code_sequence
+    end
+    if len >= 17 then d.mupr = t(1, 8):uint64(); d.tmr = t(9, 8):uint64() end
+    if len >= 18 then d.max_master_sol_failures = u8(t, 17) end
+    if len >= 19 then
+        d.velocity_unit = u8(t, 18)
+        local tbl = profile == "psm" and T.bf00_velocity_units_psm or T.bf00_velocity_units
+        d.velocity_unit_name = tbl[d.velocity_unit] or ("undefined (" .. d.velocity_unit .. ")")
+    end
+    return d
+end
+
+-- the record events of this frame (write requests / read responses), from the header blocks
+local function records_of_frame(pinfo)
+    local out = {}
+    local ok_pkt = all("dcerpc.pkt_type")
+    local ptype = ok_pkt[1] and ok_pkt[1].value
+    for _, b in ipairs(blocks()) do
+        if (b.type == 0x0008 or b.type == 0x8009) and b.e - b.s >= 64 then
+            local t = b.tvb
+            local hs = b.s + 6 + 2   -- after block header and SeqNumber
+            if hs + 16 + 4 + 2 + 2 + 2 + 2 + 4 <= t:len() then
+                local ar = tostring(t(hs, 16):bytes())
+                local api = t(hs + 16, 4):uint()
+                local slot, subslot = t(hs + 20, 2):uint(), t(hs + 22, 2):uint()
+                local index = t(hs + 26, 2):uint()
+                local rlen = t(hs + 28, 4):uint()
+                local ds = b.e
+                if index ~= 0xE040 and ds + rlen <= t:len() then
+                    out[#out + 1] = {op = b.type == 0x0008 and "write" or "read", index = index, api = api,
+                                     slot = slot, subslot = subslot, ar = ar, tvb = t(ds, rlen):tvb(),
+                                     len = rlen, at = {t, ds, rlen}}
+                end
+            end
+        end
+    end
+    return out
+end
+
+local function record_items(pinfo, recs)
+    local items = {}
+    local src, dst = tostring(pinfo.dl_src), tostring(pinfo.dl_dst)
+    for _, r in ipairs(recs) do
+        local device = r.op == "write" and dst or src
+        local controller = r.op == "write" and src or dst
+        local profile = profile_for(device)
+        local it = {rec = r, index_name = T.index_names[r.index] or
+            (r.index < 0x8000 and string.format("user specific record 0x%04X", r.index) or string.format("record 0x%04X", r.index))}
+        local nil_ar = r.ar == string.rep("00", 16)
+        local key = table.concat({nil_ar and (controller .. "/" .. device) or r.ar, r.api, r.slot, r.subslot}, "|")
+        local t, len = r.tvb, r.len
+        if r.index == 0xB02E or r.index == 0xB02F then
+            if r.op == "write" then
+                local req = decode_request(t, len, profile)
+                if req then
+                    if pairer[key] then pairer[key].superseded = true end
+                    pairer[key] = {req = req, frame = pinfo.number}
+                    it.request = req
+                else
+                    it.malformed = true
+                end
+            else
+                local rsp = decode_response(t, len)
+                if rsp then
+                    local p = pairer[key]
+                    pairer[key] = nil
+                    local ev = {rsp = rsp, pairing = {}, params = {}}
+                    if p == nil then
+                        ev.pairing[1] = "no request"
+                    else
+                        ev.request_frame, ev.req = p.frame, p.req
+                        if rsp.ref ~= p.req.ref then ev.pairing[#ev.pairing + 1] = "request ref mismatch" end
+                    end
+                    local reqp = p and p.req.params or {}
+                    for i = 1, math.max(#reqp, #rsp.blocks) do
+                        local a, blk = reqp[i], rsp.blocks[i]
+                        ev.params[i] = {pnu = a and a.pnu, subindex = a and a.subindex, name = a and a.name,
+                                        format = blk and blk.format, values = blk and blk.values or {},
+                                        error = blk and blk.error}
+                        if a and a.pnu == 922 and blk and not blk.error and blk.values[1] and (a.subindex or 0) == 0 then
+                            -- session.py: a P922 read names the telegram of the device's submodules
+                            local tnum = tonumber(blk.values[1])
+                            if tnum and T.telegrams[tnum] then
+                                for _, fm in pairs(maps) do
+                                    if fm.device == device then
+                                        for _, o in ipairs(fm.objects) do
+                                            if o.telegram_source ~= "map" and ((o.api == r.api and o.slot == r.slot and o.subslot == r.subslot)
+                                                    or (o.telegram and (o.telegram_source == "length" or o.telegram_source == "gsdml"))) then
+                                                o.telegram, o.telegram_source = tnum, "P922"
+                                            end
+                                        end
+                                    end
+                                end
+                                map_cache = {}
+                            end
+                        end
+                    end
+                    it.param = ev
+                else
+                    it.malformed = true
+                end
+            end
+        elseif r.index == 0xBF00 or (r.index == 0xFFFF and profile == "psm") then
+            it.bf00 = decode_bf00(t, len, r.index == 0xFFFF and "psm" or profile)
+        end
+        items[#items + 1] = it
+    end
+    return items
+end
+
+-- 6. cyclic --------------------------------------------------------------------------------------
+local axes = {}   -- axis key -> rule state
+
+local function sig_value(tvb, row)
+    local r = tvb(row.off, row.size)
+    if row.size == 8 then return row.signed and r:int64() or r:uint64() end
+    return row.signed and r:int() or r:uint()
+end
+
+local function bits_of(sig, v, profile)
+    local out = {}
+    for _, b in ipairs(T.bitmaps[sig] or {}) do
+        local ok = b.profiles == nil
+        if not ok then for _, p in ipairs(b.profiles) do if p == profile then ok = true break end end end
+        if ok then
+            local mask = bit.lshift(1, b.width) - 1
+            local x
+            if type(v) == "number" then x = bit.band(bit.rshift(v, b.bit), mask)
+            else x = v:rshift(b.bit):band(mask):tonumber() end
+            out[#out + 1] = {b.name, x}
+        end
+    end
+    return out
+end
+
+-- reserved masks per (signal, profile): bits no bitmap entry names (telegrams.reserved_mask)
+local reserved_cache = {}
+local function reserved_mask(sig, profile)
+    local k = sig .. "|" .. profile
+    local m = reserved_cache[k]
+    if m then return m end
+    local used = 0
+    for _, b in ipairs(T.bitmaps[sig] or {}) do
+        local ok = b.profiles == nil
+        if not ok then for _, p in ipairs(b.profiles) do if p == profile then ok = true break end end end
+        if ok then used = bit.bor(used, bit.lshift(bit.lshift(1, b.width) - 1, b.bit)) end
+    end
+    m = bit.band(bit.lshift(1, 8 * T.signals[sig].size) - 1, bit.bnot(used))
+    reserved_cache[k] = m
+    return m
+end
+
+-- rules.  Mirrors pndiss/encoder/_state.py (Checker._cycle_std, Checker._hit): one judged cycle per
+-- input frame paired with the latest setpoint (pndiss/cyclic.py); a condition that holds over
+-- consecutive judged cycles is ONE violation at its first frame; a gated cycle (DataValid 0,
+-- provider STOP, IOPS bad) ends every run (Checker.gap).
+-- Controller-side rules name the setpoint frame; tshark shows a frame only once, so those are
+-- decided when the setpoint frame arrives (its cycle is judged by the next input frame).
+local function bitv(v, n) return bit.band(bit.rshift(v, n), 1) end
+
+local function run(ax, rule, cond, frame, found)
+    if cond then
+        if ax.open[rule] ~= ax.n then found[#found + 1] = rule end   -- not hit in the previous judged cycle
+    end
+end
+
+-- setpoint-only conditions (#60, #61), decided on the setpoint frame; cycle n+1 will judge them
+local function sp_conditions(ax, sp)
+    local p = ax.profile
+    local c = {}
+    c["RESERVED-BIT-SET-STW2"] = bit.band(sp.stw2_enc or 0, reserved_mask("stw2_enc", p)) ~= 0
+    c["RESERVED-BIT-SET-G1STW"] = sp.g1_stw ~= nil and bit.band(sp.g1_stw, reserved_mask("g1_stw", p)) ~= 0
+    return c
+end
+
+-- actual-side conditions of one judged cycle (#62, #63, #38, #39, #47, #51)
+local function ac_conditions(ax, sp, ac)
+    local p = ax.profile
+    local c = {}
+    local zsw2, g1zsw = ac.zsw2_enc or 0, ac.g1_zsw or 0
+    local has_g1 = sp.g1_stw ~= nil and ac.g1_zsw ~= nil
+    c["RESERVED-BIT-SET-ZSW2"] = bit.band(zsw2, reserved_mask("zsw2_enc", p)) ~= 0
+    if not has_g1 then return c end
+    c["RESERVED-BIT-SET-G1ZSW"] = bit.band(g1zsw, reserved_mask("g1_zsw", p)) ~= 0
+    local PDONE, ATX, PKA, SERR = bitv(g1zsw, 12), bitv(g1zsw, 13), bitv(g1zsw, 14), bitv(g1zsw, 15)
+    local X1, X2 = ac.g1_xist1, ac.g1_xist2
+    c["ZSW-ATX-AND-SERR"] = ATX == 1 and SERR == 1
+    c["XIST2-NOT-ZERO"] = p == "lika" and X2 ~= nil and ATX == 0 and SERR == 0 and PKA == 0 and X2 ~= 0
+    c["PARK-OUTPUTS-NOT-CLEARED"] = p == "lika" and PKA == 1 and
+        ((X1 or 0) ~= 0 or (X2 or 0) ~= 0 or PDONE == 1 or ATX == 1)
+    c["SERR-CODE-INVALID"] = SERR == 1 and X2 ~= nil and (X2 == 0 or (p == "lika" and T.xist2_errors[X2] == nil))
+    return c
+end
+
+local function new_axis(key, telegram, profile)
+    return {key = key, telegram = telegram, profile = profile, n = 0, open = {}, sp = nil, sp_ok = false,
+            sp_cond = nil}
+end
+
+local function gap(ax)
+    ax.open = {}   -- Checker.gap: flush every run, forget history
+end
+
+local function judge(ax, ac, found)
+    ax.n = ax.n + 1
+    if not T.telegrams[ax.telegram].standard then return end   -- cfg.std: telegrams 81-84
+    for rule, cond in pairs(ax.sp_cond or {}) do
+        if cond then ax.open[rule] = ax.n end   -- already reported on the setpoint frame
+    end
+    for rule, cond in pairs(ac_conditions(ax, ax.sp, ac)) do
+        if cond then
+            run(ax, rule, true, nil, found)
+            ax.open[rule] = ax.n
+        end
+    end
+end
+
+-- cyclic frame: decode each mapped object, feed the axis state (first pass), cache the result
+local function first_pass(pinfo, tvb, entry, ok_ds, fid)
+    local out = {objs = {}, rules = {}}
+    for _, c in ipairs(entry.objs) do
+        local o = c.o
+        if o.offset + c.len > tvb:len() then
+            out.malformed = string.format("data object %s/%s ends at byte %d of a %d-byte C_SDU",
+                tostring(o.slot), tostring(o.subslot), o.offset + c.len, tvb:len())
+            break
+        end
+        local iops = (o.offset + o.length < tvb:len()) and tvb(o.offset + o.length, 1):uint() or nil
+        local ok = ok_ds and iops ~= nil and bit.band(iops, 0x80) ~= 0
+        local fm = entry.fm
+        local key = table.concat({fm.ar or (fm.controller .. "/" .. fm.device), o.api or 0, o.slot or 0, o.subslot or 0}, "|")
+        local ax = axes[key]
+        if ax == nil then
+            ax = new_axis(key, c.telegram, profile_for(fm.device))
+            axes[key] = ax
+        end
+        local sig = {}
+        for _, row in ipairs(c.rows) do
+            local v = sig_value(tvb(o.offset, c.len):tvb(), row)
+            sig[row.name] = v
+        end
+        out.objs[#out.objs + 1] = {c = c, iops = iops, ok = ok, profile = ax.profile}
+        local found = {}
+        if c.dir == "setpoint" then
+            ax.sp, ax.sp_ok = sig, ok
+            ax.sp_cond = nil
+            if ok and T.telegrams[ax.telegram].standard then
+                ax.sp_cond = sp_conditions(ax, sig)
+                for rule, cond in pairs(ax.sp_cond) do run(ax, rule, cond, nil, found) end
+            end
+        elseif ax.sp ~= nil then
+            if not (ok and ax.sp_ok) then gap(ax) else judge(ax, sig, found) end
+        end
+        for _, r in ipairs(found) do out.rules[#out.rules + 1] = r end
+    end
+    return out
+end
+
+local function add_object(tree, tvb, c, cached, fm)
+    local o = c.o
+    local st = tree:add(pndiss, tvb(o.offset, c.len),
+        string.format("PROFINET encoder: telegram %d %s, slot %s/%s", c.telegram, c.dir, tostring(o.slot), tostring(o.subslot)))
+    st:add(F["pndiss.telegram"], c.telegram)
+    st:add(F["pndiss.direction"], c.dir)
+    st:add(F["pndiss.telegram_source"], c.source or "")
+    st:add(F["pndiss.api"], o.api or 0)
+    st:add(F["pndiss.slot"], o.slot or 0)
+    st:add(F["pndiss.subslot"], o.subslot or 0)
+    if cached.iops then st:add(F["pndiss.iops"], tvb(o.offset + o.length, 1), cached.iops) end
+    st:add(F["pndiss.judged"], cached.ok and true or false)
+    st:add(F["pndiss.profile"], cached.profile)
+    local zsw, x2
+    for _, row in ipairs(c.rows) do
+        local r = tvb(o.offset + row.off, row.size)
+        local v = sig_value(tvb(o.offset, c.len):tvb(), row)
+        local it = st:add(F["pndiss." .. row.name], r, v)
+        if T.bitmaps[row.name] then
+            for _, b in ipairs(bits_of(row.name, v, cached.profile)) do
+                it:add(F["pndiss." .. row.name .. "." .. b[1]], r, b[2])
+            end
+        end
+        if row.name == "g1_zsw" then zsw = v elseif row.name == "g1_xist2" then x2 = v end
+    end
+    if zsw and x2 and bit.rshift(zsw, 15) == 1 then
+        st:add(F["pndiss.g1_xist2.error"], T.xist2_errors[x2] or string.format("device-specific error code 0x%04X", x2))
+    end
+end
+
+local function add_rules(tree, tvb, rules)
+    if #rules == 0 then return end
+    local st = tree:add(pndiss, tvb(0, 0), "pndiss violations")
+    for _, rule in ipairs(rules) do
+        local it = st:add(F["pndiss.rule"], rule)
+        it:add_proto_expert_info(E[rule], rule .. ": " .. (T.rules[rule] and T.rules[rule].section or ""))
+    end
+end
+
+local cyc_cache = {}   -- frame number -> first-pass result (entry + decoded flags + rules)
+
+local function heuristic(tvb, pinfo, tree)
+    local fi = X["pn_rt.frame_id"]()
+    if fi == nil then return false end
+    local fid = fi.value
+    local cached = cyc_cache[pinfo.number]
+    if cached == nil then
+        if pinfo.visited then return false end
+        local entry = lookup(fid, tostring(pinfo.dl_src), tostring(pinfo.dl_dst))
+        if entry == nil then return false end
+        local v, op = X["pn_rt.ds_valid"](), X["pn_rt.ds_operate"]()
+        local ok_ds = v ~= nil and op ~= nil and v.value ~= 0 and op.value ~= 0
+        local res = first_pass(pinfo, tvb, entry, ok_ds, fid)
+        cached = {entry = entry, res = res}
+        cyc_cache[pinfo.number] = cached
+    end
+    if tree then
+        for i, c in ipairs(cached.res.objs) do add_object(tree, tvb, c.c, c, cached.entry.fm) end
+        add_rules(tree, tvb, cached.res.rules)
+        if cached.res.malformed then tree:add_proto_expert_info(E.malformed, cached.res.malformed) end
+    end
+    return false   -- let pn_io go on with its own IODataObject dissection
+end
+pndiss:register_heuristic("pn_io", heuristic)
+
+-- profile selection (pndiss/records/profiles.py): vendor ID 0x0239 = Lika, then order ID patterns
+local ORDER_PATTERNS = {
+    {{"LIKA", "ROTACOD", "XAC77"}, "lika"},
+    {{"SCANCON", "SAG%-E"}, "scancon"},
+    {{"^E%u?%u?%u?M?58", "ENA58IL"}, "hohner"},
+    {{"%f[%w]PSM?%f[%W]", "ACURO"}, "psm"},
+}
+local function select_profile(vendor, order)
+    if vendor == 0x0239 then return "lika" end
+    if order then
+        local u = order:upper():gsub("^%s+", ""):gsub("%s+$", "")
+        for _, row in ipairs(ORDER_PATTERNS) do
+            for _, pat in ipairs(row[1]) do
+                if u:find(pat) then return row[2] end
+            end
+        end
+    end
+    return "generic"
+end
+local im0_seen = {}
+
+-- postdissector: Connect learning, DCP/I&M0 identity, records
+local rec_cache = {}
+function pndiss.dissector(tvb, pinfo, tree)
+    local op = X["pn_io.opnum"]()
+    if op == nil then
+        if not pinfo.visited then
+            local v = X["pn_dcp.suboption_vendor_id"]()
+            if v and not im0_seen[tostring(pinfo.dl_src)] then
+                local dv = X["pn_dcp.suboption_device_devicevendorvalue"]()
+                profiles[tostring(pinfo.dl_src)] = select_profile(v.value, dv and dv.value)
+                map_cache = {}
+            end
+        end
+        return
+    end
+    local items = rec_cache[pinfo.number]
+    if items == nil then
+        if pinfo.visited then return end
+        local pt = X["dcerpc.pkt_type"]()
+        local act, seq = X["dcerpc.dg_act_id"](), X["dcerpc.dg_seqnum"]()
+        local key = act and seq and (tostring(act) .. "|" .. tostring(seq.value))
+        local ok, err = pcall(function()
+            if op.value == 0 and pt and key then
+                if pt.value == 0 then connect_request(key) elseif pt.value == 2 then connect_response(key, pinfo) end
+            end
+            items = record_items(pinfo, records_of_frame(pinfo))
+        end)
+        if not ok then items = {{error = tostring(err)}} end
+        -- I&M0 read response: vendor ID + order ID name the profile (session.profile_for)
+        local im = X["pn_io.im_profile_id"]()
+        local vh, vl, oid = X["pn_io.vendor_id_high"](), X["pn_io.vendor_id_low"](), X["pn_io.order_id"]()
+        if im and vh and vl then
+            local dev = tostring(pinfo.dl_src)
+            profiles[dev] = select_profile(vh.value * 256 + vl.value, oid and oid.value)
+            im0_seen[dev] = true
+            map_cache = {}
+            items[#items + 1] = {im0 = im.value}
+        end
+        rec_cache[pinfo.number] = items
+    end
+    if not tree or #items == 0 then return end
+    for _, it in ipairs(items) do
+        if it.error then
+            tree:add_proto_expert_info(E.malformed, "pndiss: " .. it.error)
+        elseif it.im0 then
+            local st = tree:add(pndiss, tvb(0, 0), "PROFINET encoder: I&M0")
+            st:add(F["pndiss.im0.profile_id"], it.im0)
+            st:add(F["pndiss.im0.profile_name"], T.im_profile_ids[it.im0] or string.format("profile 0x%04X", it.im0))
+        else
+            local r = it.rec
+            local t, ds, len = r.at[1], r.at[2], r.at[3]
+            local st = tree:add(pndiss, t(ds, len), string.format("PROFINET encoder: record %s 0x%04X %s",
+                r.op, r.index, it.index_name))
+            st:add(F["pndiss.record.op"], r.op)
+            st:add(F["pndiss.record.index"], r.index)
+            st:add(F["pndiss.record.index_name"], it.index_name)
+            st:add(F["pndiss.record.length"], len)
+            if it.malformed then st:add_proto_expert_info(E.malformed, "record data do not decode") end
+            if it.request then
+                local q = it.request
+                st:add(F["pndiss.param.kind"], "parameter request")
+                st:add(F["pndiss.param.request_ref"], q.ref)
+                st:add(F["pndiss.param.request_id"], T.request_ids[q.id] or "reserved")
+                st:add(F["pndiss.param.axis"], q.axis)
+                for _, a in ipairs(q.params) do
+                    local pt2 = st:add(F["pndiss.param.pnu"], a.pnu)
+                    pt2:add(F["pndiss.param.subindex"], a.subindex)
+                    pt2:add(F["pndiss.param.name"], a.name)
+                end
+            elseif it.param then
+                local ev = it.param
+                st:add(F["pndiss.param.kind"], "parameter response")
+                if ev.request_frame then st:add(F["pndiss.param.request_frame"], ev.request_frame) end
+                if ev.req then
+                    st:add(F["pndiss.param.request_ref"], ev.req.ref)
+                    st:add(F["pndiss.param.request_id"], T.request_ids[ev.req.id] or "reserved")
+                    st:add(F["pndiss.param.axis"], ev.req.axis)
+                end
+                st:add(F["pndiss.param.response_id"], ev.rsp.id)
+                st:add(F["pndiss.param.ok"], ev.rsp.ok)
+                for _, w in ipairs(ev.pairing) do st:add(F["pndiss.param.pairing"], w) end
+                for _, p in ipairs(ev.params) do
+                    local pt2 = st:add(F["pndiss.param.pnu"], p.pnu or 0)
+                    if p.subindex then pt2:add(F["pndiss.param.subindex"], p.subindex) end
+                    if p.name then pt2:add(F["pndiss.param.name"], p.name) end
+                    if p.format then pt2:add(F["pndiss.param.format"], p.format) end
+                    if p.error then
+                        pt2:add(F["pndiss.param.error_code"], p.error.code)
+                        pt2:add(F["pndiss.param.error"], p.error.text)
+                    else
+                        for _, v in ipairs(p.values) do pt2:add(F["pndiss.param.value"], v) end
+                    end
+                end
+            elseif it.bf00 then
+                local d = it.bf00
+                for _, n in ipairs(BF00_INT) do
+                    if d[n] ~= nil then st:add(F["pndiss.bf00." .. n], d[n]) end
+                end
+                if d.mupr then st:add(F["pndiss.bf00.mupr"], d.mupr); st:add(F["pndiss.bf00.tmr"], d.tmr) end
+                if d.velocity_unit_name then st:add(F["pndiss.bf00.velocity_unit_name"], d.velocity_unit_name) end
+                for _, pr in ipairs(d.problems) do st:add(F["pndiss.bf00.problem"], pr) end
+            end
+        end
+    end
+end
+register_postdissector(pndiss)
+parse_usermap(pndiss.prefs.map)
