@@ -94,6 +94,9 @@ def test_html_self_contained(tmp_path):
     assert "<svg" in doc and "R-PRE-&lt;1&gt;" in doc and "preset &amp; co" in doc
     assert not re.search(r"<script|src=|href=", doc)  # no network, no external files
     assert doc.count("<polyline") == 2 + 2  # position, speed, two moving bit lanes
+    w, h = (float(v) for v in re.search(r'<svg[^>]* width="([\d.]+)" height="([\d.]+)"', doc).groups())
+    pts = [tuple(map(float, p.split(","))) for pl in re.findall(r'points="([^"]*)"', doc) for p in pl.split()]
+    assert pts and all(0 <= x <= w and 0 <= y <= h for x, y in pts)  # everything inside the picture
 
 
 @hsettings(max_examples=200, deadline=None)
