@@ -212,7 +212,8 @@ class SessionTracker:
                 ev["fragment"]["frames"] = frames
         else:
             stub = data[hdr["body_off"]:hdr["body_end"]]
-        if ptype == dcerpc.REQUEST and key not in self.calls:
+        # a request counts from the frame that completes it (tshark's request_in does the same)
+        if ptype == dcerpc.REQUEST and stub is not None and key not in self.calls:
             self.calls[key] = {"frame": fn, "ts": ts, "opnum": hdr["opnum"], "conv": conv, "pdu": None,
                                "src": src, "dst": dst}
             if len(self.calls) > MAX_CALLS:
@@ -354,7 +355,7 @@ class SessionTracker:
         alarm = (rb.get(0x0103) or [None])[0]
         alarm_res = (sb.get(0x8103) or [None])[0]
         ar = {"frame": fn, "ts_ns": ts, "kind": "ar", "ar_uuid": ar_uuid, "request_frame": call["frame"],
-              "ok": ok, "status": res["status"], "ar_type": arq["ar_type"], "ar_type_name": arq["ar_type_name"],
+              "ok": ok, "status": res["status"], "ar_type": arq["artype_req"], "ar_type_name": arq["ar_type_name"],
               "session_key": arq["session_key"], "controller_mac": controller, "device_mac": device,
               "controller_station": station, "station": dev_station,
               "controller_ip": call["conv"][0], "device_ip": call["conv"][2],

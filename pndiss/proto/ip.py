@@ -70,7 +70,8 @@ def decode_udp(data: bytes, off: int, end: int) -> dict:
         "dstport": (data[off + 2] << 8) | data[off + 3],
         "length": length,
         "checksum": (data[off + 6] << 8) | data[off + 7],
-        "checksum_status": CHECKSUM_UNVERIFIED,
+        # tshark udp.checksum.status: 3 "Not present" for a zero checksum (optional in IPv4)
+        "checksum_status": CHECKSUM_UNVERIFIED if data[off + 6] | data[off + 7] else 3,
         "payload_off": off + UDP_HDR,
         "payload_end": off + length,
     }

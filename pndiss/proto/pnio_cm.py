@@ -174,10 +174,11 @@ def decode_ndr(stub: bytes, order: str, request: bool) -> tuple[dict, int]:
 
 # --- a tiny big-endian cursor: every read checks the bounds and raises Malformed ---------------
 class _Cur:
-    __slots__ = ("b", "o", "end", "what")
+    __slots__ = ("b", "o", "end", "what", "start")
 
     def __init__(self, b: bytes, o: int, end: int, what: str):
         self.b, self.o, self.end, self.what = b, o, end, what
+        self.start = o - 6  # the block header: alignment counts from there
 
     def take(self, n: int) -> int:
         if self.o + n > self.end:
@@ -259,8 +260,8 @@ DATA_DESCRIPTION = {1: "input", 2: "output"}
 
 # --- block bodies ---------------------------------------------------------------------------
 def _ar_req(c: _Cur, d: dict) -> None:
-    d["ar_type"] = c.u16()
-    d["ar_type_name"] = AR_TYPES.get(d["ar_type"], "reserved")
+    d["artype_req"] = c.u16()  # tshark's pn_io.artype_req is a label without the value (quirk)
+    d["ar_type_name"] = AR_TYPES.get(d["artype_req"], "reserved")
     d["ar_uuid"] = c.uuid()
     d["session_key"] = c.u16()
     d["cminitiator_mac_add"] = c.mac()
@@ -404,6 +405,49 @@ def _im_filter(c: _Cur, d: dict) -> None:
         apis.append(a)
 
 
+def _ir_info(c: _Cur, d: dict) -> None:
+    # IRInfoBlock (RT_CLASS_3 Connect), tshark dissect_IRInfo_block: which IOCR sits where in DFP frames
+    c.u16()
+    d["IRData_uuid"] = c.uuid()
+    c.u16()
+    d["number_of_iocrs"] = c.u16()
+    d["iocrs"] = [{"iocr_reference": c.u16(), "subframe_offset": c.u16(), "subframe_data": c.u32()}
+                  for _ in range(d["number_of_iocrs"])]
+
+
+def _diagnosis(c: _Cur, d: dict) -> None:
+    # DiagnosisData: version 1.1 starts with the API (tshark dissect_DiagnosisData_block); the
+    # channel entries are not decoded here
+    if d["block_version_low"] >= 1:
+        d["api"] = c.u32()
+    d["slot_nr"] = c.u16()
+    d["subslot_nr"] = c.u16()
+
+
+def _pd_sync(c: _Cur, d: dict) -> None:
+    # PDSyncData version 1.2 (tshark dissect_PDSyncData_block): only up to the send clock here
+    if d["block_version_low"] != 2:
+        return
+    c.take(2 + 16 + 4 + 4 + 4 + 4)  # padding, PTCP subdomain UUID, interval begin/end, PLL window, sync send factor
+    d["send_clock_factor"] = c.u16()
+
+
+def _pdir_frame(c: _Cur, d: dict) -> None:
+    # PDIRFrameData (tshark dissect_PDIRFrameData_block): per frame FrameSendOffset, DataLength,
+    # ReductionRatio, Phase, FrameID, Ethertype, RxPort, FrameDetails, TxPortGroups, 4-byte alignment
+    c.u16()
+    if d["block_version_low"] >= 1:
+        d["frame_data_properties"] = c.u32()
+    frames = d["ir_frames"] = []
+    while c.end - c.o >= 17:
+        f = {"frame_send_offset": c.u32(), "data_length": c.u16(), "reduction_ratio": c.u16(),
+             "phase": c.u16(), "frame_id": c.u16(), "ethertype": c.u16(), "rx_port": c.u8(),
+             "frame_details": c.u8(), "nr_of_tx_port_groups": c.u8()}
+        c.take(f["nr_of_tx_port_groups"])
+        c.take((-(c.o - c.start)) % 4)
+        frames.append(f)
+
+
 RW_HEADERS = {0x0008: "write", 0x0009: "read", 0x8008: "write", 0x8009: "read"}
 
 
@@ -431,17 +475,24 @@ def _rw_header(c: _Cur, d: dict) -> None:
 BODIES = {
     0x0101: _ar_req, 0x8101: _ar_res, 0x0102: _iocr_req, 0x8102: _iocr_res,
     0x0103: _alarmcr_req, 0x8103: _alarmcr_res, 0x0104: _expected_sub, 0x8104: _module_diff,
-    0x8106: _ar_server, 0x0030: _im_filter, 0x0031: _im_filter, 0x0032: _im_filter,
+    0x8106: _ar_server, 0x0109: _ir_info, 0x0203: _pd_sync, 0x0207: _pdir_frame, 0x0010: _diagnosis, 0x0030: _im_filter, 0x0031: _im_filter, 0x0032: _im_filter,
     **{t: _control for t in (0x0110, 0x0111, 0x0112, 0x0113, 0x0114, 0x0116, 0x0117,
                              0x8110, 0x8111, 0x8112, 0x8113, 0x8114, 0x8116, 0x8117)},
     **{t: _rw_header for t in RW_HEADERS},
 }
 
-# Blocks whose body holds further blocks after a fixed prefix (bytes after the version bytes),
+# Blocks whose body holds further blocks after a fixed prefix: (field, bytes) with None = padding.
 # tshark packet-dcerpc-pn-io.c: PDPortDataCheck/Adjust (padding, slot, subslot), MultipleBlockHeader
 # (padding, API, slot, subslot), COContainerContent (padding, API, slot, subslot, padding, index),
-# PDInterfaceMrpDataAdjust/Check (padding, MRP domain UUID, ...) are decoded by header only.
-CONTAINERS = {0x0200: 6, 0x0202: 6, 0x0400: 10, 0x0401: 14}
+# ARFSUBlock (padding). Other record blocks are decoded by header only.
+_SLOT = ((None, 2), ("slot_nr", 2), ("subslot_nr", 2))
+CONTAINERS = {0x0200: _SLOT, 0x0202: _SLOT, 0x010B: ((None, 2),),
+              0x0205: _SLOT, 0x022A: (("NumberOfSubframeBlocks", 2),),
+              (0x0211, 1): ((None, 1), ("mrp_Number_MrpInstances", 1)),  # version 1.1 only
+              (0x0213, 1): ((None, 1), ("mrp_Number_MrpInstances", 1)),
+              0x0609: ((None, 2),),
+              0x0400: ((None, 2), ("api", 4), ("slot_nr", 2), ("subslot_nr", 2)),
+              0x0401: ((None, 2), ("api", 4), ("slot_nr", 2), ("subslot_nr", 2), (None, 2), ("index", 2))}
 
 # Record indices whose data is a sequence of blocks (spec/wire.md §6.12: PDev, I&M filter,
 # diagnosis, AR-level records); user and profile records (0x0000-0x7FFF, 0xB000-0xBFFF except
@@ -452,6 +503,7 @@ BLOCK_RECORDS = frozenset({
     0x8060, 0x8061, 0x8062, 0x8063, 0x8070, 0x8071, 0x8072, 0x8080, 0x8090, 0x80B0,
     0xC00A, 0xC00B, 0xC00C, 0xE00A, 0xE00B, 0xE00C, 0xE050, 0xF00A, 0xF00B, 0xF00C, 0xF80C,
     0xF820, 0xF821, 0xF830, 0xF831, 0xF840, 0xF841, 0xF842,
+    *range(0xAFF0, 0xB000),  # I&M0-15 records are I&M blocks (0x0020-0x002F)
 })
 
 MAX_DEPTH = 4
@@ -487,8 +539,13 @@ def decode_blocks(b: bytes, off: int, end: int, out: list, depth: int = 0) -> No
                 # the record data may lie past this block's end: continue after it
                 off = d.pop("_next")
                 continue
-        elif bt in CONTAINERS and depth < MAX_DEPTH and blen - 2 >= CONTAINERS[bt]:
-            decode_blocks(b, off + 6 + CONTAINERS[bt], bend, out, depth + 1)
+        elif depth < MAX_DEPTH and (bt in CONTAINERS or (bt, d["block_version_low"]) in CONTAINERS):
+            c = _Cur(b, off + 6, bend, d["block_name"])
+            for name, size in CONTAINERS.get(bt) or CONTAINERS[(bt, d["block_version_low"])]:
+                v = c.u32() if size == 4 else c.u16() if size == 2 else c.u8()
+                if name is not None:
+                    d[name] = v
+            decode_blocks(b, c.o, bend, out, depth + 1)
         off = bend
 
 
