@@ -1059,14 +1059,11 @@ class BmpNotMirrored(_Bmp):
 
 @injectable("BMP-RESPID-MISMATCH")
 class BmpRespidMismatch(_Bmp):
-    why = "the device answers a read request with response ID 0x02 (change parameter)"
+    why = "the device answers a read request with response ID 0x02 (positive change, no values)"
 
     def access(self, sess, st, ts, dev):
-        from . import recdata
         ref = sess.next_ref()
-        f, v = recdata.read_block(922, dev, sess.cfg.profile)
-        sess.read_param(ts, st, 922, dev, tags={self.tag}, ref=ref,
-                        response=bytes([ref, 2, 1, 1]) + recdata.param_response(ref, 1, [(f, v)])[4:])
+        sess.read_param(ts, st, 922, dev, tags={self.tag}, ref=ref, response=bytes([ref, 2, 1, 1]))
 
 
 @injectable("BMP-NEG-FORMAT")

@@ -31,8 +31,8 @@ def read_block(pnu: int, dev: dict, profile: str) -> tuple[int, list]:
     info = param_info(pnu, profile) or {"type": "U32"}
     fmt = TYPE_FORMAT.get(info["type"], 0x07)
     vals = PNU_VALUES[pnu](dev)
-    if fmt == 0x1F:   # OctetString2: one 2-octet value (P965: profile number, version)
-        return fmt, ["".join(f"{v:02x}" for v in vals)]
+    if fmt == 0x1F:   # OctetString2 (P965): sent as OctetString 0x0A with 2 octets, because tshark
+        return 0x0A, vals  # 4.0 flags format 0x1F "Not supported or invalid format" (packet-pn-io.c)
     if pnu == 965:    # PS/PSM declares P965 a single UINT16 (records.md §4.3)
         return fmt, [vals[0] << 8 | vals[1]]
     if fmt == 0x04:
