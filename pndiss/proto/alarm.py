@@ -223,8 +223,9 @@ def _items(data: bytes, o: int, end: int) -> list[dict]:
         if end - o < size:
             raise Malformed(L, f"{usi_name(usi)} item needs {size} bytes, block has {end - o} left")
         if usi == 0x8100:
-            btype, blen, vh, vl = _BLOCK.unpack_from(data, o)
-            item.update(maintenance_block_type=btype, maintenance_status=_U32.unpack_from(data, o + 8)[0])
+            # MaintenanceItem: block header (type 0x0F00), 2 bytes padding, MaintenanceStatus u32
+            item.update(maintenance_block_type=_U16.unpack_from(data, o)[0],
+                        maintenance_status=_U32.unpack_from(data, o + 8)[0])
         else:
             item.update(_channel(data, o))
             if usi in (0x8002, 0x8003):

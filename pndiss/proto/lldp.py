@@ -7,10 +7,12 @@ tests/tshark_map/lldp.json maps them 1:1. Byte strings are colon hex (tshark's F
 """
 from __future__ import annotations
 
+import ipaddress
 import struct
 import uuid
 
 from .common import Malformed, ipv4, mac, need
+from .mrp import decode as decode_mrp  # noqa: F401  (the analyzer's entry point for EtherType 0x88E3)
 
 L = "lldp"
 
@@ -164,7 +166,6 @@ def _address(ev: dict, prefix: str, family: int, b: bytes) -> None:
 
 
 def _ip6(b: bytes) -> str:
-    import ipaddress
     return str(ipaddress.IPv6Address(bytes(b)))
 
 
@@ -430,9 +431,14 @@ def _station(ev: dict) -> dict:
     st: dict = {"chassis_id": c.get("text") or c.get("id_mac") or c.get("id_ip4") or c.get("id_ip6")
                 or c.get("id_hex"), "port_id": p.get("id") or p.get("id_mac") or p.get("id_ip4")}
     pn = ev.get("profinet")
-    # PROFINET puts NameOfStation into a locally assigned chassis ID (spec/wire.md §4.2)
-    if pn and c["subtype"] == 7 and c.get("text"):
-        st["name"] = c["text"]
+    # PROFINET puts NameOfStation into a locally assigned chassis ID; the older style sends
+    # "port-xxx.<NameOfStation>" as port ID with a descriptive chassis ID (spec/wire.md §4.2)
+    if pn:
+        port_id = p.get("id") or ""
+        if p["subtype"] == 7 and "." in port_id:
+            st["name"] = port_id.split(".", 1)[1]
+        elif c["subtype"] == 7 and c.get("text"):
+            st["name"] = c["text"]
     if "system_name" in ev:
         st["system_name"] = ev["system_name"]
     for m in ev.get("mgmt", ()):
@@ -443,8 +449,3 @@ def _station(ev: dict) -> dict:
         if "cm_mac_add" in d:
             st["chassis_mac"] = d["cm_mac_add"]
     return {k: v for k, v in st.items() if v is not None}
-
-
-def decode_mrp(data: bytes, off: int) -> dict:
-    from .mrp import decode as _mrp
-    return _mrp(data, off)

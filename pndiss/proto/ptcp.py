@@ -10,7 +10,7 @@ from __future__ import annotations
 import struct
 import uuid
 
-from .common import Malformed, mac, need
+from .common import mac, need
 
 L = "ptcp"
 
