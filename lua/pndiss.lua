@@ -556,7 +556,8 @@ local function record_items(pinfo, recs)
                                         end
                                     end
                                 end
-                                map_cache = {}
+                                -- like pndiss/cyclic.py, a frame layout already in use keeps its telegram
+                                for k, v in pairs(map_cache) do if v == false then map_cache[k] = nil end end
                             end
                         end
                     end

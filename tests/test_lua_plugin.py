@@ -1,0 +1,305 @@
+"""The Wireshark Lua plugin (lua/pndiss.lua) against the Python core, with the real tshark.
+
+Every pndiss field the plugin shows must equal the Python events' value on the same frame:
+``telegram`` events (signals, bits, telegram, slot/subslot), ``record`` events (index) and
+``param`` events (PNU); the set of (frame, rule) violations must be identical for the rules the
+plugin implements (lua/pndiss_tables.lua plugin_rules). No Lua error on any capture, including
+fuzzed ones. Needs tshark >= 4.0; skipped without it.
+"""
+from __future__ import annotations
+
+import glob
+import json
+import os
+import random
+import shutil
+import struct
+import subprocess
+import sys
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PLUGIN = os.path.join(ROOT, "lua", "pndiss.lua")
+PUBLIC = os.path.join(ROOT, "..", "shared", "captures", "public")
+sys.path.insert(0, os.path.join(ROOT, "tools"))
+
+import gen_lua  # noqa: E402
+from pndiss.analyzer import analyze_file  # noqa: E402
+from pndiss.settings import Settings  # noqa: E402
+
+pytestmark = pytest.mark.skipif(shutil.which("tshark") is None, reason="tshark not installed")
+
+PLUGIN_RULES = set(gen_lua.PLUGIN_RULES)
+STATS = {"values": 0, "frames": 0, "captures": 0}
+
+
+def tshark(path, *args, env=None, plugin=True):
+    cmd = ["tshark", "-n", "-r", path]
+    if plugin:
+        cmd += ["-X", f"lua_script:{PLUGIN}"]
+    p = subprocess.run(cmd + list(args), capture_output=True, text=True, env=env, timeout=600)
+    err = "\n".join(l for l in p.stderr.splitlines() if "Running as user" not in l and "dangerous" not in l)
+    return p.returncode, p.stdout, err
+
+
+def _walk(node, out):
+    if isinstance(node, dict):
+        for k, v in node.items():
+            if k.startswith("pndiss.") and not k.endswith("_tree"):
+                if isinstance(v, list):
+                    out.setdefault(k, []).extend(x for x in v if isinstance(x, str))
+                elif isinstance(v, str):
+                    out.setdefault(k, []).append(v)
+            if isinstance(v, (dict, list)):
+                _walk(v, out)
+    elif isinstance(node, list):
+        for x in node:
+            _walk(x, out)
+
+
+def _pairs(pairs):
+    """tshark's JSON repeats keys (one per tree item): keep every value in a list."""
+    d = {}
+    for k, v in pairs:
+        if k in d:
+            if not isinstance(d[k], _Multi):
+                d[k] = _Multi([d[k]])
+            d[k].append(v)
+        else:
+            d[k] = v
+    return d
+
+
+class _Multi(list):
+    pass
+
+
+def lua_fields(path):
+    """frame number -> {field: [values as shown]} for every pndiss field, and tshark's stderr."""
+    rc, out, err = tshark(path, "-T", "json", "-J", "pndiss frame")
+    assert rc == 0, err
+    assert "Lua" not in err and "lua" not in err, err
+    assert "Lua Error" not in out, "Lua error items in the dissection"
+    frames = {}
+    for pkt in json.loads(out or "[]", object_pairs_hook=_pairs):
+        layers = pkt["_source"]["layers"]
+        fn = int(layers["frame"]["frame.number"])
+        got = {}
+        _walk(layers.get("pndiss", {}), got)  # a _Multi list when the frame has several pndiss trees
+        if got:
+            frames[fn] = got
+    return frames
+
+
+def _num(s):
+    s = str(s)
+    if s in ("True", "False"):
+        return int(s == "True")
+    try:
+        return int(s, 0)
+    except ValueError:
+        return s
+
+
+def python_expect(path, settings=None):
+    """frame -> {field: [values]} from the Python events, and the (frame, rule) violation set."""
+    from pndiss import telegrams as tg
+
+    evs = []
+    a = analyze_file(path, settings or Settings(), sink=evs.append)
+    want, viol = {}, set()
+    for ev in evs:
+        k = ev["kind"]
+        if k == "telegram":
+            d = want.setdefault(ev["frame"], {})
+            d.setdefault("pndiss.telegram", []).append(ev["telegram"])
+            d.setdefault("pndiss.slot", []).append(ev["slot"])
+            d.setdefault("pndiss.subslot", []).append(ev["subslot"])
+            for s, v in ev["signals"].items():
+                d.setdefault(f"pndiss.{s}", []).append(v)
+            # bits from the signals with the device's profile (telegrams.bits); cyclic.py caches the
+            # bits of a setpoint object computed before its axis (profile) exists
+            prof = a.session.profile_for(ev["device_mac"])[0]
+            for b, v in tg.bits(ev["signals"], prof).items():
+                d.setdefault(f"pndiss.{b}", []).append(v)
+            if "g1_xist2.error" in ev["bits"]:
+                d.setdefault("pndiss.g1_xist2.error", []).append(ev["bits"]["g1_xist2.error"])
+        elif k == "record":
+            d = want.setdefault(ev["frame"], {})
+            d.setdefault("pndiss.record.index", []).append(ev["index"])
+            d.setdefault("pndiss.record.index_name", []).append(ev["index_name"])
+            dec = ev.get("decoded") or {}
+            if ev["op"] == "write" and dec.get("kind") == "parameter request":
+                for p in dec["params"]:
+                    d.setdefault("pndiss.param.pnu", []).append(p["pnu"])
+        elif k == "param":
+            d = want.setdefault(ev["frame"], {})
+            for p in ev["params"]:
+                d.setdefault("pndiss.param.pnu", []).append(p["pnu"] or 0)
+        elif k == "violation" and ev["rule"] in PLUGIN_RULES:
+            viol.add((ev["frame"], ev["rule"]))
+    return want, viol
+
+
+COMPARED = ("pndiss.telegram", "pndiss.slot", "pndiss.subslot", "pndiss.g1_xist2.error",
+            "pndiss.record.index", "pndiss.record.index_name", "pndiss.param.pnu")
+
+
+def compare(path, settings=None):
+    got = lua_fields(path)
+    want, viol = python_expect(path, settings)
+    n, bad = 0, []
+    for fn in sorted(set(got) | set(want)):
+        g, w = got.get(fn, {}), want.get(fn, {})
+        keys = {k for k in set(g) | set(w) if k in COMPARED or k.split(".")[1] in gen_lua_signals()}
+        for k in keys:
+            gv = sorted(map(str, map(_num, g.get(k, []))))
+            wv = sorted(map(str, w.get(k, [])))
+            n += len(wv)
+            if gv != wv:
+                bad.append((fn, k, gv, wv))
+    lua_viol = {(fn, r) for fn, d in got.items() for r in d.get("pndiss.rule", [])}
+    STATS["values"] += n
+    STATS["frames"] += len(want)
+    STATS["captures"] += 1
+    print(f"{os.path.basename(path)}: {n} values compared, {len(bad)} mismatches; "
+          f"violations lua {len(lua_viol)} / python {len(viol)}")
+    return n, bad, lua_viol, viol
+
+
+_SIGS = None
+
+
+def gen_lua_signals():
+    global _SIGS
+    if _SIGS is None:
+        from pndiss import telegrams as tg
+        _SIGS = set(tg.SIGNALS)
+    return _SIGS
+
+
+def own_captures():
+    return sorted(glob.glob(os.path.join(ROOT, "captures", "*.pcap*")))
+
+
+def public_captures():
+    return sorted(glob.glob(os.path.join(PUBLIC, "*.pcap*")))
+
+
+@pytest.mark.parametrize("path", own_captures() + public_captures(), ids=os.path.basename)
+def test_fields_equal_python(path):
+    n, bad, lua_viol, viol = compare(path)
+    assert not bad, bad[:10]
+    assert lua_viol == viol
+
+
+# ---- fault captures from the simulator, one per rule the plugin implements ---------------------
+FAULTS = [("RESERVED-BIT-SET-STW2", "startup", "generic"), ("RESERVED-BIT-SET-G1STW", "startup", "generic"),
+          ("RESERVED-BIT-SET-ZSW2", "startup", "generic"), ("RESERVED-BIT-SET-G1ZSW", "startup", "lika"),
+          ("ZSW-ATX-AND-SERR", "startup", "generic"), ("SERR-CODE-INVALID", "sensor-error", "lika"),
+          ("XIST2-NOT-ZERO", "startup", "lika"), ("PARK-OUTPUTS-NOT-CLEARED", "parking", "lika")]
+
+
+def simulate(tmp_path, rule, scenario, profile, cycles=300):
+    out = tmp_path / f"{rule}.pcapng"
+    subprocess.run([sys.executable, "-m", "pndiss", "simulate", "--scenario", scenario, "--profile", profile,
+                    "--cycles", str(cycles), "--inject", rule, "--no-expected", "-o", str(out)],
+                   check=True, capture_output=True, cwd=ROOT)
+    return str(out)
+
+
+@pytest.mark.parametrize("rule,scenario,profile", FAULTS, ids=[f[0] for f in FAULTS])
+def test_fault_capture(tmp_path, rule, scenario, profile):
+    path = simulate(tmp_path, rule, scenario, profile)
+    n, bad, lua_viol, viol = compare(path)
+    assert not bad, bad[:10]
+    assert rule in {r for _, r in viol}, "the simulator did not produce the fault"
+    assert lua_viol == viol
+    # -Y 'pndiss.rule' selects exactly the frames carrying violations
+    rc, out, err = tshark(path, "-Y", "pndiss.rule", "-T", "fields", "-e", "frame.number")
+    assert rc == 0 and "Lua" not in err, err
+    assert sorted(int(x) for x in out.split()) == sorted({f for f, _ in viol})
+    # and the per-rule expert abbrev filters
+    rc, out, err = tshark(path, "-Y", f"pndiss.rule.{rule}", "-T", "fields", "-e", "frame.number")
+    assert sorted(int(x) for x in out.split()) == sorted({f for f, r in viol if r == rule})
+
+
+def test_installed_plugin(tmp_path):
+    """`pndiss wireshark install --dir D` then tshark finds it through HOME (personal Lua plugins)."""
+    path = simulate(tmp_path, "RESERVED-BIT-SET-ZSW2", "startup", "generic", cycles=100)
+    home = tmp_path / "home"
+    dest = home / ".local" / "lib" / "wireshark" / "plugins"
+    p = subprocess.run([sys.executable, "-m", "pndiss", "wireshark", "install", "--dir", str(dest)],
+                       capture_output=True, text=True, cwd=ROOT)
+    assert p.returncode == 0, p.stderr
+    assert str(dest) in p.stdout
+    env = dict(os.environ, HOME=str(home))
+    rc, out, err = tshark(path, "-Y", "pndiss.rule", "-T", "fields", "-e", "frame.number", env=env, plugin=False)
+    assert rc == 0 and "Lua" not in err, err
+    _, viol = python_expect(path)
+    assert viol and sorted(int(x) for x in out.split()) == sorted({f for f, _ in viol})
+
+
+# ---- fuzzed captures: truncated frames, random RTC1 payloads, odd record lengths --------------
+def _read_pcapng_frames(path):
+    """(linktype-less) Ethernet frames from our simulator's pcapng (EPB blocks only)."""
+    data = open(path, "rb").read()
+    off, frames = 0, []
+    while off + 12 <= len(data):
+        btype, blen = struct.unpack_from("<II", data, off)
+        if btype == 6:
+            caplen = struct.unpack_from("<I", data, off + 20)[0]
+            frames.append(data[off + 28:off + 28 + caplen])
+        off += blen
+    return frames
+
+
+def _write_pcap(path, frames):
+    with open(path, "wb") as f:
+        f.write(struct.pack("<IHHiIII", 0xA1B2C3D4, 2, 4, 0, 0, 65535, 1))
+        for i, fr in enumerate(frames):
+            f.write(struct.pack("<IIII", i, 0, len(fr), len(fr)))
+            f.write(fr)
+
+
+def _fuzz(frames, seed):
+    rnd = random.Random(seed)
+    out = []
+    for fr in frames:
+        b = bytearray(fr)
+        r = rnd.random()
+        is_rt = len(b) > 18 and b[12:14] == b"\x81\x00" and b[16:18] == b"\x88\x92"
+        if r < 0.15:
+            b = b[:rnd.randrange(14, max(15, len(b)))]                       # truncated
+        elif is_rt and r < 0.5:
+            for i in range(20, len(b) - 4):                                   # random C_SDU bytes
+                b[i] = rnd.randrange(256)
+        elif not is_rt and r < 0.6 and len(b) > 60:
+            i = rnd.randrange(42, len(b))                                     # mutate RPC / record bytes
+            b[i] = rnd.randrange(256)
+        elif r < 0.7 and len(b) > 60:
+            b = b + bytes(rnd.randrange(1, 7))                                # odd lengths
+        out.append(bytes(b))
+    return out
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_fuzzed_captures_no_lua_error(tmp_path, seed):
+    src = simulate(tmp_path, "RESERVED-BIT-SET-ZSW2", "startup", "lika", cycles=150)
+    frames = _read_pcapng_frames(src)
+    assert len(frames) > 300
+    path = str(tmp_path / f"fuzz{seed}.pcap")
+    _write_pcap(path, _fuzz(frames, seed))
+    rc, out, err = tshark(path, "-V")
+    assert rc == 0, err
+    assert "Lua" not in err, err
+    assert "Lua Error" not in out
+
+
+def test_report_counts():
+    """Printed at the end of a -s run: how many values the differential compared."""
+    if STATS["captures"]:
+        print(f"lua differential: {STATS['values']} values on {STATS['frames']} frames of "
+              f"{STATS['captures']} captures")
+    assert STATS["values"] >= 0
