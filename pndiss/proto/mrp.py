@@ -9,7 +9,7 @@ from __future__ import annotations
 import struct
 import uuid
 
-from .common import mac, need
+from .common import Malformed, mac, need
 
 L = "mrp"
 
@@ -30,6 +30,13 @@ LAYOUTS = {
 }
 SIZES = {"u16": 2, "u32": 4, "mac": 6, "uuid": 16}
 
+# Option TLV (0x7F): tshark 4.0 decodes only the Siemens OUI (MRP_Ed1Type, ManufacturerData,
+# SubOption2); any other OUI, PROFINET's included, is shown undecoded. Checked with tshark -V.
+OUI_SIEMENS = 0x080006
+ED1_WITH_DATA = (0x00, 0x04)  # Ed1Types followed by a u16 MRP_Ed1ManufacturerData
+SUB_OPTION_MGR = (0x01, 0x02)  # MRP_TestMgrNAck, MRP_AutoMgr: Prio, SA, OtherMRMPrio, OtherMRMSA
+SUB_OPTION_LAYOUT = (("prio", "u16"), ("sa", "mac"), ("other_mrm_prio", "u16"), ("other_mrm_sa", "mac"))
+
 
 def _field(data: bytes, o: int, kind: str):
     n = SIZES[kind]
@@ -40,6 +47,44 @@ def _field(data: bytes, o: int, kind: str):
     if kind == "uuid":
         return str(uuid.UUID(bytes=bytes(b)))
     return int.from_bytes(b, "big")
+
+
+def _fields(data: bytes, o: int, base: int, layout, out: dict) -> int:
+    for key, kind in layout:
+        if key == "align":
+            o += -(o - base) % 4
+            continue
+        out[key] = _field(data, o, kind)
+        o += SIZES[kind]
+    return o
+
+
+def _option(data: bytes, o: int, base: int, n: int, tlv: dict) -> int:
+    start = o
+    if n < 3:
+        raise Malformed(L, f"MRP Option TLV of {n} bytes has no room for the OUI")
+    need(data, o, 3, L, "MRP option OUI")
+    tlv["oui"] = int.from_bytes(data[o:o + 3], "big")
+    o += 3
+    if tlv["oui"] == OUI_SIEMENS:
+        need(data, o, 1, L, "MRP_Ed1Type")
+        tlv["ed1type"] = data[o]
+        o += 1
+        if tlv["ed1type"] in ED1_WITH_DATA:
+            tlv["ed1manufacturerdata"] = _field(data, o, "u16")
+            o += 2
+        if o - start != n:  # more bytes announced: one SubOption2
+            need(data, o, 2, L, "MRP SubOption2 header")
+            sub = {"sub_type": data[o], "sub_length": data[o + 1]}
+            tlv["sub_option2"] = sub
+            o += 2
+            if sub["sub_type"] in SUB_OPTION_MGR:
+                o = _fields(data, o, base, SUB_OPTION_LAYOUT + (("align", ""),), sub)
+            elif sub["sub_type"] >= 0xF1:  # vendor specific data
+                o += sub["sub_length"]
+    else:
+        o += n - 3
+    return o + (-(o - base) % 4)
 
 
 def decode(data: bytes, off: int) -> dict:
@@ -56,18 +101,13 @@ def decode(data: bytes, off: int) -> dict:
         if t == 0:
             break
         layout = LAYOUTS.get(t)
-        if layout is None:
-            if t == 0x7F and n >= 3:
-                need(data, o, 3, L, "MRP option OUI")
-                tlv["oui"] = int.from_bytes(data[o:o + 3], "big")
+        if t == 0x7F:
+            o = _option(data, o, base, n, tlv)
+            continue
+        if layout is None:  # In* and unknown TLVs: tshark skips Length bytes undecoded
             o += n
             continue
-        for key, kind in layout:
-            if key == "align":
-                o += -(o - base) % 4
-                continue
-            tlv[key] = _field(data, o, kind)
-            o += SIZES[kind]
+        o = _fields(data, o, base, layout, tlv)
         if "port_role" in tlv:
             tlv["port_role_name"] = PORT_ROLES.get(tlv["port_role"], "Reserved")
         if "ring_state" in tlv:
