@@ -91,6 +91,12 @@ def test_station_facts_profinet_name():
     assert "name" not in st2 and st2["chassis_id"] == "00:02:a2:00:00:01"
 
 
+def test_station_name_from_older_port_id_style():
+    # older netX style: descriptive chassis text, "port-xxx.<NameOfStation>" as port ID
+    raw = lldpdu(name=b"netX controller", port=b"port-002.controller-nick", extra=org(OUI_PN, 5, bytes(6)))
+    assert lldp.decode(raw, 0)["station"]["name"] == "controller-nick"
+
+
 def test_analyzer_station_table():
     a = Analyzer()
     a.feed(1, 0, 1, eth(0x88CC, FRAMES[0]))
