@@ -30,13 +30,18 @@ MANUF = rta(0x11, 0x11, 4, 0xFFFE, notification(0x0002, 0x1005, struct.pack(">H"
                                                  high=True))
 QUALIFIED = rta(0x11, 0x11, 5, 0xFFFE, notification(
     0x0001, 0xA806, struct.pack(">HHHHHII", 0x8003, 1, 0x0600, 0x0100, 0x8000, 0, 1 << 7)))
+# MaintenanceItem (block 0x0F00, demanded + required) then a channel item; undecoded USIs
+MAINT = rta(0x11, 0x11, 7, 0xFFFE, notification(
+    0x0001, 0xA807, struct.pack(">HHHBBHI", 0x8100, 0x0F00, 8, 1, 0, 0, 3) + channel_item(1, APPEARS, 0x0001)))
+MULTIPLE = rta(0x11, 0x11, 8, 0xFFFE, notification(0x0001, 0xA808, struct.pack(">H", 0x8001) + b"\1\2\3\4"))
+PROFILE_USI = rta(0x11, 0x11, 9, 0xFFFE, notification(0x0001, 0xA809, struct.pack(">H", 0x9000) + b"\1\2\3\4"))
 ACK_BLOCK = rta(0x11, 0x01, 6, 2, block(0x8002, struct.pack(">HIHHH", 0x0001, 0x3D00, 1, 1, 0xA801) + bytes(4)))
 RTA_ACK = rta(0x13, 0x01, 0xFFFF, 0)
 RTA_NACK = rta(0x12, 0x01, 0xFFFF, 0)
 RTA_ERR = rta(0x14, 0x01, 0xFFFF, 0xFFFE, bytes.fromhex("cf81fd05"))
 
 PDUS = [(0xFE01, DIAG_APPEARS), (0xFE01, DIAG_EXT), (0xFE01, DIAG_GONE), (0xFE01, REMOTE), (0xFC01, MANUF),
-        (0xFE01, QUALIFIED), (0xFE01, ACK_BLOCK), (0xFE01, RTA_ACK), (0xFE01, RTA_NACK), (0xFE01, RTA_ERR)]
+        (0xFE01, QUALIFIED), (0xFE01, MAINT), (0xFE01, MULTIPLE), (0xFE01, PROFILE_USI), (0xFE01, ACK_BLOCK), (0xFE01, RTA_ACK), (0xFE01, RTA_NACK), (0xFE01, RTA_ERR)]
 
 
 def test_synthetic_alarms_match_tshark(tmp_path):
@@ -44,7 +49,7 @@ def test_synthetic_alarms_match_tshark(tmp_path):
     path = write_pcap(os.path.join(tmp_path, "alarm.pcap"), [pn_rt(fid, pdu) for fid, pdu in PDUS])
     compared, diffs = compare(path, [m for m in load_maps() if m["kind"] == "alarm"])
     assert not diffs, "\n".join(diffs[:20])
-    assert compared > 250
+    assert compared > 330
 
 
 def test_diagnosis_appears_lika_9011():
@@ -89,6 +94,10 @@ def test_manufacturer_ack_err():
     assert e["pdu_type_name"] == "ERR-RTA-PDU" and not e["status"]["ok"]
     assert "AR consumer DHT / WDT expired" in e["status"]["text"]
     assert alarm.decode(RTA_NACK, 0, 0xFE01)["pdu_type_name"] == "NACK-RTA-PDU"
+    mt = alarm.decode(MAINT, 0, 0xFE01)["items"]
+    assert mt[0]["maintenance_status"] == {"value": 3, "required": 1, "demanded": 1}
+    assert mt[1]["channel_error_type_name"] == "Short circuit"
+    assert alarm.decode(PROFILE_USI, 0, 0xFE01)["items"][0]["usi_name"] == "Reserved for profiles"
     q = alarm.decode(QUALIFIED, 0, 0xFE01)["items"][0]
     assert q["qualified_channel_qualifier"] == 1 << 7 and q["channel_properties"]["maintenance"] == 3
 

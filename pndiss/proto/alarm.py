@@ -224,8 +224,10 @@ def _items(data: bytes, o: int, end: int) -> list[dict]:
             raise Malformed(L, f"{usi_name(usi)} item needs {size} bytes, block has {end - o} left")
         if usi == 0x8100:
             # MaintenanceItem: block header (type 0x0F00), 2 bytes padding, MaintenanceStatus u32
-            item.update(maintenance_block_type=_U16.unpack_from(data, o)[0],
-                        maintenance_status=_U32.unpack_from(data, o + 8)[0])
+            btype, blen, vh, vl = _BLOCK.unpack_from(data, o)
+            ms = _U32.unpack_from(data, o + 8)[0]
+            item.update(block={"type": btype, "length": blen, "version_high": vh, "version_low": vl},
+                        maintenance_status={"value": ms, "required": ms & 1, "demanded": (ms >> 1) & 1})
         else:
             item.update(_channel(data, o))
             if usi in (0x8002, 0x8003):
