@@ -144,7 +144,7 @@ def test_im0_lika_example():
     assert d["order_id"] == "XAC7716/16384PT-xx" and d["serial_number"] == "123456"
     assert d["sw_revision"] == "V1.1.0" and d["hw_revision"] == 1 and d["revision_counter"] == 2
     assert d["profile_id"] == 0x3D00 and d["profile_name"] == "Encoder profile" and d["im_version"] == "1.1"
-    assert d["problems"] == []
+    assert d["notes"] == []
     assert build_im0(0x0239, "XAC7716/16384PT-xx", "123456", 1, ("V", 1, 1, 0), 2, 0x3D00, 0, (1, 1), 0) == raw
 
 

@@ -112,4 +112,4 @@ def test_im0_round_trip(vendor, order, serial, profile_id, supported):
                       write=False)
     assert (d["vendor_id"], d["order_id"], d["serial_number"], d["profile_id"], d["im_supported"]) == \
         (vendor, order.rstrip(), serial, profile_id, supported)
-    assert d["problems"] == []
+    assert d["notes"] == []

@@ -66,9 +66,9 @@ def decode_im(index: int, data: bytes) -> dict:
         raise Malformed(LAYER, f"block header truncated ({len(data)} of 6 bytes)")
     btype, blen, vh, vl = struct.unpack_from(">HHBB", data, 0)
     out = {"block_type": btype, "block_type_name": BLOCK_TYPES.get(btype, f"0x{btype:04X}"),
-           "block_length": blen, "block_version_high": vh, "block_version_low": vl, "problems": []}
+           "block_length": blen, "block_version_high": vh, "block_version_low": vl, "notes": []}
     if btype != btype_expected:
-        out["problems"].append(f"block type 0x{btype:04X}, expected 0x{btype_expected:04X}")
+        out["notes"].append(f"block type 0x{btype:04X}, expected 0x{btype_expected:04X}")
     out.update(_fields(layout, data, 6))
     if index == 0xAFF0:
         vid = (out["vendor_id_high"] << 8) | out["vendor_id_low"]
@@ -87,5 +87,5 @@ def decode_im(index: int, data: bytes) -> dict:
             if isinstance(v, str) and k not in ("block_type_name",):
                 out[k] = v.rstrip(" \x00")
     if 4 + blen != len(data):
-        out["problems"].append(f"block length {blen} + 4 != record length {len(data)}")
+        out["notes"].append(f"block length {blen} + 4 != record length {len(data)}")
     return out
