@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import struct
 import uuid
+from functools import lru_cache
 
 from scapy.layers.inet import IP, UDP
 from scapy.layers.l2 import Dot1Q, Ether
@@ -105,6 +106,7 @@ def dcp_set_res(src, dst, xid, option: int, sub: int, error: int = 0) -> bytes:
 
 # --------------------------------------------------------------------------------------- LLDP
 
+@lru_cache(maxsize=256)   # identical every 5 s; scapy is slow
 def lldp_frame(src, *, chassis: str, port_id: str, ttl: int = 20, port_desc: str | None = None,
                sysname: str | None = None, mgmt_ip: str | None = None, delay_ns=(0, 0)) -> bytes:
     """LLDP with the TLVs PROFINET devices send (wire.md §6): chassis = NameOfStation (locally

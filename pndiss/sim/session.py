@@ -155,6 +155,8 @@ class SimSession:
         self.injected: list[dict] = []
         self.scenario = scenario
         self.cyc_start_ns = 0
+        self.with_cyclic = True
+        self.params = None
 
     # ------------------------------------------------------------------ plumbing
     def add(self, ts: int, data: bytes, what: str, tags=()) -> Frame:
@@ -231,7 +233,7 @@ class SimSession:
 
     def build(self):
         cfg, sc = self.cfg, self.scenario
-        params = self.device_params()
+        params = self.params = self.device_params()
         if sc is not None:
             sc.prepare(self, params)
         n = len(self.stations)
@@ -305,8 +307,13 @@ class SimSession:
                 self.read_param(self.cyc_ts(k + 10 + 5 * j), st, pnu, fn(dev) if fn else dev, tags=tags)
             for inj in (sc.bmp_extra if sc and st.i == 0 else ()):
                 inj.access(self, st, self.cyc_ts(inj.k), dev)
-        # --- cyclic
-        self.run_cyclic(params, encs)
+        # --- cyclic (the fast path writes it itself), LLDP again every 5 s (802.1AB msgTxInterval)
+        if self.with_cyclic:
+            self.run_cyclic(params, encs)
+        t_lldp = 5000.0
+        while self.ms(t_lldp) < self.cyc_ts(cfg.cycles):
+            self.lldp_round(t_lldp + 0.2)
+            t_lldp += 5000.0
         # --- Release at the end
         t_end = self.cyc_ts(cfg.cycles) + 2_000_000
         for st in self.stations:
@@ -465,8 +472,6 @@ class SimSession:
                         tags_o |= set(sc.first_cyclic_tags)
                 self.add(t + 20_000 * st.i, bytes(o), "cyclic.out", tags_o)
                 self.add(t + self.cycle_ns // 2 + 20_000 * st.i, bytes(i), "cyclic.in", tags_i)
-            if k and k % 5000 == 0:   # LLDP every 5 s (IEEE 802.1AB default msgTxInterval)
-                self.lldp_round((t - self.t0) / 1e6 + 0.2)
 
     # ------------------------------------------------------------------ ground truth
     def truth(self) -> dict:
