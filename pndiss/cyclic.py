@@ -61,7 +61,7 @@ class _Axis:
     """One encoder (AR/submodule): its checker, latest setpoint and identity."""
 
     __slots__ = ("key", "info", "checker", "sp", "sp_frame", "sp_ok", "telegram", "source", "profile", "reason",
-                 "startup_checked", "fm")
+                 "startup_checked", "fm", "ambiguous")
 
     def __init__(self, key, info):
         self.key = key
@@ -76,6 +76,7 @@ class _Axis:
         self.reason = ""
         self.startup_checked = False
         self.fm = None
+        self.ambiguous = None     # telegram guessed from a length that fits several: report, don't judge
 
 
 class CyclicTracker:
@@ -146,6 +147,8 @@ class CyclicTracker:
         sink = self.a.sink
         fn, ts = rt_ev["frame"], rt_ev["ts_ns"]
         for o in fr.objs:
+            if o.do.telegram is not None and o.do.telegram != o.telegram:
+                self._relabel(o, fr)  # the session learnt the telegram (P922) after the first frame
             if not same or o.sig is None:
                 if o.end > len(csdu):
                     raise Malformed("telegram", f"data object {o.do.slot}/{o.do.subslot} ends at byte {o.end} of a "
@@ -167,16 +170,58 @@ class CyclicTracker:
             if fr.direction == "setpoint":
                 ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, bool(ok)
                 continue
+            if ax.ambiguous is None:
+                ax.ambiguous = self._ambiguous(ax, o)
             if ax.sp is None:
                 continue  # no setpoint seen yet: nothing to pair
             chk = ax.checker
-            if not (ok and ax.sp_ok):
+            if not (ok and ax.sp_ok) or ax.ambiguous:
                 self.gated += 1
                 self._out(chk.gap(fn, ts, "not valid"))
                 continue
             if not ax.startup_checked:
                 self._startup(ax, fn, ts)
             self._out(chk.cycle(fn, ts, ax.sp, o.sig, ax.sp_frame))
+
+    def _relabel(self, o: _Obj, fr: _Frame) -> None:
+        t = o.do.telegram
+        if t not in tg.TELEGRAMS:
+            return
+        o.telegram, o.source = t, o.do.telegram_source
+        o.layout = tg.layout(t, fr.direction, self.byte_order)
+        o.sig = o.bits = None
+        o.length_checked = False
+        ax = self.axes.get(o.key)
+        if ax is None:
+            return
+        ax.telegram, ax.source, ax.ambiguous = t, o.source, False
+        ax.sp = None  # decoded with the old layout
+        c = ax.checker.cfg
+        if c.telegram != t or "length" in str(c.sources.get("telegram")):
+            c.telegram = t
+            c.sources["telegram"] = o.source or "session"
+        self._refine_profile(ax)
+        ax.checker._apply_cfg()
+        ax.checker._flush_all()
+        ax.checker._reset_history()
+
+    def _ambiguous(self, ax, o: _Obj) -> bool:
+        """A length guess is judged only when the profile's telegrams leave one candidate (cyclic.md §14)."""
+        if "length" not in str(o.source):
+            return False
+        cands = [t for t in tg.telegrams_for_length(o.do.length)
+                 if ax.profile in tg.TELEGRAMS[t]["profiles"] or (ax.profile == "generic" and t in tg.STANDARD)]
+        return len(cands) > 1
+
+    def _refine_profile(self, ax) -> None:
+        """Telegrams 86-89/100/101 exist only in PS/PSM (cyclic.md §2): a 'generic' device using one is PS/PSM."""
+        t = ax.telegram
+        if ax.profile == "generic" and t in tg.TELEGRAMS and tg.TELEGRAMS[t]["profiles"] == ["psm"]:
+            ax.profile, ax.reason = "psm", f"telegram {t} exists only in PS/PSM (cyclic.md §2); {ax.reason}"
+            if ax.checker is not None:
+                ax.checker.cfg.profile = "psm"
+                ax.checker.cfg.sources["profile"] = ax.reason
+                ax.checker._apply_cfg()
 
     def _out(self, evs) -> None:
         if evs:
@@ -232,6 +277,7 @@ class CyclicTracker:
                                           cycle_ns=fm.cycle_time_ns, iso=iso, profile_reason=ax.reason,
                                           telegram_source=o.source)
         ax.checker = Checker(cfg, info)
+        self._refine_profile(ax)
         ax.checker.prev_bf00 = self.prev_bf00.get(fm.device_mac)
         self.axes[o.key] = ax
         for ev in self.records.get(fm.device_mac, ()):  # records seen before the first cyclic frame

@@ -12,6 +12,8 @@ REQ = "0x1400 0x3000 | 0x1200 0x2000 5 5"        # preset requested (absolute, P
 DONE = "0x1400 0x3000 | 0x1200 0x3000 0 0"       # preset executed: position = 0
 REL = "0x1400 0x2000 | 0x1200 0x2000 0 0"        # request released, PDONE cleared
 ISO = dict(iso=True)
+P1000 = {"kind": "param", "request_id": "change parameter", "ok": True, "request_ref": 1,
+         "params": [{"pnu": 65000, "subindex": 0, "values": [], "error": None, "written": {"values": [1000]}}]}
 
 SOL = [
     # rule, config, bad rows, good rows
@@ -23,7 +25,7 @@ SOL = [
     ("SOL-DEVICE-ZERO", ISO, sol_rows([1, 2, 3, 4], [1, 2, 0, 0]), sol_rows([1, 2, 3, 4], [1, 2, 3, 4])),
     ("SOL-DEVICE-SKIP", ISO, sol_rows([1, 2, 3, 4], [1, 2, 4, 5]), sol_rows([1, 2, 3, 4], [15, 1, 2, 3])),
     ("SOL-DEVICE-EARLY-START", ISO, sol_rows([1, 1, 1, 2], [0, 0, 3, 4]), sol_rows([1, 1, 2, 3], [0, 0, 3, 4])),
-    ("SOL-DEVICE-ZERO-RT", {}, [G.replace("0x1200", "0x0200")] * 3, [G] * 3),
+    ("SOL-DEVICE-ZERO-RT", {}, [G, G.replace("0x1200", "0x0200")], [G.replace("0x1200", "0x0200"), G, G]),
     ("SOL-FAULT-MISSING", ISO, sol_rows([1, 2, 2, 2, 2, 2, 2], [1, 2, 3, 4, 5, 6, 7]),
      sol_rows([1, 2, 2], [1, 2, 3]) + sol_rows([2, 2, 2, 2], [4, 5, 6, 7], g1zsw="0x8000", x="5 0x0F02")),
     ("SOL-FAULT-SPURIOUS", ISO, sol_rows([1, 2, 3], [1, 2, 3]) + sol_rows([4, 5], [4, 5], g1zsw="0x8000", x="5 0x0F02"),
@@ -67,8 +69,11 @@ PRESET = [
      [{"kind": "param", "request_id": "change parameter", "ok": True, "request_ref": 1,
        "params": [{"pnu": 65000, "subindex": 0, "values": [], "error": None, "written": {"values": [1000]}}]},
       G, G, "0x1400 0x3800 | 0x1200 0x2000 5 5", ("0x1400 0x3800 | 0x1200 0x3000 1005 1005", 3)]),
-    ("XIST-DURING-STORE", dict(preset_deadline_ms=30), [G, G, REQ, ("0x1400 0x3000 | 0x1200 0x2000 0 0", 12)],
-     [G, G, REQ, ("0x1400 0x3000 | 0x1200 0x2000 0 0", 5), DONE]),
+    ("XIST-DURING-STORE", dict(preset_deadline_ms=30), [P1000, G, G, REQ, ("0x1400 0x3000 | 0x1200 0x2000 0 0", 12)],
+     [P1000, G, G, REQ, ("0x1400 0x3000 | 0x1200 0x2000 0 0", 5), "0x1400 0x3000 | 0x1200 0x3000 1000 1000"]),
+    ("XIST-DURING-STORE", dict(preset_deadline_ms=30), [P1000, G, G, REQ, "0x1400 0x3000 | 0x1200 0x3000 1000 1000",
+                                                        ("0x1400 0x2000 | 0x1200 0x2000 0 0", 12)],
+     [G, G, REQ, ("0x1400 0x3000 | 0x1200 0x3000 0 0", 12)]),                   # absolute preset to 0 stays 0
 ]
 
 XIST = [

@@ -102,7 +102,7 @@ class Checker:
         self.solf_due = None
         self.sol_fault_seen = False
         self.nist_bad = 0
-        self.zero_run = 0
+        self.store = None          # store window after a preset trigger (#43)
         self.same = 0
 
     def gap(self, frame: int, ts: int, reason: str) -> list[dict]:
@@ -192,7 +192,7 @@ class Checker:
         return (self.solmon or self.pre is not None or self.pdone_since is not None or self.pdone_clear_due
                 is not None or self.p860 is not None or self.p89 is not None or self.sack_edge is not None
                 or self.ackip_since is not None or self.restore_due is not None or self.park_rise_due is not None
-                or self.solf_due is not None or self.bf00_due is not None or self.zero_run > 0)
+                or self.solf_due is not None or self.bf00_due is not None or self.store is not None)
 
     def _cycle_std(self, sp: dict, ac: dict) -> None:
         c, n, L = self.cfg, self.n, self.L
@@ -237,6 +237,7 @@ class Checker:
         motion_ref = X1 if X1 is not None else X3
         # standstill judged on the cycles before this one (this one may already show the reaction)
         standstill = (len(set(self.pos_hist)) <= 1) and not NIST
+        v_before = self._speed()
         self.pos_hist.append(motion_ref)
 
         # learn the XIST1 shift (P979.3) from the first cycle with both positions (§1.6 R-X1-4)
@@ -256,8 +257,9 @@ class Checker:
             self._sign_of_life(CLS, pCLS, DLS, pDLS, SERR, X2, first)
         elif DLS:
             self.started_D = True
-        if not c.iso and DLS == 0:
-            # 8: RT mode, DLS = 0 in data exchange (RT examples show DLS != 0, 001_9461bb7bc8c2767b.txt:2221)
+        if not c.iso and DLS == 0 and self.started_D:
+            # 8: RT mode, DLS back to 0 once running (RT examples show DLS != 0, 001_9461bb7bc8c2767b.txt:2221);
+            # before its first change the DO may still wait for a C-LS change (R-DLS-2)
             self._hit("SOL-DEVICE-ZERO-RT", f"encoder sign-of-life 0 in RT data exchange (ZSW2_ENC=0x{zsw2:04X}); expected 1..15")
         if c.iso and SERR and X2 == E_SYNC and DLS != 0:
             # 12: sync fault 0x0F04 must come with DLS = 0 (001_9461bb7bc8c2767b.txt:1802-1804)
@@ -313,8 +315,10 @@ class Checker:
                           controller=True)
             allowed = VALID and c.class4 and not PKA and not SERR
             self.pre = {"n": n, "f": self.f, "fc": self.fc, "ts": self.ts, "mode": HMODE, "P": self.p65000,
-                        "pos2": ppos2, "x1": pX1, "allowed": allowed, "moving": moving, "done": False}
-            self.zero_run = 0
+                        "pos2": ppos2, "x1": pX1, "allowed": allowed, "moving": moving, "done": False,
+                        "v": v_before}
+            if allowed and (HMODE == 1 or self.p65000):
+                self.store = {"n": n, "f": self.f, "ts": self.ts, "zero": 0}
         pre = self.pre
         if pre is not None and PREQ and not PDONE and not first and HMODE != pHMODE and pPREQ:
             # 25: the mode is latched at the edge [INFERENCE] (000_37bf2397999f1108.txt:1790-1793)
@@ -332,6 +336,7 @@ class Checker:
             self.preset_done = True
             if pre is not None and not pre["done"]:
                 pre["done"] = True
+                pre["done_n"] = n
                 self._check_preset_value(pre, pos2, X1, shift)
         if not first and fall(PDONE, pPDONE):
             self.pdone_since = None
@@ -368,18 +373,23 @@ class Checker:
             self._emit("PRESET-REQ-STUCK", self.fc, self.ts, f"G1_STW.12 still 1 {self.D} cycles after G1_ZSW.12 rose",
                        side=None, cycles=self.D)
         if pre is not None and pre["done"] and PREQ and PDONE and pre.get("after") is not None and pos2 is not None \
-                and pre["mode"] == 1 and pre["P"] and ppos2 == pre["after"]:
+                and ppos2 is not None and pre["mode"] == 1 and abs(pre["P"]) > 2 * pre["v"] and self.n > pre["done_n"]:
             # 30: holding PREQ must not re-execute (relative shift applied twice) [INFERENCE] §2.4 R-PRE-1
-            if pos2 == P.expected_after_preset(1, pre["P"], pre["after"], self.R) and pos2 != pre["after"]:
-                self._hit("PRESET-REEXECUTED", f"position moved by the preset value again ({pre['after']} -> {pos2}) while G1_STW.12 was held")
-        if pre is not None and not pre["done"] and pre["allowed"]:
-            # 43: position zero for longer than 10 ms during the store (001_9461bb7bc8c2767b.txt:525)
-            self.zero_run = self.zero_run + 1 if (pos2 == 0 or X1 == 0) else 0
-            if self.zero_run == c.store_cycles + 1:
-                self._emit("XIST-DURING-STORE", pre["f"], pre["ts"],
-                           f"position 0 for more than {c.store_cycles} cycles (10 ms) after the preset request", last=self.f)
-        else:
-            self.zero_run = 0
+            d = P.delta(ppos2, pos2, self.R or U32)
+            if abs(d - pre["P"]) <= pre["v"]:
+                self._hit("PRESET-REEXECUTED", f"position moved by the preset value {pre['P']} again ({ppos2} -> {pos2}) "
+                                               f"while G1_STW.12 was held")
+        st = self.store
+        if st is not None and n > st["n"]:
+            # 43: position zero for longer than 10 ms after the trigger (001_9461bb7bc8c2767b.txt:525)
+            if pos2 == 0 or X1 == 0:
+                st["zero"] += 1
+                if st["zero"] == c.store_cycles + 1:
+                    self._emit("XIST-DURING-STORE", st["f"], st["ts"],
+                               f"position 0 for more than {c.store_cycles} cycles (10 ms) after the preset request", last=self.f)
+                    self.store = None
+            elif st["zero"] or n - st["n"] > self.D:
+                self.store = None  # the store window is over
 
         # ---- 9.5 absolute value request and XIST contents ---------------------------------------
         if full and ATX == 0 and all(h[2] and h[5] and not h[6] and not h[7] for h in H):
@@ -585,36 +595,51 @@ class Checker:
             self._hit("SOL-DEVICE-ZERO", "encoder sign-of-life 0 after start without sync fault 0x0F04")
 
     # -- preset arithmetic at the acknowledgement (§4.3, #27-29) ----------------------------------
+    def _speed(self) -> int:
+        """Largest position step of W(n-3, n-1): the motion tolerance per cycle (§4.3 [INFERENCE])."""
+        h = [x for x in self.pos_hist if x is not None]
+        m = self.R or U32
+        return max((abs(P.delta(a, b, m)) for a, b in zip(h, h[1:])), default=0)
+
     def _check_preset_value(self, pre: dict, pos2, X1, shift: int) -> None:
+        """#27-29 at the first frame with PDONE = 1: |observed - expected| <= v x cycles (§4.3)."""
         c = self.cfg
-        if not pre["allowed"] or pre["moving"]:
+        if not pre["allowed"]:
             return
         P_, mode = pre["P"], pre["mode"]
+        tol = pre["v"] * (self.n - pre["n"] + 1)
+        m2 = self.R or U32
+        near = (lambda a, b, m: abs(P.delta(b, a, m)) <= tol)
         words = "absolute" if mode == 0 else "relative"
         x2_ok = None
         if pos2 is not None and (mode == 0 or pre["pos2"] is not None):
             exp2 = P.expected_after_preset(mode, P_, pre["pos2"] or 0, self.R)
-            x2_ok = pos2 == exp2
+            x2_ok = near(pos2, exp2, m2)
             pre["after"] = pos2
             if not x2_ok:
                 # 27: position after the preset (000_37bf2397999f1108.txt:1799-1807, 1818-1829)
                 self._emit("PRESET-VALUE-WRONG", self.f, self.ts,
-                           f"{words} preset P65000={P_}: position {pos2} in the first frame with G1_ZSW.12, expected {exp2}")
+                           f"{words} preset P65000={P_}: position {pos2} in the first frame with G1_ZSW.12, expected {exp2}"
+                           + (f" +- {tol}" if tol else ""))
         if X1 is None or pre["x1"] is None:
             return
         x1_before = pre["x1"]
+        m1 = U32 if c.xist1_counter else m2
+        sh = 0 if c.xist1_counter else shift
+        base = x1_before if c.xist1_counter else (x1_before >> shift)
+        moved_like_x2 = x2_ok and not near(pos2, pre["pos2"] if pre["pos2"] is not None else pos2 + tol + 1, m2)
+        x1_kept = near(X1 >> sh, base, m1)
         if c.xist1_preset_affected:
-            m = U32 if c.xist1_counter else (self.R or U32)
-            base = x1_before if c.xist1_counter else (x1_before >> shift)
-            exp1 = P.aligned_xist1(P.expected_after_preset(mode, P_, base, m), 0 if c.xist1_counter else shift)
-            if X1 == x1_before and x2_ok and exp1 != x1_before:
+            exp1 = P.expected_after_preset(mode, P_, base, m1)
+            if x1_kept and moved_like_x2 and not near(exp1, base, m1):
                 # 29: preset control enabled, XIST1 must follow (000_37bf2397999f1108.txt:2245-2249)
                 self._emit("PRESET-XIST1-NOT-AFFECTED-WHEN-ENABLED", self.f, self.ts,
-                           f"G1_XIST2 took the preset but G1_XIST1 stayed {X1}; expected {exp1}")
-            elif X1 != exp1:
+                           f"G1_XIST2 took the preset but G1_XIST1 stayed {X1}; expected {P.aligned_xist1(exp1, sh)}")
+            elif not near(X1 >> sh, exp1, m1) or (X1 & ((1 << sh) - 1)):
                 self._emit("PRESET-VALUE-WRONG", self.f, self.ts,
-                           f"{words} preset P65000={P_}: G1_XIST1=0x{X1:08X} in the first frame with G1_ZSW.12, expected 0x{exp1:08X}")
-        elif X1 != x1_before and x2_ok and pre["pos2"] != pos2:
+                           f"{words} preset P65000={P_}: G1_XIST1=0x{X1:08X} in the first frame with G1_ZSW.12, "
+                           f"expected 0x{P.aligned_xist1(exp1, sh):08X}")
+        elif not x1_kept and moved_like_x2:
             # 28: preset control disabled, XIST1 must not move (§7 D14 per-vendor coding)
             self._emit("PRESET-XIST1-AFFECTED-WHEN-DISABLED", self.f, self.ts,
                        f"G1_XIST1 changed {x1_before} -> {X1} at the preset although G1_XIST1 preset control is disabled")

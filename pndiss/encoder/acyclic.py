@@ -231,7 +231,13 @@ def _read(chk, ev, p, pnu, sub, vals, frame) -> None:
     c = chk.cfg
     v = vals[0]
     _datatype(chk, ev, p, pnu, frame)
-    if pnu == 922 and isinstance(v, int) and c.telegram and v != c.telegram:
+    guessed = "length" in str(c.sources.get("telegram", ""))
+    if pnu == 922 and isinstance(v, int) and guessed and v in tg.TELEGRAMS:
+        # the AR's telegram was only guessed from the lengths: P922 names it (the session relabels the map)
+        c.telegram = v
+        c.sources["telegram"] = f"P922 read (frame {frame})"
+        chk._apply_cfg()
+    elif pnu == 922 and isinstance(v, int) and c.telegram and v != c.telegram:
         # 65: P922 names the configured telegram (000_37bf2397999f1108.txt:1953-1956)
         _v(chk, "TELEGRAM-SELECTION-MISMATCH", ev, f"P922 reads {v}; the AR runs telegram {c.telegram}", frame=frame)
     elif pnu == 965 and sub == 1 and c.profile != "psm" and _as_int(v) is not None:
