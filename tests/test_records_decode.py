@@ -252,3 +252,22 @@ def test_select_profile_reason_words():
     assert select_profile(0x0239, 1, source="DCP") == ("lika", "vendor ID 0x0239 (Lika Electronic) from DCP")
     prof, reason = select_profile(0x1234, 5)
     assert prof == "generic" and "0x1234" in reason and "not a known encoder vendor" in reason
+
+
+def test_unknown_format_is_malformed():
+    with pytest.raises(Malformed, match="format 0x39"):
+        decode_record(0xB02E, bytes.fromhex("0101000139010000"), write=False)
+
+
+def test_psm_vendor_records():
+    # OEM sensor configuration default 33/33 = real configuration (002_...:1049-1083)
+    d = decode_record(0x1000, bytes([33, 33]), write=True, profile="psm")
+    assert d["uses_real_configuration"] and (d["singleturn_bits"], d["multiturn_bits"]) == (33, 33)
+    d = decode_record(0x1000, bytes([13, 12]), write=True, profile="psm")
+    assert not d["uses_real_configuration"] and d["multiturn_bits"] == 12
+    # parameter control: NV-RAM init (default), read-only write protection, P65005 read only (002_...:1022-1047)
+    d = decode_record(0x1001, bytes([0b0100101, 0]), write=True, profile="psm")
+    assert (d["init_control_name"], d["write_protect_name"], d["p65005_write_protect_name"],
+            d["reset_control_write_protect"]) == ("NV-RAM", "read only", "read only", 0)
+    assert decode_record(0x1000, b"\x02", write=True, profile="scancon")["velocity_filter"] == 2
+    assert "data" in decode_record(0x1001, b"\x01\x00", write=True, profile="lika")
