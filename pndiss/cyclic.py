@@ -29,7 +29,7 @@ class _Obj:
     """One data object of a mapped frame, compiled once."""
 
     __slots__ = ("do", "telegram", "source", "layout", "start", "end", "iops_at", "key", "last", "sig", "bits",
-                 "length_checked")
+                 "length_checked", "rejected")
 
     def __init__(self, do, telegram, source, layout, key):
         self.do = do
@@ -44,6 +44,7 @@ class _Obj:
         self.sig = None
         self.bits = None
         self.length_checked = False
+        self.rejected = None
 
 
 class _Frame:
@@ -147,7 +148,7 @@ class CyclicTracker:
         sink = self.a.sink
         fn, ts = rt_ev["frame"], rt_ev["ts_ns"]
         for o in fr.objs:
-            if o.do.telegram is not None and o.do.telegram != o.telegram:
+            if o.do.telegram is not None and o.do.telegram != o.telegram and o.do.telegram != o.rejected:
                 self._relabel(o, fr)  # the session learnt the telegram (P922) after the first frame
             if not same or o.sig is None:
                 if o.end > len(csdu):
@@ -167,6 +168,8 @@ class CyclicTracker:
             ax = self.axes.get(o.key)
             if ax is None:
                 ax = self._axis(o, fr)
+            if fr.direction not in ax.checker.io_len:
+                ax.checker.io_len[fr.direction] = o.do.length
             if fr.direction == "setpoint":
                 ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, bool(ok)
                 continue
@@ -185,13 +188,14 @@ class CyclicTracker:
 
     def _relabel(self, o: _Obj, fr: _Frame) -> None:
         t = o.do.telegram
-        if t not in tg.TELEGRAMS:
+        ax = self.axes.get(o.key)
+        if t not in tg.TELEGRAMS or (ax is not None and ax.checker.p922_rejected == t):
+            o.rejected = t  # P922 contradicts the AR's lengths: the checker reported it, keep the AR's view
             return
         o.telegram, o.source = t, o.do.telegram_source
         o.layout = tg.layout(t, fr.direction, self.byte_order)
         o.sig = o.bits = None
         o.length_checked = False
-        ax = self.axes.get(o.key)
         if ax is None:
             return
         ax.telegram, ax.source, ax.ambiguous = t, o.source, False

@@ -58,6 +58,8 @@ class Checker:
         self.p971_pending = None       # (frame, reads that still returned 1) after P971 := 1 (#90)
         self.p980: set | None = None   # PNUs the device lists in P980 (#88)
         self.last_req_ref = None
+        self.io_len: dict = {}         # data object length per direction, for P922 plausibility (#65)
+        self.p922_rejected = None
         self._apply_cfg()
 
     # -- configuration ---------------------------------------------------------------------------
@@ -575,8 +577,8 @@ class Checker:
                        f"G1_ZSW.15 with G1_XIST2=0x0F02 within {self.L} cycles", last=self.f)
             self.solf_due = None
             self.sol_fault_seen = True
-        if not SERR:
-            self.sol_fault_seen = False
+        if self.C <= self.sol_limit and not SERR:
+            self.sol_fault_seen = False  # re-armed once the counter is back under the threshold
         if SERR and X2 == E_MASTER_SOL and self.prev_ac is not None and not (self.prev_ac.get("g1_zsw", 0) >> 15) & 1:
             if all(v < self.sol_limit for v in self.C_hist):
                 # 10: no 0x0F02 without enough failures (001_9461bb7bc8c2767b.txt:1777-1781)
@@ -680,6 +682,7 @@ class Checker:
         pos = ac.get("g1_xist1", ac.get("g1_xist3"))
         NIST = ac.get("nist_b")
         standstill = len(set(self.pos_hist)) <= 1 and not NIST
+        v_before = self._speed()
         self.pos_hist.append(pos)
         ps = self.prev_sp
         pPT = None if ps is None else (ps.get(sig, 0) >> top) & 1
@@ -693,15 +696,18 @@ class Checker:
                 # 26: presets only at standstill (001_9461bb7bc8c2767b.txt:844)
                 self._hit("PRESET-NOT-STANDSTILL", f"preset triggered while moving (positions {list(self.pos_hist)}, NIST={NIST})",
                           controller=True)
-            self.p860 = {"n": n, "f": self.f, "fc": self.fc, "ts": self.ts, "exp": exp, "seen": False, "moving": not standstill}
+            self.p860 = {"n": n, "f": self.f, "fc": self.fc, "ts": self.ts, "exp": exp, "seen": False, "v": v_before,
+                         "last": pos}
             self.preset_done = True
         p = self.p860
         if p is not None:
-            if n > p["n"] and pos == p["exp"]:
-                p["seen"] = True
+            m = self.R or (1 << (64 if sig.endswith("_c") else 32))
+            if n > p["n"] and pos is not None and abs(P.delta(p["exp"], pos, m)) <= p["v"] * (n - p["n"] + 1):
+                p["seen"] = True  # within the motion since the trigger (§4.3 tolerance)
+            p["last"] = pos
             if n - p["n"] >= self.D and not p.get("judged"):
                 p["judged"] = True
-                if not p["seen"] and not p["moving"]:
+                if not p["seen"]:
                     # 33: absolute preset to min(PV, R-1) (001_9461bb7bc8c2767b.txt:924, 931)
                     self._emit("PRESET860-WRONG", p["f"], p["ts"], f"position never showed the preset {p['exp']} within "
                                f"D_preset={self.D} cycles (last {pos})", last=self.f)

@@ -232,14 +232,18 @@ def _read(chk, ev, p, pnu, sub, vals, frame) -> None:
     v = vals[0]
     _datatype(chk, ev, p, pnu, frame)
     guessed = "length" in str(c.sources.get("telegram", ""))
-    if pnu == 922 and isinstance(v, int) and guessed and v in tg.TELEGRAMS:
+    fits = isinstance(v, int) and v in tg.TELEGRAMS and all(tg.length(v, d) == n for d, n in chk.io_len.items())
+    if pnu == 922 and guessed and fits:
         # the AR's telegram was only guessed from the lengths: P922 names it (the session relabels the map)
         c.telegram = v
         c.sources["telegram"] = f"P922 read (frame {frame})"
         chk._apply_cfg()
     elif pnu == 922 and isinstance(v, int) and c.telegram and v != c.telegram:
+        if guessed:
+            chk.p922_rejected = v  # the AR's data lengths are the configuration; keep them
         # 65: P922 names the configured telegram (000_37bf2397999f1108.txt:1953-1956)
-        _v(chk, "TELEGRAM-SELECTION-MISMATCH", ev, f"P922 reads {v}; the AR runs telegram {c.telegram}", frame=frame)
+        _v(chk, "TELEGRAM-SELECTION-MISMATCH", ev, f"P922 reads {v}; the AR runs telegram {c.telegram}"
+           + (f" (data lengths {chk.io_len})" if chk.io_len else ""), frame=frame)
     elif pnu == 965 and sub == 1 and c.profile != "psm" and _as_int(v) is not None:
         v = _as_int(v)
         exp = 31 if c.compat == 0 else 41
