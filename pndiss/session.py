@@ -86,7 +86,9 @@ class SessionTracker:
         self.ipr = ip.IpReassembler()
         self.rpcr = dcerpc.FragmentReassembler()
         self.calls: OrderedDict = OrderedDict()   # (act, seq) -> request info
-        self.ars: dict[str, dict] = {}            # ar_uuid -> AR summary (for report/summary)
+        self.ars: dict[str, dict] = {}            # ar_uuid -> latest AR of that UUID
+        self.ar_list: list[dict] = []             # every Connect outcome, in order (report/summary)
+        self.orphans: OrderedDict = OrderedDict()  # (act, seq) -> Connect response seen before its request
         self.maps: dict[tuple, armap.FrameMap] = {}
         self.rt_ports = {PORT_RT_UDP}
         self.ip_datagrams: dict[tuple, bool] = {}  # IP fragment key -> PNIO? (bounded with ipr)
@@ -254,13 +256,20 @@ class SessionTracker:
                 call["pdu"] = pdu
             if op == 3:
                 self._writes(fn, ts, pdu, key, src, dst)
+            elif op == 0 and key in self.orphans and call is not None:
+                # the capture holds the response before its request (seen in profinet_io_cm_connect)
+                rfn, rts, rpdu, rsrc, rdst = self.orphans.pop(key)
+                self.calls.pop(key, None)
+                self._connect(rfn, rts, pdu, rpdu, call, rsrc, rdst)
             return
         call = self.calls.pop(key, None)
         req = call["pdu"] if call is not None and call["opnum"] == op else None
         if op == 0 and req is not None:
             self._connect(fn, ts, req, pdu, call, src, dst)
         elif op == 0:
-            self.counts["connects"] += 1
+            self.orphans[key] = (fn, ts, pdu, src, dst)
+            if len(self.orphans) > 64:
+                self.orphans.popitem(last=False)
         elif op == 1:
             self._release(fn, pdu)
         elif op == 3:
@@ -375,7 +384,11 @@ class SessionTracker:
                                               for s in m["submodules"]]}
                               for b in sb.get(0x8104, []) for a in b["apis"] for m in a["modules"]],
               "released": False}
-        self.ars[ar_uuid] = dict(ar, maps=frame_maps)
+        rec = dict(ar, maps=frame_maps)
+        if ok or ar_uuid not in self.ars:  # a refused retry does not hide the AR that is up
+            self.ars[ar_uuid] = rec
+        if len(self.ar_list) < MAX_RECORD_ROWS:
+            self.ar_list.append(rec)
         if dev_station:
             self.a.stations.update(device, name=dev_station)
         self.a.emit(ar)
@@ -544,7 +557,7 @@ class SessionTracker:
 
     def _maps_of(self, device):
         for ar in self.ars.values():
-            if ar["device_mac"] == device:
+            if ar["device_mac"] == device and ar["ok"]:
                 yield from ar["maps"]
 
     def _row(self, ev) -> None:
@@ -590,7 +603,7 @@ class SessionTracker:
     def summary(self) -> dict:
         return {
             "counts": dict(self.counts),
-            "ars": [_ar_summary(a) for a in self.ars.values()],
+            "ars": [_ar_summary(a) for a in self.ar_list],
             "profiles": {m: {"profile": p, "reason": r} for m, (p, r) in self.profiles.items()},
             "records": [{"frame": r["frame"], "op": r["op"], "index": r["index"], "index_name": r["index_name"],
                          "station": r["station"], "device_mac": r["device_mac"], "slot": r["slot"],

@@ -31,8 +31,11 @@ def _short(dec) -> str:
 
 def sections(tracker) -> list:
     out = []
-    for ar in tracker.ars.values():
-        state = "refused: " + ar["status"]["text"] if not ar["ok"] else ("released" if ar["released"] else "up")
+    refused = [ar for ar in tracker.ar_list if not ar["ok"]]
+    for ar in tracker.ar_list:
+        if not ar["ok"]:
+            continue
+        state = "released" if ar["released"] else "up"
         t = Table(title=f"AR {ar['ar_uuid']} ({ar['ar_type_name']}) — {state}\n"
                         f"controller {ar['controller_mac']} {ar.get('controller_station') or ''} -> "
                         f"device {ar['device_mac']} {ar.get('station') or ''} "
@@ -58,6 +61,15 @@ def sections(tracker) -> list:
                           f"{_hex(o.get('module_ident'), 8)} / {_hex(o.get('submodule_ident'), 8)}" if o else "",
                           f"{tel} ({src})" if tel is not None else "")
                 first = False
+        out.append(t)
+    if refused:
+        t = Table(title=f"Refused Connects ({len(refused)})")
+        for c in ("frames", "AR UUID", "controller", "device", "station", "PNIO status"):
+            t.add_column(c)
+        for ar in refused:
+            t.add_row(f"{ar['request_frame']}/{ar['frame']}", ar["ar_uuid"],
+                      f"{ar['controller_mac']} {ar.get('controller_station') or ''}", ar["device_mac"],
+                      ar.get("station") or "", ar["status"]["text"])
         out.append(t)
     if tracker.record_rows:
         t = Table(title=f"Record accesses ({len(tracker.record_rows)} shown)")

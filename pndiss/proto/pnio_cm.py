@@ -263,6 +263,15 @@ def _ar_req(c: _Cur, d: dict) -> None:
     d["artype_req"] = c.u16()  # tshark's pn_io.artype_req is a label without the value (quirk)
     d["ar_type_name"] = AR_TYPES.get(d["artype_req"], "reserved")
     d["ar_uuid"] = c.uuid()
+    if d["artype_req"] == 0x0020:
+        # ARType 0x0020 (sysred/CiR): tshark shows the ARUUID again as Discriminator/ConfigID/Selector
+        b = c.b[c.o - 16:c.o]
+        d["ar_uuid_sysred"] = d["ar_uuid"]
+        d["ar_discriminator"] = b[:6].hex()
+        d["ar_configid"] = b[6:14].hex()
+        sel = (b[14] << 8) | b[15]
+        d["ar_selector"] = sel
+        d["ar_arnumber"], d["ar_arresource"], d["ar_arreserved"] = sel & 0x7, (sel >> 3) & 0x3, sel >> 5
     d["session_key"] = c.u16()
     d["cminitiator_mac_add"] = c.mac()
     d["cminitiator_uuid"] = c.uuid()
@@ -424,6 +433,18 @@ def _diagnosis(c: _Cur, d: dict) -> None:
     d["subslot_nr"] = c.u16()
 
 
+def _slot_prefix(c: _Cur, d: dict) -> None:
+    # PDPortDataReal and friends start with padding, SlotNumber, SubslotNumber (the rest is not decoded)
+    c.u16()
+    d["slot_nr"] = c.u16()
+    d["subslot_nr"] = c.u16()
+
+
+def _subframe(c: _Cur, d: dict) -> None:
+    # SubframeBlock (tshark dissect_SubFrameBlock_block): FrameID first
+    d["frame_id"] = c.u16()
+
+
 def _pd_sync(c: _Cur, d: dict) -> None:
     # PDSyncData version 1.2 (tshark dissect_PDSyncData_block): only up to the send clock here
     if d["block_version_low"] != 2:
@@ -475,7 +496,8 @@ def _rw_header(c: _Cur, d: dict) -> None:
 BODIES = {
     0x0101: _ar_req, 0x8101: _ar_res, 0x0102: _iocr_req, 0x8102: _iocr_res,
     0x0103: _alarmcr_req, 0x8103: _alarmcr_res, 0x0104: _expected_sub, 0x8104: _module_diff,
-    0x8106: _ar_server, 0x0109: _ir_info, 0x0203: _pd_sync, 0x0207: _pdir_frame, 0x0010: _diagnosis, 0x0030: _im_filter, 0x0031: _im_filter, 0x0032: _im_filter,
+    0x8106: _ar_server, 0x0109: _ir_info, 0x0203: _pd_sync, 0x0207: _pdir_frame,
+    0x020F: _slot_prefix, 0x022B: _subframe, 0x0010: _diagnosis, 0x0030: _im_filter, 0x0031: _im_filter, 0x0032: _im_filter,
     **{t: _control for t in (0x0110, 0x0111, 0x0112, 0x0113, 0x0114, 0x0116, 0x0117,
                              0x8110, 0x8111, 0x8112, 0x8113, 0x8114, 0x8116, 0x8117)},
     **{t: _rw_header for t in RW_HEADERS},
