@@ -106,6 +106,8 @@ class Checker:
         self.nist_bad = 0
         self.store = None          # store window after a preset trigger (#43)
         self.same = 0
+        self.prev_key = None       # control/status words without the sign-of-life nibbles
+        self.steady_n = 0
 
     def gap(self, frame: int, ts: int, reason: str) -> list[dict]:
         """A cycle that is reported, not judged (provider STOP, DataValid = 0, IOPS bad)."""
@@ -181,7 +183,13 @@ class Checker:
         self.same = self.same + 1 if (sp is self.prev_sp and ac is self.prev_ac) else 0
         self.n += 1
         if self.std:
-            self._cycle_std(sp, ac)
+            key = (sp.get("stw2_enc", 0) & 0x0FFF, sp.get("g1_stw", 0), ac.get("zsw2_enc", 0) & 0x0FFF, ac.get("g1_zsw", 0))
+            if key == self.prev_key and self.steady_n > self.L + 1 and not self._open and not self._pending_steady():
+                self._cycle_steady(sp, ac)
+            else:
+                self.steady_n = self.steady_n + 1 if key == self.prev_key else 0
+                self._cycle_std(sp, ac)
+            self.prev_key = key
         elif self.cfg.telegram in PRESET_TELEGRAMS:
             self._cycle_preset_telegram(sp, ac)
         if self._open:
@@ -191,7 +199,10 @@ class Checker:
         return self.out
 
     def _pending(self) -> bool:
-        return (self.solmon or self.pre is not None or self.pdone_since is not None or self.pdone_clear_due
+        return self.solmon or self._pending_steady()
+
+    def _pending_steady(self) -> bool:
+        return (self.pre is not None or self.pdone_since is not None or self.pdone_clear_due
                 is not None or self.p860 is not None or self.p89 is not None or self.sack_edge is not None
                 or self.ackip_since is not None or self.restore_due is not None or self.park_rise_due is not None
                 or self.solf_due is not None or self.bf00_due is not None or self.store is not None)
@@ -242,30 +253,10 @@ class Checker:
         v_before = self._speed()
         self.pos_hist.append(motion_ref)
 
-        # learn the XIST1 shift (P979.3) from the first cycle with both positions (§1.6 R-X1-4)
-        if not self.shift_known and has_g1 and ATX and not SERR and X1 is not None and X2:
-            for s in range(0, 32):
-                if (X2 << s) % U32 == X1:
-                    c.shift = s
-                    c.sources["shift"] = f"inferred from frame {self.f} (X1 = X2 << {s})"
-                    break
-            self.shift_known = True
+        self._value_rules(CLS, pCLS, DLS, pDLS, SERR, ATX, PKA, PDONE, X1, X2, X3, NIST, pos2, ppos2, self.pre, motion_ref,
+                          None if pa is None else (pa.get("g1_xist1") if X1 is not None else pa.get("g1_xist3")),
+                          zsw2, g1zsw, first, has_g1)
         shift = c.shift or 0
-
-        # ---- 9.1 sign-of-life -------------------------------------------------------------------
-        if CLS:
-            self.started_C = True
-        if self.solmon:
-            self._sign_of_life(CLS, pCLS, DLS, pDLS, SERR, X2, first)
-        elif DLS:
-            self.started_D = True
-        if not c.iso and DLS == 0 and self.started_D:
-            # 8: RT mode, DLS back to 0 once running (RT examples show DLS != 0, 001_9461bb7bc8c2767b.txt:2221);
-            # before its first change the DO may still wait for a C-LS change (R-DLS-2)
-            self._hit("SOL-DEVICE-ZERO-RT", f"encoder sign-of-life 0 in RT data exchange (ZSW2_ENC=0x{zsw2:04X}); expected 1..15")
-        if c.iso and SERR and X2 == E_SYNC and DLS != 0:
-            # 12: sync fault 0x0F04 must come with DLS = 0 (001_9461bb7bc8c2767b.txt:1802-1804)
-            self._hit("SYNC-FAULT-DLS-NONZERO", f"G1_XIST2=0x0F04 with encoder sign-of-life {DLS}; expected 0")
 
         # ---- 9.2 control by PLC -----------------------------------------------------------------
         if c.compat == 1:
@@ -400,23 +391,6 @@ class Checker:
         if full and ATX == 1 and all(not h[2] and h[5] for h in H):
             # 37: ATX clears when AREQ clears (000_37bf2397999f1108.txt:1626-1629)
             self._hit("ABSVAL-ACK-STUCK", f"G1_STW.13=0 for {L + 1} cycles but G1_ZSW.13=1")
-        if ATX and SERR:
-            # 38: never both (000_37bf2397999f1108.txt:1911-1914)
-            self._hit("ZSW-ATX-AND-SERR", f"G1_ZSW=0x{g1zsw:04X} has transmit-absolute-value and sensor-error together")
-        if self.lika and X2 is not None and not ATX and not SERR and not PKA and X2 != 0:
-            # 39: LIKA sends 0 in XIST2 without request (000_37bf2397999f1108.txt:1626-1629)
-            self._hit("XIST2-NOT-ZERO", f"G1_XIST2={X2} with G1_ZSW.13=0 and no error; expected 0")
-        if ATX and not SERR and X1 is not None and X2 is not None and X3 is None \
-                and (c.xist1_preset_affected or not c.class4) and not c.xist1_counter:
-            exp1 = (X2 << shift) % U32
-            if X1 != exp1:
-                # 40: X1 == X2 << P979.3 (001_9461bb7bc8c2767b.txt:2223-2224)
-                self._hit("XIST2-INCONSISTENT", f"G1_XIST1=0x{X1:08X}, expected G1_XIST2 << {shift} = 0x{exp1:08X}")
-        if self.R and ATX and not SERR and ((X2 is not None and X2 >= self.R) or (self.lika and X1 is not None and X1 >= self.R)):
-            # 41: position inside [0, R) (000_37bf2397999f1108.txt:2394-2434)
-            self._hit("POSITION-OUT-OF-RANGE", f"position G1_XIST2={X2} G1_XIST1={X1} >= R={self.R}")
-        self._continuity(pos2, ppos2, pre, PKA)
-        self._nist_sign(motion_ref, None if pa is None else (pa.get("g1_xist1") if X1 is not None else pa.get("g1_xist3")), NIST)
 
         # ---- 9.6 parking ------------------------------------------------------------------------
         if full and PKA == 0 and all(h[3] and h[5] for h in H):
@@ -425,9 +399,6 @@ class Checker:
         if full and PKA == 1 and all(not h[3] and h[5] for h in H):
             # 46: PKA clears when PARK clears (000_37bf2397999f1108.txt:3166-3173)
             self._hit("PARK-ACK-NOT-CLEARED", f"G1_STW.14=0 for {L + 1} cycles but G1_ZSW.14=1")
-        if self.lika and PKA and ((X1 or 0) or (X2 or 0) or PDONE or ATX):
-            # 47: LIKA clears outputs while parked (000_37bf2397999f1108.txt:3149-3159)
-            self._hit("PARK-OUTPUTS-NOT-CLEARED", f"parked with G1_XIST1={X1} G1_XIST2={X2} G1_ZSW=0x{g1zsw:04X}; expected 0s")
         if PKA and not first and pPKA and rise(SERR, pSERR):
             # 48: no new errors while parked (000_37bf2397999f1108.txt:1775-1777)
             self._hit("PARK-ERROR-REPORTED", f"sensor error raised while parked (G1_XIST2=0x{(X2 or 0):X})")
@@ -446,10 +417,6 @@ class Checker:
                       controller=True)
 
         # ---- 9.7 sensor error and acknowledgement -----------------------------------------------
-        if SERR and X2 is not None and (X2 == 0 or (self.lika and X2 not in LIKA_CODES)):
-            # 51: SERR needs an error code in XIST2 (000_37bf2397999f1108.txt:2617-2639)
-            self._hit("SERR-CODE-INVALID", f"sensor error with G1_XIST2=0x{X2:X}; expected "
-                      + ("one of " + ", ".join(f"0x{x:04X}" for x in sorted(LIKA_CODES)) if self.lika else "a non-zero code"))
         if SERR and (first or not pSERR):
             self.sack_since_serr = bool(SACK)
             self.fack_since_serr = bool(FACK)
@@ -525,10 +492,84 @@ class Checker:
                 self._emit("BF00-ERROR-NOT-REPORTED", self.f, self.ts,
                            f"0xBF00 was invalid ({why}) but data exchange runs with no 0x1002 sensor error", last=self.f)
                 self.bf00_due = None
+        self._timeline(CTRL, PREQ, PDONE, PKA, SERR, X2)
+
+    def _value_rules(self, CLS, pCLS, DLS, pDLS, SERR, ATX, PKA, PDONE, X1, X2, X3, NIST, pos2, ppos2, pre,
+                     motion_ref, pmotion, zsw2, g1zsw, first, has_g1) -> None:
+        """Rules on the counters and position values: they must run every cycle, also in steady state."""
+        c = self.cfg
+        # learn the XIST1 shift (P979.3) from the first cycle with both positions (§1.6 R-X1-4)
+        if not self.shift_known and has_g1 and ATX and not SERR and X1 is not None and X2:
+            for s in range(0, 32):
+                if (X2 << s) % U32 == X1:
+                    c.shift = s
+                    c.sources["shift"] = f"inferred from frame {self.f} (X1 = X2 << {s})"
+                    break
+            self.shift_known = True
+        shift = c.shift or 0
+
+        # ---- 9.1 sign-of-life -------------------------------------------------------------------
+        if CLS:
+            self.started_C = True
+        if self.solmon:
+            self._sign_of_life(CLS, pCLS, DLS, pDLS, SERR, X2, first)
+        elif DLS:
+            self.started_D = True
+        if not c.iso and DLS == 0 and self.started_D:
+            # 8: RT mode, DLS back to 0 once running (RT examples show DLS != 0, 001_9461bb7bc8c2767b.txt:2221);
+            # before its first change the DO may still wait for a C-LS change (R-DLS-2)
+            self._hit("SOL-DEVICE-ZERO-RT", f"encoder sign-of-life 0 in RT data exchange (ZSW2_ENC=0x{zsw2:04X}); expected 1..15")
+        if c.iso and SERR and X2 == E_SYNC and DLS != 0:
+            # 12: sync fault 0x0F04 must come with DLS = 0 (001_9461bb7bc8c2767b.txt:1802-1804)
+            self._hit("SYNC-FAULT-DLS-NONZERO", f"G1_XIST2=0x0F04 with encoder sign-of-life {DLS}; expected 0")
+
+        if ATX and SERR:
+            # 38: never both (000_37bf2397999f1108.txt:1911-1914)
+            self._hit("ZSW-ATX-AND-SERR", f"G1_ZSW=0x{g1zsw:04X} has transmit-absolute-value and sensor-error together")
+        if self.lika and X2 is not None and not ATX and not SERR and not PKA and X2 != 0:
+            # 39: LIKA sends 0 in XIST2 without request (000_37bf2397999f1108.txt:1626-1629)
+            self._hit("XIST2-NOT-ZERO", f"G1_XIST2={X2} with G1_ZSW.13=0 and no error; expected 0")
+        if ATX and not SERR and X1 is not None and X2 is not None and X3 is None \
+                and (c.xist1_preset_affected or not c.class4) and not c.xist1_counter:
+            exp1 = (X2 << shift) % U32
+            if X1 != exp1:
+                # 40: X1 == X2 << P979.3 (001_9461bb7bc8c2767b.txt:2223-2224)
+                self._hit("XIST2-INCONSISTENT", f"G1_XIST1=0x{X1:08X}, expected G1_XIST2 << {shift} = 0x{exp1:08X}")
+        if self.R and ATX and not SERR and ((X2 is not None and X2 >= self.R) or (self.lika and X1 is not None and X1 >= self.R)):
+            # 41: position inside [0, R) (000_37bf2397999f1108.txt:2394-2434)
+            self._hit("POSITION-OUT-OF-RANGE", f"position G1_XIST2={X2} G1_XIST1={X1} >= R={self.R}")
+        self._continuity(pos2, ppos2, pre, PKA)
+        self._nist_sign(motion_ref, pmotion, NIST)
+
+        if self.lika and PKA and ((X1 or 0) or (X2 or 0) or PDONE or ATX):
+            # 47: LIKA clears outputs while parked (000_37bf2397999f1108.txt:3149-3159)
+            self._hit("PARK-OUTPUTS-NOT-CLEARED", f"parked with G1_XIST1={X1} G1_XIST2={X2} G1_ZSW=0x{g1zsw:04X}; expected 0s")
+        if SERR and X2 is not None and (X2 == 0 or (self.lika and X2 not in LIKA_CODES)):
+            # 51: SERR needs an error code in XIST2 (000_37bf2397999f1108.txt:2617-2639)
+            self._hit("SERR-CODE-INVALID", f"sensor error with G1_XIST2=0x{X2:X}; expected "
+                      + ("one of " + ", ".join(f"0x{x:04X}" for x in sorted(LIKA_CODES)) if self.lika else "a non-zero code"))
         if SERR and X2 == E_PARAM and self.bf00_valid_frame is not None and self.bf00_invalid is None:
             # 71: a valid parameter set must be accepted (same sources)
             self._hit("BF00-VALID-REJECTED", f"0x1002 parametrization error after a valid 0xBF00 (frame {self.bf00_valid_frame})")
-        self._timeline(CTRL, PREQ, PDONE, PKA, SERR, X2)
+
+    def _cycle_steady(self, sp: dict, ac: dict) -> None:
+        """Control and status words (sign-of-life aside) as in the last L_max+1 cycles, nothing pending and
+        no rule running: window, edge and deadline rules cannot change, so only the value rules run."""
+        stw2, zsw2, g1zsw = sp.get("stw2_enc", 0), ac.get("zsw2_enc", 0), ac.get("g1_zsw", 0)
+        ps, pa = self.prev_sp, self.prev_ac
+        X1, X2, X3 = ac.get("g1_xist1"), ac.get("g1_xist2"), ac.get("g1_xist3")
+        SERR, ATX = g1zsw >> 15, (g1zsw >> 13) & 1
+        pos2 = X3 if X3 is not None else (X2 if ATX and not SERR else None)
+        pz = pa.get("g1_zsw", 0)
+        ppos2 = pa.get("g1_xist3") if X3 is not None else (pa.get("g1_xist2") if (pz >> 13) & 1 and not pz >> 15 else None)
+        motion_ref = X1 if X1 is not None else X3
+        self.pos_hist.append(motion_ref)
+        self._value_rules(stw2 >> 12, ps.get("stw2_enc", 0) >> 12, zsw2 >> 12, pa.get("zsw2_enc", 0) >> 12, SERR, ATX,
+                          (g1zsw >> 14) & 1, (g1zsw >> 12) & 1, X1, X2, X3, ac.get("nist_b", ac.get("nist_a")), pos2, ppos2,
+                          None, motion_ref, pa.get("g1_xist1") if X1 is not None else pa.get("g1_xist3"), zsw2, g1zsw,
+                          False, "g1_zsw" in ac)
+        if SERR:
+            self._state("sensor_error", X2 if X2 is not None else 1)
 
     # -- sign-of-life (§3) -----------------------------------------------------------------------
     def _sign_of_life(self, CLS, pCLS, DLS, pDLS, SERR, X2, first) -> None:
