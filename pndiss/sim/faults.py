@@ -72,14 +72,16 @@ def _set_sol(words, v):
 # ------------------------------------------------------------------------ sign-of-life
 
 @injectable("SOL-MASTER-SKIP")
-class SolMasterSkip(Cyclic):
-    why = "the PLC skips one controller sign-of-life value"
+class SolMasterSkip(Knob):
+    why = "the PLC skips one controller sign-of-life value (its counter jumps ahead by one)"
     where = "plc"
     settings = SOL_SETTINGS
 
-    def change(self, w, k):
-        v = w["stw2_enc"] >> 12
-        w["stw2_enc"] = (w["stw2_enc"] & 0x0FFF) | sol_next(v) << 12
+    def turn_on(self, sess, plc, enc):
+        plc.faults["sol_skip_at"] = self.k
+
+    def flagged(self, k, words):
+        return k == self.k
 
 
 @injectable("SOL-MASTER-ZERO")
@@ -109,12 +111,15 @@ class SolMasterStall(Cyclic):
 
 
 @injectable("SOL-DEVICE-SKIP")
-class SolDeviceSkip(Cyclic):
-    why = "the encoder skips one sign-of-life value"
+class SolDeviceSkip(Knob):
+    why = "the encoder skips one sign-of-life value (its counter jumps ahead by one)"
     settings = SOL_SETTINGS
 
-    def change(self, w, k):
-        w["zsw2_enc"] = (w["zsw2_enc"] & 0x0FFF) | sol_next(w["zsw2_enc"] >> 12) << 12
+    def turn_on(self, sess, plc, enc):
+        enc.faults["sol_skip_at"] = self.k
+
+    def flagged(self, k, words):
+        return k == self.k
 
 
 @injectable("SOL-DEVICE-ZERO")
@@ -149,11 +154,15 @@ class SolDeviceEarlyStart(Injection):
             out["stw2_enc"] &= 0x0FFF
 
     def after_enc(self, sess, k, st, actual, tags):
-        if st.i == 0 and 10 <= k < 20:
-            actual["zsw2_enc"] = (actual["zsw2_enc"] & 0x0FFF) | (1 + (k - 10) % 15) << 12
-            tags.add(self.tag)
-        elif st.i == 0 and k < 10:
+        if st.i:
+            return
+        if k < 10:
             actual["zsw2_enc"] &= 0x0FFF
+            return
+        self.dls = 1 if k == 10 else sol_next(self.dls)   # one continuous count from cycle 10
+        actual["zsw2_enc"] = (actual["zsw2_enc"] & 0x0FFF) | self.dls << 12
+        if k < 20:
+            tags.add(self.tag)
 
 
 # ------------------------------------------------------------------------ control by PLC
@@ -425,6 +434,7 @@ class PresetReexecuted(Injection):
 class XistDuringStore(Injection):
     why = "after the preset the encoder sends position 0 for 15 ms (storing the offset; 5-10 ms allowed)"
     scenario = "preset"
+    also = ("POSITION-DISCONTINUITY",)
 
     def setup(self, sess, sc, params):
         self.ack = None
@@ -434,7 +444,7 @@ class XistDuringStore(Injection):
             return
         if actual["g1_zsw"] & 0x1000 and self.ack is None:
             self.ack = k
-        if self.ack is not None and k < self.ack + 15:
+        if self.ack is not None and self.ack < k < self.ack + 16:
             for s in ("g1_xist1", "g1_xist2", "g1_xist3"):
                 actual[s] = 0
             tags.add(self.tag)
@@ -604,7 +614,7 @@ class _ParkFault(Injection):
 @injectable("PARK-ACK-MISSING")
 class ParkAckMissing(_ParkFault):
     why = "the encoder never sets G1_ZSW.14 while parked"
-
+    also = ("ABSVAL-ACK-MISSING",)   # G1_ZSW.13 is 0 while parked, which needs G1_ZSW.14 to excuse it
     def after_enc(self, sess, k, st, actual, tags):
         if st.i == 0 and actual["g1_zsw"] & 0x4000:
             actual["g1_zsw"] &= ~0x4000
@@ -636,7 +646,7 @@ class ParkOutputsNotCleared(_ParkFault):
 @injectable("PARK-ERROR-REPORTED")
 class ParkErrorReported(_ParkFault):
     why = "while parked the encoder raises sensor error 0x1001"
-    also = ("ZSW-ATX-AND-SERR", "PARK-OUTPUTS-NOT-CLEARED")
+    also = ("ZSW-ATX-AND-SERR", "PARK-OUTPUTS-NOT-CLEARED", "SERR-XIST2-NOT-RESTORED")
 
     def after_enc(self, sess, k, st, actual, tags):
         kp = sess.scenario.at(0.3)
@@ -720,6 +730,7 @@ class AckipMissing(_SerrFault):
 class AckipSpurious(Cyclic):
     why = "the encoder sets G1_ZSW.11 for 5 cycles without an acknowledgement request"
     n = 5
+    also = ("ACKIP-STUCK",)   # the same bit pattern: ACKIP = 1 while SACK = 0 for more than L_max cycles
 
     def change(self, w, k):
         w["g1_zsw"] |= 0x0800
@@ -762,7 +773,7 @@ class SerrClearedWithoutAck(_SerrFault):
 @injectable("SERR-XIST2-NOT-RESTORED")
 class SerrXist2NotRestored(_SerrFault):
     why = "after the error is acknowledged the encoder does not bring the position back into XIST2 for 20 cycles"
-
+    also = ("ABSVAL-ACK-MISSING",)   # G1_ZSW.13 stays 0 although requested
     def setup(self, sess, sc, params):
         self.fall = None
 
@@ -856,13 +867,12 @@ class ReservedG1zsw(_Reserved):
 
 @injectable("TELEGRAM-LENGTH-MISMATCH")
 class TelegramLengthMismatch(Injection):
-    why = "the Connect configures 2 more input bytes than the telegram has (P922 says 81)"
+    why = "the Connect configures 3 more input bytes than the telegram has (15, no telegram has that; P922 says 81)"
     side = "encoder"
 
     def setup(self, sess, sc, params):
         from .session import Station
-        sess.extra_in = 2
-        sess.stations = [Station(i, sess.cfg, sess.rng, extra_in=2) for i in range(sess.cfg.encoders)]
+        sess.stations = [Station(i, sess.cfg, sess.rng, extra_in=3) for i in range(sess.cfg.encoders)]
         sc.connect_tags = {self.tag}
 
 
@@ -876,10 +886,16 @@ class TelegramSelectionMismatch(Injection):
 
 @injectable("P965-VERSION-MISMATCH")
 class P965VersionMismatch(Injection):
-    why = "P965 reports profile version 31 while 0xBF00 selects V4.1 (compat = 1)"
+    why = "a read of P965 subindex 1 (profile version) answers 31 while 0xBF00 selects V4.1 (compat = 1)"
 
     def setup(self, sess, sc, params):
-        sc.param_override[965] = (lambda d: dict(d, compat=0), {self.tag})
+        sc.bmp_extra.append(self)
+
+    def access(self, sess, st, ts, dev):
+        from . import recdata
+        ref = sess.next_ref()
+        req = recdata.param_request(ref, 1, [(965, 1, 0, None, 0x1F)])
+        sess.bmp(ts, st, req, recdata.param_response(ref, 1, [(0x1F, ["1f"])]), tags={self.tag})
 
 
 @injectable("STARTUP-NO-PARAM-RECORD")
@@ -990,7 +1006,7 @@ def _refs(sess):
 @injectable("BMP-PIPELINED")
 class BmpPipelined(_Bmp):
     why = "the controller writes a second parameter request before reading the first response"
-
+    also = ("BMP-NOT-MIRRORED", "BMP-DATATYPE")   # responses then pair with the wrong request
     def access(self, sess, st, ts, dev):
         from . import recdata
         r1, r2 = sess.next_ref(), sess.next_ref()
@@ -1068,19 +1084,19 @@ class BmpRespidMismatch(_Bmp):
 
 @injectable("BMP-NEG-FORMAT")
 class BmpNegFormat(_Bmp):
-    why = "a negative response carries its error number with format 0x42 instead of 0x44"
+    why = "a negative response carries error number 0x0116 (the high byte is reserved, max 0x00FF)"
 
     def access(self, sess, st, ts, dev):
         from . import recdata
         ref = sess.next_ref()
-        req = recdata.param_request(ref, 1, [(12345, 0, 0, None, 0x06)])
-        sess.bmp(ts, st, req, bytes([ref, 0x81, 1, 1, 0x42, 1, 0x00, 0x00]), tags={self.tag})
+        req = recdata.param_request(ref, 1, [(922, 0, 0, None, 0x06)])
+        sess.bmp(ts, st, req, recdata.param_response(ref, 0x81, [(0x44, [0x0116])]), tags={self.tag})
 
 
 @injectable("BMP-ORDER")
 class BmpOrder(_Bmp):
     why = "a two-parameter read (P922, P979) is answered in reverse order"
-    also = ("BMP-DATATYPE",)
+    also = ("BMP-DATATYPE", "TELEGRAM-SELECTION-MISMATCH")   # blocks are paired by position
 
     def access(self, sess, st, ts, dev):
         from . import recdata
@@ -1094,7 +1110,7 @@ class BmpOrder(_Bmp):
 @injectable("BMP-WRITE-RO-ACCEPTED")
 class BmpWriteRoAccepted(_Bmp):
     why = "the device accepts a change of read-only P922"
-
+    profile = "lika"   # the read-only list is Lika's (000_37bf2397999f1108.txt:1953-2164)
     def access(self, sess, st, ts, dev):
         from . import recdata
         ref = sess.next_ref()
@@ -1115,10 +1131,11 @@ class BmpPresetLimitAccepted(_Bmp):
 
 @injectable("BMP-UNKNOWN-PNU")
 class BmpUnknownPnu(_Bmp):
-    why = "the device answers a read of P12345 (not defined) with a value"
+    why = "the device answers a read of P12345 (not in its P980 list) with a value"
 
     def access(self, sess, st, ts, dev):
         from . import recdata
+        sess.read_param(ts - 10_000_000, st, 980, dev)
         ref = sess.next_ref()
         req = recdata.param_request(ref, 1, [(12345, 0, 0, None, 0x06)])
         sess.bmp(ts, st, req, recdata.param_response(ref, 1, [(0x06, [7])]), tags={self.tag})
@@ -1126,11 +1143,10 @@ class BmpUnknownPnu(_Bmp):
 
 @injectable("BMP-DATATYPE")
 class BmpDatatype(_Bmp):
-    why = "the device answers a P65001 read with format Word (0x42) values"
+    why = "the device answers a P922 read (Unsigned16) with format Unsigned32"
 
     def access(self, sess, st, ts, dev):
         from . import recdata
-        f, v = recdata.read_block(65001, dev, sess.cfg.profile)
         ref = sess.next_ref()
         req = recdata.param_request(ref, 1, [(922, 0, 0, None, 0x06)])
         sess.bmp(ts, st, req, recdata.param_response(ref, 1, [(0x07, [dev["telegram"]])]), tags={self.tag})
@@ -1139,7 +1155,7 @@ class BmpDatatype(_Bmp):
 @injectable("P971-NOT-CONFIRMED")
 class P971NotConfirmed(_Bmp):
     why = "after P971 := 1 every later read of P971 still returns 1"
-
+    profile = "lika"   # P971 store semantics are Lika's (000_37bf2397999f1108.txt:1975-1982)
     def access(self, sess, st, ts, dev):
         from . import recdata
         ref = sess.next_ref()

@@ -9,15 +9,13 @@ from __future__ import annotations
 
 from ..records import build as B
 
-# PROFIdrive data type -> format byte (records.md §3.6); read responses use the exact type
-TYPE_FORMAT = {"U16": 0x06, "U32": 0x07, "I32": 0x04, "OctetString2": 0x1F, "U8": 0x05}
-
 # What the reference device answers per PNU (records.md §4.2-4.8): pnu -> values function(dev)
 PNU_VALUES = {
     922: lambda d: [d["telegram"]],                                               # telegram selection
     964: lambda d: [d["vendor_id"], 1, 0x0100, 2026, 0x0101, 1],                 # device identification
     965: lambda d: [0x3D, 41 if d["compat"] else 31],                             # profile number, version
     971: lambda d: [d.get("p971", 0)],
+    980: lambda d: [922, 964, 965, 971, 975, 979, 980, 65000, 65001],          # list of defined parameters
     979: lambda d: [0x00005011, 0x80000000, d["mupr"], 0, 0, d["tmr"] // max(d["mupr"], 1)],
     65000: lambda d: [d["preset_value"]],
     65001: lambda d: [0x000C0101, 0, 0, 0x30, 0, 0, 0x401, 0xFFFFFFFF,
@@ -28,11 +26,11 @@ PNU_VALUES = {
 def read_block(pnu: int, dev: dict, profile: str) -> tuple[int, list]:
     """(format, values) of a positive read response, in the parameter's own data type."""
     from ..records.profidrive import param_info
-    info = param_info(pnu, profile) or {"type": "U32"}
-    fmt = TYPE_FORMAT.get(info["type"], 0x07)
+    info = param_info(pnu, profile) or {}
+    fmt = info.get("type_code") or 0x07     # the format byte of the declared type (records.md §3.6)
     vals = PNU_VALUES[pnu](dev)
-    if fmt == 0x1F:   # OctetString2 (P965): sent as OctetString 0x0A with 2 octets, because tshark
-        return 0x0A, vals  # 4.0 flags format 0x1F "Not supported or invalid format" (packet-pn-io.c)
+    if fmt == 0x1F:   # OctetString2 (P965): one 2-octet value. tshark 4.0 does not decode format 0x1F
+        return fmt, ["".join(f"{v:02x}" for v in vals)]   # (expert warning), the exact type wins
     if pnu == 965:    # PS/PSM declares P965 a single UINT16 (records.md §4.3)
         return fmt, [vals[0] << 8 | vals[1]]
     if fmt == 0x04:

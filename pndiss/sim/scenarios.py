@@ -21,7 +21,7 @@ class Scenario:
 
     name = "startup"
     help = "DCP, LLDP, Connect, 0xBF00, PrmEnd/ApplicationReady, I&M0 + parameter reads, cyclic run with a speed ramp"
-    shaft = None
+    shaft = None   # ((fraction of the run, rpm at start, rpm at end), ...); None = session default
     skip_bf00 = False
     bf00_bytes = None
     bf00_tags = ()
@@ -71,7 +71,7 @@ class Scenario:
 class Preset(Scenario):
     name = "preset"
     help = "standstill; P65000 = 1000 written over 0xB02E, then the G1_STW.12/G1_ZSW.12 preset handshake (telegrams 86-89/100/101/860: the cyclic preset trigger)"
-    shaft = ((0.0, 0.0, 0.0), (0.1, 0.0, 30.0), (0.3, 30.0, 0.0), (0.45, 0.0, 0.0))
+    shaft = ((0.0, 0.0, 0.0), (0.05, 0.0, 30.0), (0.2, 30.0, 0.0), (0.3, 0.0, 0.0))   # still from 30 %
     value = 1000
     mode = 0                 # G1_STW.11: 0 absolute, 1 relative (cyclic.md §5.3)
     hold_request = False     # never give up waiting for the acknowledgement
@@ -163,8 +163,8 @@ class SolMasterSkip(Scenario):
 class Motion(Scenario):
     name = "motion"
     help = "ramps up to 600 rpm, constant speed, reverse ramp to -300 rpm, stop"
-    shaft = ((0.0, 0.0, 0.0), (0.1, 0.0, 600.0), (0.5, 600.0, 600.0), (1.0, 600.0, -300.0),
-             (1.5, -300.0, 0.0), (1.8, 0.0, 0.0))
+    shaft = ((0.0, 0.0, 0.0), (0.05, 0.0, 600.0), (0.25, 600.0, 600.0), (0.5, 600.0, -300.0),
+             (0.75, -300.0, 0.0), (0.9, 0.0, 0.0))
 
 
 SCENARIOS = {c.name: c for c in (Scenario, Preset, Parking, SensorError, SolMasterSkip, Motion)}

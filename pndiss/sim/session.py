@@ -131,6 +131,10 @@ DATA_STATUS = 0x35
 IOXS_GOOD = 0x80
 
 
+# start-up run: still, ramp to 60 rpm, constant, ramp down, still (fractions of the run)
+DEFAULT_SHAFT = ((0.0, 0.0, 0.0), (0.1, 0.0, 60.0), (0.35, 60.0, 60.0), (0.6, 60.0, 0.0), (0.85, 0.0, 0.0))
+
+
 class SimSession:
     """Builds every frame of one session; ``build()`` -> (frames sorted by time, ground truth)."""
 
@@ -227,7 +231,9 @@ class SimSession:
     # ------------------------------------------------------------------ the session
     def device_params(self) -> dict:
         c = self.cfg
-        return dict(direction=0, class4=c.class4, preset_control=0, scaling=1, alarm_channel_control=0,
+        # preset control: presets act on G1_XIST1; Hohner codes that as 1 (inverted, records.md §5.2)
+        return dict(direction=0, class4=c.class4, preset_control=1 if c.profile == "hohner" else 0,
+                    scaling=1, alarm_channel_control=0,
                     compat=c.compat, mupr=c.mupr, tmr=c.tmr, max_master_sol_failures=1,
                     velocity_unit=c.velocity_unit)
 
@@ -416,8 +422,10 @@ class SimSession:
         cfg, sc = self.cfg, self.scenario
         cyc_s = self.cycle_ns / 1e9
         step = (self.scf * self.rr) & 0xFFFF   # cycle counter unit 31.25 us (wire.md §2.3)
-        shaft_segs = sc.shaft if sc is not None and sc.shaft else ((0.0, 0.0, 0.0), (0.2, 0.0, 60.0), (0.7, 60.0, 60.0),
-                                                                   (1.2, 60.0, 0.0), (1.7, 0.0, 0.0))
+        # shaft segments are given in fractions of the run (so short and long runs look alike)
+        frac = sc.shaft if sc is not None and sc.shaft else DEFAULT_SHAFT
+        run_s = cfg.cycles * cyc_s
+        shaft_segs = tuple((f * run_s, r0, r1) for f, r0, r1 in frac)
         out_l, in_l = T.layout(cfg.telegram, "setpoint"), T.layout(cfg.telegram, "actual")
         per = []
         for st in self.stations:
