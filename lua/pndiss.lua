@@ -369,6 +369,9 @@ local function connect_response(key, pinfo)
 end
 
 -- 5. records --------------------------------------------------------------------------------------
+local axes = {}      -- axis key -> rule state (section 6)
+local devices = {}   -- device MAC -> {bf00 = decoded 0xBF00 written, p922 = first P922 value read}
+local checker_p922   -- defined with the rules (section 6)
 local pairer = {}   -- param key -> {req, frame}
 local frame_cache = {}   -- frame number -> list of {kind, ...} to show (computed on the first pass)
 
@@ -545,7 +548,7 @@ local function record_items(pinfo, recs)
                         if a and a.pnu == 922 and blk and not blk.error and blk.values[1] and (a.subindex or 0) == 0 then
                             -- session.py: a P922 read names the telegram of the device's submodules
                             local tnum = tonumber(blk.values[1])
-                            if tnum and T.telegrams[tnum] then
+                            if tnum then
                                 for _, fm in pairs(maps) do
                                     if fm.device == device then
                                         for _, o in ipairs(fm.objects) do
@@ -555,6 +558,15 @@ local function record_items(pinfo, recs)
                                             end
                                         end
                                     end
+                                end
+                            end
+                            if tnum then   -- acyclic.py _read, for every axis of the device (and replayed later)
+                                local d = devices[device] or {}
+                                devices[device] = d
+                                d.p922s = d.p922s or {}
+                                d.p922s[#d.p922s + 1] = tnum
+                                for _, ax in pairs(axes) do
+                                    if ax.device == device then checker_p922(ax, tnum) end
                                 end
                                 -- like pndiss/cyclic.py, a frame layout already in use keeps its telegram
                                 for k, v in pairs(map_cache) do if v == false then map_cache[k] = nil end end
@@ -568,6 +580,11 @@ local function record_items(pinfo, recs)
             end
         elseif r.index == 0xBF00 or (r.index == 0xFFFF and profile == "psm") then
             it.bf00 = decode_bf00(t, len, r.index == 0xFFFF and "psm" or profile)
+            if r.op == "write" then   -- cyclic.py on_record: the written parameter set is in force
+                local d = devices[device] or {}
+                devices[device] = d
+                d.bf00 = it.bf00
+            end
         end
         items[#items + 1] = it
     end
@@ -575,10 +592,9 @@ local function record_items(pinfo, recs)
 end
 
 -- 6. cyclic --------------------------------------------------------------------------------------
-local axes = {}   -- axis key -> rule state
 
-local function sig_value(tvb, row)
-    local r = tvb(row.off, row.size)
+local function sig_value(tvb, base, row)
+    local r = tvb(base + row.off, row.size)
     if row.size == 8 then return row.signed and r:int64() or r:uint64() end
     return row.signed and r:int() or r:uint()
 end
@@ -619,15 +635,27 @@ end
 -- rules.  Mirrors pndiss/encoder/_state.py (Checker._cycle_std, Checker._hit): one judged cycle per
 -- input frame paired with the latest setpoint (pndiss/cyclic.py); a condition that holds over
 -- consecutive judged cycles is ONE violation at its first frame; a gated cycle (DataValid 0,
--- provider STOP, IOPS bad) ends every run (Checker.gap).
--- Controller-side rules name the setpoint frame; tshark shows a frame only once, so those are
--- decided when the setpoint frame arrives (its cycle is judged by the next input frame).
+-- provider STOP, IOPS bad) ends every run and forgets the history (Checker.gap).
+-- Controller-side rules name the setpoint frame; tshark shows a frame only once, so the plugin
+-- implements those that depend on the setpoint alone and decides them on the setpoint frame.
+local L_MAX = 2          -- settings.l_max default (behaviour.md §0.1)
+
 local function bitv(v, n) return bit.band(bit.rshift(v, n), 1) end
 
-local function run(ax, rule, cond, frame, found)
-    if cond then
-        if ax.open[rule] ~= ax.n then found[#found + 1] = rule end   -- not hit in the previous judged cycle
-    end
+-- a new run starts unless the rule held in judged cycle `prev` (Checker._hit: o["n"] == n - 1)
+local function run(ax, rule, prev, found)
+    if ax.open[rule] ~= prev then found[#found + 1] = rule end
+end
+
+-- EncoderConfig.std: telegrams with STW2_ENC/ZSW2_ENC (81-84; PS/PSM 89)
+local function is_std(t) return T.telegrams[t] ~= nil and (T.telegrams[t].standard or t == 89) end
+
+-- compat in force: captured 0xBF00 > profile default (EncoderConfig.from_settings / acyclic.py)
+local function compat_of(ax)
+    local d = devices[ax.device]
+    if d and d.bf00 and d.bf00.compat ~= nil then return d.bf00.compat end
+    local pd = T.profile_defaults[ax.profile] or T.profile_defaults.generic
+    return pd.compat
 end
 
 -- setpoint-only conditions (#60, #61), decided on the setpoint frame; cycle n+1 will judge them
@@ -639,53 +667,154 @@ local function sp_conditions(ax, sp)
     return c
 end
 
--- actual-side conditions of one judged cycle (#62, #63, #38, #39, #47, #51)
+local function all_h(H, f)
+    for i = 1, #H do if not f(H[i]) then return false end end
+    return true
+end
+
+-- actual-side conditions of one judged cycle (frame = the input frame)
 local function ac_conditions(ax, sp, ac)
     local p = ax.profile
     local c = {}
+    local stw2, g1stw = sp.stw2_enc or 0, sp.g1_stw or 0
     local zsw2, g1zsw = ac.zsw2_enc or 0, ac.g1_zsw or 0
     local has_g1 = sp.g1_stw ~= nil and ac.g1_zsw ~= nil
+    local CTRL = bitv(stw2, 10)
+    local PREQ, AREQ, PARK, SACK = bitv(g1stw, 12), bitv(g1stw, 13), bitv(g1stw, 14), bitv(g1stw, 15)
+    local CREQ = bitv(zsw2, p == "psm" and 10 or 9)   -- telegrams.bit_position control_requested
+    local ACKIP, PDONE, ATX, PKA, SERR = bitv(g1zsw, 11), bitv(g1zsw, 12), bitv(g1zsw, 13), bitv(g1zsw, 14), bitv(g1zsw, 15)
+    local compat = compat_of(ax)
+    local VALID = compat == 0 or CTRL == 1
+    local H = ax.hist
+    H[#H + 1] = {CTRL = CTRL, PREQ = PREQ, AREQ = AREQ, PARK = PARK, SACK = SACK, VALID = VALID, PKA = PKA, SERR = SERR}
+    if #H > L_MAX + 1 then table.remove(H, 1) end
+    local full = #H == L_MAX + 1
+    local pa = ax.prev_ac
+    local first = pa == nil
+    local pz = pa and (pa.g1_zsw or 0) or 0
+    local pACKIP, pPDONE, pATX, pPKA, pSERR = bitv(pz, 11), bitv(pz, 12), bitv(pz, 13), bitv(pz, 14), bitv(pz, 15)
+    -- 9.2 control by PLC (#13, #14, #16)
+    if compat == 1 then
+        c["CTRLREQ-MISMATCH"] = full and all_h(H, function(h) return h.CTRL == CTRL end) and CREQ ~= CTRL
+        c["CMD-EXECUTED-WITHOUT-CONTROL"] = full and all_h(H, function(h) return h.CTRL == 0 end) and not first
+            and has_g1 and ((PDONE == 1 and pPDONE == 0) or (ATX == 1 and pATX == 0) or (PKA == 1 and pPKA == 0))
+    else
+        c["CTRLREQ-SET-IN-COMPAT"] = CREQ == 1
+    end
+    -- 9.8 reserved bits (#62, #63)
     c["RESERVED-BIT-SET-ZSW2"] = bit.band(zsw2, reserved_mask("zsw2_enc", p)) ~= 0
     if not has_g1 then return c end
     c["RESERVED-BIT-SET-G1ZSW"] = bit.band(g1zsw, reserved_mask("g1_zsw", p)) ~= 0
-    local PDONE, ATX, PKA, SERR = bitv(g1zsw, 12), bitv(g1zsw, 13), bitv(g1zsw, 14), bitv(g1zsw, 15)
     local X1, X2 = ac.g1_xist1, ac.g1_xist2
+    -- 9.3 preset handshake edges (#20, #21)
+    c["PRESET-ACK-SPURIOUS"] = not first and PDONE == 1 and pPDONE == 0 and all_h(H, function(h) return h.PREQ == 0 end)
+    c["PRESET-ACK-DROPPED"] = not first and PDONE == 0 and pPDONE == 1 and full and all_h(H, function(h) return h.PREQ == 1 end)
+    -- 9.5 absolute value request (#36-39)
+    c["ABSVAL-ACK-MISSING"] = full and ATX == 0 and all_h(H, function(h) return h.AREQ == 1 and h.VALID and h.PKA == 0 and h.SERR == 0 end)
+    c["ABSVAL-ACK-STUCK"] = full and ATX == 1 and all_h(H, function(h) return h.AREQ == 0 and h.VALID end)
     c["ZSW-ATX-AND-SERR"] = ATX == 1 and SERR == 1
     c["XIST2-NOT-ZERO"] = p == "lika" and X2 ~= nil and ATX == 0 and SERR == 0 and PKA == 0 and X2 ~= 0
+    -- 9.6 parking (#45-48)
+    c["PARK-ACK-MISSING"] = full and PKA == 0 and all_h(H, function(h) return h.PARK == 1 and h.VALID end)
+    c["PARK-ACK-NOT-CLEARED"] = full and PKA == 1 and all_h(H, function(h) return h.PARK == 0 and h.VALID end)
     c["PARK-OUTPUTS-NOT-CLEARED"] = p == "lika" and PKA == 1 and
         ((X1 or 0) ~= 0 or (X2 or 0) ~= 0 or PDONE == 1 or ATX == 1)
+    c["PARK-ERROR-REPORTED"] = PKA == 1 and not first and pPKA == 1 and SERR == 1 and pSERR == 0
+    -- 9.7 sensor error and acknowledgement (#51, #53, #54, #59)
     c["SERR-CODE-INVALID"] = SERR == 1 and X2 ~= nil and (X2 == 0 or (p == "lika" and T.xist2_errors[X2] == nil))
+    c["ACKIP-SPURIOUS"] = not first and ACKIP == 1 and pACKIP == 0 and all_h(H, function(h) return h.SACK == 0 end)
+    c["ACKIP-STUCK"] = full and ACKIP == 1 and all_h(H, function(h) return h.SACK == 0 end)
+    c["FAULT-PRESENT-INCONSISTENT"] = p == "psm" and SERR == 1 and bitv(zsw2, 3) == 0
     return c
 end
 
-local function new_axis(key, telegram, profile)
-    return {key = key, telegram = telegram, profile = profile, n = 0, open = {}, sp = nil, sp_ok = false,
-            sp_cond = nil}
+-- ax.telegram/ax.source: the cyclic view (pndiss/cyclic.py _Axis); ax.cfg_telegram/ax.cfg_source:
+-- the checker's configuration (EncoderConfig.telegram and its source), which P922 may change first
+local function new_axis(key, c, profile, device)
+    return {key = key, telegram = c.telegram, source = c.source, cfg_telegram = c.telegram, cfg_source = c.source,
+            profile = profile, device = device, n = 0, open = {}, hist = {}, sp = nil, sp_ok = false,
+            sp_cond = nil, prev_ac = nil, io_len = {}, ambiguous = nil, p922_rejected = nil}
+end
+
+-- acyclic.py _read: P922 names the telegram when it was only guessed from the lengths and fits
+-- the AR's data lengths; otherwise a guessed telegram keeps the AR's view (p922_rejected)
+function checker_p922(ax, v)
+    local guessed = tostring(ax.cfg_source):find("length", 1, true) ~= nil
+    local fits = T.telegrams[v] ~= nil
+    if fits then
+        for dir, n in pairs(ax.io_len) do if tg_len(v, dir) ~= n then fits = false end end
+    end
+    if guessed and fits then
+        ax.cfg_telegram, ax.cfg_source = v, "P922 read"
+    elseif v ~= ax.cfg_telegram and guessed then
+        ax.p922_rejected = v
+    end
+end
+
+-- cyclic.py _ambiguous: a length guess is judged only when the profile leaves one candidate
+local function ambiguous(ax, o)
+    if not tostring(ax.source):find("length", 1, true) then return false end
+    local n = 0
+    for t, d in pairs(T.telegrams) do
+        if tg_len(t, "actual") == o.length then
+            local ok = ax.profile == "generic" and d.standard
+            for _, p in ipairs(d.profiles) do if p == ax.profile then ok = true end end
+            if ok then n = n + 1 end
+        end
+    end
+    return n > 1
+end
+
+-- cyclic.py _refine_profile: telegrams that exist only in PS/PSM make a 'generic' device PS/PSM
+local function refine_profile(ax)
+    local d = T.telegrams[ax.telegram]
+    if ax.profile == "generic" and d and #d.profiles == 1 and d.profiles[1] == "psm" then ax.profile = "psm" end
 end
 
 local function gap(ax)
-    ax.open = {}   -- Checker.gap: flush every run, forget history
+    ax.open, ax.hist, ax.prev_ac = {}, {}, nil   -- Checker.gap: end every run, forget history
 end
 
 local function judge(ax, ac, found)
     ax.n = ax.n + 1
-    if not T.telegrams[ax.telegram].standard then return end   -- cfg.std: telegrams 81-84
+    if not is_std(ax.cfg_telegram) then return end
     for rule, cond in pairs(ax.sp_cond or {}) do
         if cond then ax.open[rule] = ax.n end   -- already reported on the setpoint frame
     end
     for rule, cond in pairs(ac_conditions(ax, ax.sp, ac)) do
-        if cond then
-            run(ax, rule, true, nil, found)
+        if cond and E[rule] then
+            run(ax, rule, ax.n - 1, found)
             ax.open[rule] = ax.n
         end
     end
+    ax.prev_ac = ac
 end
 
 -- cyclic frame: decode each mapped object, feed the axis state (first pass), cache the result
 local function first_pass(pinfo, tvb, entry, ok_ds, fid)
     local out = {objs = {}, rules = {}}
-    for _, c in ipairs(entry.objs) do
+    local fm = entry.fm
+    for i, c in ipairs(entry.objs) do
         local o = c.o
+        local key = table.concat({fm.ar or (fm.controller .. "/" .. fm.device), o.api or 0, o.slot or 0, o.subslot or 0}, "|")
+        if o.telegram ~= nil and o.telegram ~= c.telegram and o.telegram ~= c.rejected then
+            -- cyclic.py _relabel: the session learnt the telegram (P922) after the first frame
+            local ax = axes[key]
+            local nc = T.telegrams[o.telegram] and not (ax and ax.p922_rejected == o.telegram) and compile_obj(o, fm.direction)
+            if not nc then
+                c.rejected = o.telegram
+            else
+                entry.objs[i], c = nc, nc   -- a new object: frames shown before keep the old layout
+                if ax then
+                    ax.telegram, ax.source, ax.ambiguous, ax.sp, ax.sp_cond = nc.telegram, nc.source, false, nil, nil
+                    if ax.cfg_telegram ~= nc.telegram or tostring(ax.cfg_source):find("length", 1, true) then
+                        ax.cfg_telegram, ax.cfg_source = nc.telegram, nc.source
+                    end
+                    refine_profile(ax)
+                    gap(ax)
+                end
+            end
+        end
         if o.offset + c.len > tvb:len() then
             out.malformed = string.format("data object %s/%s ends at byte %d of a %d-byte C_SDU",
                 tostring(o.slot), tostring(o.subslot), o.offset + c.len, tvb:len())
@@ -693,29 +822,34 @@ local function first_pass(pinfo, tvb, entry, ok_ds, fid)
         end
         local iops = (o.offset + o.length < tvb:len()) and tvb(o.offset + o.length, 1):uint() or nil
         local ok = ok_ds and iops ~= nil and bit.band(iops, 0x80) ~= 0
-        local fm = entry.fm
-        local key = table.concat({fm.ar or (fm.controller .. "/" .. fm.device), o.api or 0, o.slot or 0, o.subslot or 0}, "|")
         local ax = axes[key]
         if ax == nil then
-            ax = new_axis(key, c.telegram, profile_for(fm.device))
+            ax = new_axis(key, c, profile_for(fm.device), fm.device)
             axes[key] = ax
+            local d = devices[fm.device]
+            for _, v in ipairs(d and d.p922s or {}) do checker_p922(ax, v) end   -- records seen before
         end
+        if ax.io_len[c.dir] == nil then ax.io_len[c.dir] = o.length end
         local sig = {}
         for _, row in ipairs(c.rows) do
-            local v = sig_value(tvb(o.offset, c.len):tvb(), row)
-            sig[row.name] = v
+            sig[row.name] = sig_value(tvb, o.offset, row)
         end
         out.objs[#out.objs + 1] = {c = c, iops = iops, ok = ok, profile = ax.profile}
         local found = {}
         if c.dir == "setpoint" then
             ax.sp, ax.sp_ok = sig, ok
             ax.sp_cond = nil
-            if ok and T.telegrams[ax.telegram].standard then
+            if ok and is_std(ax.cfg_telegram) then
                 ax.sp_cond = sp_conditions(ax, sig)
-                for rule, cond in pairs(ax.sp_cond) do run(ax, rule, cond, nil, found) end
+                for rule, cond in pairs(ax.sp_cond) do
+                    if cond then run(ax, rule, ax.n, found) end   -- judged next as cycle n + 1
+                end
             end
-        elseif ax.sp ~= nil then
-            if not (ok and ax.sp_ok) then gap(ax) else judge(ax, sig, found) end
+        else
+            if ax.ambiguous == nil then ax.ambiguous = ambiguous(ax, o) end
+            if ax.sp ~= nil then
+                if not (ok and ax.sp_ok) or ax.ambiguous then gap(ax) else judge(ax, sig, found) end
+            end
         end
         for _, r in ipairs(found) do out.rules[#out.rules + 1] = r end
     end
@@ -738,7 +872,7 @@ local function add_object(tree, tvb, c, cached, fm)
     local zsw, x2
     for _, row in ipairs(c.rows) do
         local r = tvb(o.offset + row.off, row.size)
-        local v = sig_value(tvb(o.offset, c.len):tvb(), row)
+        local v = sig_value(tvb, o.offset, row)
         local it = st:add(F["pndiss." .. row.name], r, v)
         if T.bitmaps[row.name] then
             for _, b in ipairs(bits_of(row.name, v, cached.profile)) do
