@@ -1,0 +1,162 @@
+"""Byte builders for PNIO-CM test frames: Ethernet/IPv4/UDP, the connectionless DCE/RPC header
+(either byte order), the PNIO NDR header and CM blocks (layouts: spec/wire.md §5-§6)."""
+from __future__ import annotations
+
+import struct
+import uuid
+
+DEVICE_IF = "dea00001-6c97-11d1-8271-00a02442df7d"
+CONTROLLER_MAC = "02:00:00:00:00:01"
+DEVICE_MAC = "02:00:00:00:01:01"
+CONTROLLER_IP = "192.168.0.1"
+DEVICE_IP = "192.168.0.10"
+AR_UUID = "12345678-9abc-def0-1234-56789abcdef0"
+
+
+def mac_bytes(m: str) -> bytes:
+    return bytes(int(x, 16) for x in m.split(":"))
+
+
+def ip_bytes(a: str) -> bytes:
+    return bytes(int(x) for x in a.split("."))
+
+
+def uuid_bytes(u: str, little: bool = False) -> bytes:
+    b = uuid.UUID(u).bytes
+    if little:
+        return b[3::-1] + b[5:3:-1] + b[7:5:-1] + b[8:]
+    return b
+
+
+def ipv4(src: str, dst: str, payload: bytes, proto: int = 17, ident: int = 1, flags_frag: int = 0) -> bytes:
+    hdr = struct.pack(">BBHHHBBH4s4s", 0x45, 0, 20 + len(payload), ident, flags_frag, 64, proto, 0,
+                      ip_bytes(src), ip_bytes(dst))
+    return hdr + payload
+
+
+def udp(sport: int, dport: int, payload: bytes) -> bytes:
+    return struct.pack(">HHHH", sport, dport, 8 + len(payload), 0x1234) + payload
+
+
+def eth(src: str, dst: str, payload: bytes, ethertype: int = 0x0800) -> bytes:
+    frame = mac_bytes(dst) + mac_bytes(src) + struct.pack(">H", ethertype) + payload
+    return frame + b"\x00" * max(0, 60 - len(frame))
+
+
+def frame(src_mac, dst_mac, src_ip, dst_ip, sport, dport, payload) -> bytes:
+    return eth(src_mac, dst_mac, ipv4(src_ip, dst_ip, udp(sport, dport, payload)))
+
+
+def dcerpc(ptype: int, opnum: int, body: bytes, *, act: str = "00000001-0000-1010-8000-000000000001",
+           seq: int = 0, little: bool = False, flags1: int = 0x20, frag_num: int = 0,
+           if_id: str = DEVICE_IF, obj: str = "dea00000-6c97-11d1-8271-000100010279") -> bytes:
+    o = "<" if little else ">"
+    hdr = bytes([4, ptype, flags1, 0, 0x10 if little else 0, 0, 0, 0])
+    hdr += uuid_bytes(obj, little) + uuid_bytes(if_id, little) + uuid_bytes(act, little)
+    hdr += struct.pack(o + "IIIHHHHH", 0, 1, seq, opnum, 0xFFFF, 0xFFFF, len(body), frag_num)
+    hdr += bytes([0, 0])
+    return hdr + body
+
+
+def ndr_request(blocks: bytes, little: bool = False, args_max: int = 4096) -> bytes:
+    o = "<" if little else ">"
+    return struct.pack(o + "5I", args_max, len(blocks), args_max, 0, len(blocks)) + blocks
+
+
+def ndr_response(blocks: bytes, little: bool = False, status: bytes = b"\0\0\0\0", args_max: int = 4096) -> bytes:
+    o = "<" if little else ">"
+    st = int.from_bytes(status, "big")
+    return struct.pack(o + "5I", st, len(blocks), args_max, 0, len(blocks)) + blocks
+
+
+def block(bt: int, body: bytes, vlow: int = 0) -> bytes:
+    return struct.pack(">HHBB", bt, len(body) + 2, 1, vlow) + body
+
+
+def ar_block_req(station: str = "plc", ar_uuid: str = AR_UUID) -> bytes:
+    name = station.encode()
+    body = struct.pack(">H", 1) + uuid_bytes(ar_uuid) + struct.pack(">H", 1) + mac_bytes(CONTROLLER_MAC)
+    body += uuid_bytes("dea00000-6c97-11d1-8271-000100010279") + struct.pack(">IHHH", 0x11, 600, 0x8892, len(name))
+    return block(0x0101, body + name)
+
+
+def ar_block_res(ar_uuid: str = AR_UUID) -> bytes:
+    return block(0x8101, struct.pack(">H", 1) + uuid_bytes(ar_uuid) + struct.pack(">H", 1)
+                 + mac_bytes(DEVICE_MAC) + struct.pack(">H", 0x8892))
+
+
+def iocr_req(iocr_type: int, ref: int, frame_id: int, data_len: int, objects, iocs, api: int = 0) -> bytes:
+    body = struct.pack(">HHHIHHHHHHIHHH", iocr_type, ref, 0x8892, 1, data_len, frame_id, 32, 2, 1, 0,
+                       0xFFFFFFFF, 3, 3, 0xC000)
+    body += b"\0" * 6 + struct.pack(">H", 1) + struct.pack(">IH", api, len(objects))
+    for s, ss, off in objects:
+        body += struct.pack(">HHH", s, ss, off)
+    body += struct.pack(">H", len(iocs))
+    for s, ss, off in iocs:
+        body += struct.pack(">HHH", s, ss, off)
+    return block(0x0102, body)
+
+
+def iocr_res(iocr_type: int, ref: int, frame_id: int) -> bytes:
+    return block(0x8102, struct.pack(">HHH", iocr_type, ref, frame_id))
+
+
+def alarmcr_req() -> bytes:
+    return block(0x0103, struct.pack(">HHIHHHHHH", 1, 0x8892, 0, 5, 3, 0x8001, 200, 0xC000, 0xA000))
+
+
+def alarmcr_res() -> bytes:
+    return block(0x8103, struct.pack(">HHH", 1, 0x8002, 200))
+
+
+def expected(api: int, slot: int, module_ident: int, subs) -> bytes:
+    """subs: [(subslot, ident, type, in_len, out_len)]"""
+    body = struct.pack(">HIHIHH", 1, api, slot, module_ident, 0, len(subs))
+    for ss, ident, typ, in_len, out_len in subs:
+        body += struct.pack(">HIH", ss, ident, typ)
+        if typ in (0, 1, 3):
+            body += struct.pack(">HHBB", 1, in_len if typ else 0, 1, 1)
+        if typ in (2, 3):
+            body += struct.pack(">HHBB", 2, out_len, 1, 1)
+    return block(0x0104, body)
+
+
+def rw_header(bt: int, index: int, length: int, *, seq: int = 1, api: int = 0x3D00, slot: int = 1,
+              subslot: int = 1, ar_uuid: str = AR_UUID, status: bytes = b"\0\0\0\0") -> bytes:
+    body = struct.pack(">H", seq) + uuid_bytes(ar_uuid) + struct.pack(">IHHHHI", api, slot, subslot, 0, index, length)
+    if bt == 0x8008:
+        body += struct.pack(">HH", 0, 0) + status + b"\0" * 16
+    elif bt == 0x8009:
+        body += b"\0" * 24
+    else:
+        body += b"\0" * 24
+    return block(bt, body)
+
+
+def connect_pair(subs, api: int = 0x3D00, in_fid: int = 0x8000, out_fid: int = 0x8001, **kw):
+    """(request frame, response frame) of a Connect with one slot-1 module and ``subs``."""
+    in_objs, out_objs, in_iocs, out_iocs = [], [], [], []
+    ioff = ooff = 0
+    for ss, _ident, typ, in_len, out_len in subs:
+        if typ in (0, 1, 3):
+            in_objs.append((1, ss, ioff))
+            ioff += (in_len if typ else 0) + 1
+        if typ in (2, 3):
+            out_objs.append((1, ss, ooff))
+            ooff += out_len + 1
+    for s, ss, _ in out_objs:
+        in_iocs.append((s, ss, ioff))
+        ioff += 1
+    for s, ss, _ in in_objs:
+        out_iocs.append((s, ss, ooff))
+        ooff += 1
+    req_blocks = (ar_block_req(**kw) + iocr_req(1, 1, in_fid, max(40, ioff), in_objs, in_iocs, api)
+                  + iocr_req(2, 2, 0xFFFF, max(40, ooff), out_objs, out_iocs, api) + alarmcr_req()
+                  + expected(api, 1, 0x100, subs))
+    res_blocks = ar_block_res() + iocr_res(1, 1, in_fid) + iocr_res(2, 2, out_fid) + alarmcr_res()
+    act = "00000007-0000-1010-8000-000000000007"
+    req = frame(CONTROLLER_MAC, DEVICE_MAC, CONTROLLER_IP, DEVICE_IP, 49153, 34964,
+                dcerpc(0, 0, ndr_request(req_blocks), act=act))
+    res = frame(DEVICE_MAC, CONTROLLER_MAC, DEVICE_IP, CONTROLLER_IP, 49154, 49153,
+                dcerpc(2, 0, ndr_response(res_blocks, little=True), act=act, little=True, flags1=0x0A))
+    return req, res
