@@ -238,13 +238,13 @@ class CyclicTracker:
         if o.bits is None:
             ax = self.axes.get(o.key)
             o.bits = tg.bits(o.sig, ax.profile if ax else "generic")
-            zsw = o.sig.get("g1_zsw")
-            if zsw is not None and zsw >> 15 and "g1_xist2" in o.sig:
-                o.bits = dict(o.bits, **{"g1_xist2.error": tg.error_text(o.sig["g1_xist2"])})
-        self.a.emit({"frame": rt_ev["frame"], "ts_ns": rt_ev["ts_ns"], "kind": "telegram", "direction": fr.direction,
-                     "telegram": o.telegram, "telegram_source": o.source, "station": fm.station,
-                     "device_mac": fm.device_mac, "api": do.api, "slot": do.slot, "subslot": do.subslot,
-                     "frame_id": rt_ev["frame_id"], "iops": iops, "judged": ok, "signals": o.sig, "bits": o.bits})
+        ev = {"frame": rt_ev["frame"], "ts_ns": rt_ev["ts_ns"], "kind": "telegram", "direction": fr.direction,
+              "telegram": o.telegram, "telegram_source": o.source, "station": fm.station,
+              "device_mac": fm.device_mac, "api": do.api, "slot": do.slot, "subslot": do.subslot,
+              "frame_id": rt_ev["frame_id"], "iops": iops, "judged": ok, "signals": o.sig, "bits": o.bits}
+        if o.bits.get("g1_zsw.sensor_error") and "g1_xist2" in o.sig:  # G1_XIST2 holds an error code (cyclic.md §9)
+            ev["xist2_error"] = {"code": o.sig["g1_xist2"], "text": tg.error_text(o.sig["g1_xist2"])}
+        self.a.emit(ev)
 
     def _length_check(self, o: _Obj, fr: _Frame, fn: int, ts: int) -> None:
         if o.source == "length (guess)":

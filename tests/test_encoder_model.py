@@ -159,3 +159,24 @@ def test_write_parameter_refusals():
     enc = ReferenceEncoder(make_cfg())
     assert enc.write_parameter(65000, 1 << 25) == (False, 0x02)
     assert enc.write_parameter(922, 83) == (False, 0x01)
+
+
+@settings(max_examples=200, deadline=None)
+@given(profile=st.sampled_from(["lika", "scancon", "hohner", "psm", "generic"]),
+       telegram=st.sampled_from(sorted(tg.TELEGRAMS)), iso=st.booleans(),
+       raw=st.lists(st.binary(min_size=40, max_size=40), min_size=1, max_size=25))
+def test_checker_survives_random_cycles(profile, telegram, iso, raw):
+    """Random words through the checker: only well-formed events come out, nothing raises."""
+    from pndiss import rules
+    cfg = make_cfg(profile=profile, telegram=telegram, iso=iso, shift=None)
+    chk = Checker(cfg)
+    evs = []
+    for i, b in enumerate(raw):
+        sp = tg.decode(telegram, "setpoint", b[:20])
+        ac = tg.decode(telegram, "actual", b[20:40])
+        evs += chk.gap(i, i, "x") if b[0] == 0 else chk.cycle(i, i, sp, ac)
+    evs += chk.finish()
+    for e in evs:
+        assert e["kind"] in ("violation", "state") and isinstance(e["frame"], int)
+        if e["kind"] == "violation":
+            assert e["rule"] in rules.RULES and e["last_frame"] >= e["frame"]

@@ -200,6 +200,16 @@ def test_analyzer_length_mismatch_and_short_csdu():
     assert any(e["kind"] == "malformed" and e["layer"] == "telegram" for e in ev)
 
 
+def test_analyzer_reports_xist2_error_words():
+    sp = bytes.fromhex("1400A000")
+    err = bytes.fromhex("1200 8000 00000005 00000F02".replace(" ", ""))
+    _, ev = _analyze([(sp, err, True)] * 2, _maps())
+    act = [e for e in ev if e["kind"] == "telegram" and e["direction"] == "actual"]
+    assert act[0]["xist2_error"]["code"] == 0x0F02 and "sign-of-life" in act[0]["xist2_error"]["text"]
+    assert act[0]["bits"]["g1_zsw.sensor_error"] == 1
+    assert any(e["kind"] == "state" and e["state"] == "sensor_error" and e["value"] == 0x0F02 for e in ev)
+
+
 def test_report_sections_render():
     from rich.console import Console
     sp = bytes.fromhex("14002000")
