@@ -175,8 +175,9 @@ class McapExporter:
         self._chans: dict[tuple, _Chan] = {}
         self._names: dict[str, str] = {}    # MAC -> NameOfStation, as learnt from the events
         self._labels: dict[str, str] = {}   # MAC -> topic label, fixed at first use
-        self._controllers: set[str] = set()
-        self._device_of: dict[tuple, str] = {}  # (frame_id, src, dst) -> device MAC, from telegrams
+        self._used_labels: set[str] = set()
+        self._controllers: set[str] = set()  # MACs that are the controller of an AR
+        self._topics: set[str] = set()
         self.seen: dict[str, int] = {}       # events seen per kind
         self.dropped = 0                     # cyclic samples left out by on_change / decimate
         self.closed = False
@@ -194,6 +195,7 @@ class McapExporter:
 
     def _chan(self, ckey: tuple, topic: str, skey: str, meta: dict, schema: dict | None = None) -> _Chan:
         sid = self._schema_id(skey, schema or SCHEMAS[skey])
+        topic = self._unique(topic)
         cid = self.w.register_channel(topic, "json", sid, {k: str(v) for k, v in meta.items() if v is not None})
         ch = self._chans[ckey] = _Chan(cid, topic)
         return ch
@@ -211,6 +213,17 @@ class McapExporter:
         self.w.add_message(ch.id, t, _encode(msg), ts, seq)
         ch.written += 1
         ch.last_written_t = ts
+
+    def _unique(self, topic: str) -> str:
+        """A topic no other channel has (a guard: the naming scheme should already ensure it)."""
+        if topic not in self._topics:
+            self._topics.add(topic)
+            return topic
+        n = 2
+        while f"{topic}~{n}" in self._topics:
+            n += 1
+        self._topics.add(f"{topic}~{n}")
+        return f"{topic}~{n}"
 
     def _keep(self, ch: _Chan, key, ts: int) -> bool:
         """Volume control for a cyclic sample (no options: every sample)."""
@@ -238,7 +251,11 @@ class McapExporter:
         lab = self._labels.get(mac)
         if lab is None:
             nm = name or self._names.get(mac)
-            lab = self._labels[mac] = _UNSAFE.sub("_", nm if nm else mac.replace(":", "-"))
+            lab = _UNSAFE.sub("_", nm if nm else mac.replace(":", "-"))
+            if lab in self._used_labels:  # two stations with one name (a DCP fault): add the MAC
+                lab = f"{lab}_{mac.replace(':', '-')}"
+            self._labels[mac] = lab
+            self._used_labels.add(lab)
         return lab
 
     def _learn(self, mac, name) -> None:
@@ -282,10 +299,18 @@ class McapExporter:
         ckey = ("rt", fid, src, dst)
         ch = self._chans.get(ckey)
         if ch is None:
-            dev = self._device_of.get(ckey) or (dst if src in self._controllers else src)
-            topic = f"/pn/{self._label(dev)}/apdu/0x{fid:04x}" if isinstance(fid, int) else f"/pn/{self._label(dev)}/apdu/{fid}"
-            ch = self._chan(ckey, topic, "apdu", {"src": src, "dst": dst, "frame_id": f"0x{fid:04x}" if isinstance(fid, int) else fid,
-                                                  "frame_class": ev.get("frame_class"), "device_mac": dev})
+            # Frame IDs are chosen per receiver, so both directions of an AR may use the same
+            # one: with the roles known (Connect) the topic names the device and the direction.
+            fids = f"0x{fid:04x}" if isinstance(fid, int) else _UNSAFE.sub("_", str(fid))
+            if src in self._controllers or dst in self._controllers:
+                dev, way = (dst, "output") if src in self._controllers else (src, "input")
+                topic = f"/pn/{self._label(dev)}/apdu/{fids}/{way}"
+            else:
+                dev, way = src, None
+                topic = f"/pn/{self._label(dev)}/apdu/{fids}"
+            ch = self._chan(ckey, topic, "apdu", {
+                "src": src, "dst": dst, "frame_id": fids, "frame_class": ev.get("frame_class"),
+                "device_mac": dev, "direction": way})
         ts = ev.get("ts_ns") or 0
         d_cycle = None if ch.prev_cc is None else (cc - ch.prev_cc) & 0xFFFF
         dt = None if ch.prev_t is None else ts - ch.prev_t
@@ -320,10 +345,6 @@ class McapExporter:
                 "subslot": sub, "telegram": tg, "direction": side,
                 "frame_id": f"0x{ev['frame_id']:04x}" if isinstance(ev.get("frame_id"), int) else ev.get("frame_id")},
                 schema)
-        if mac is not None:
-            fid = ev.get("frame_id")
-            if isinstance(fid, int) and ("rt", fid, ev.get("src"), ev.get("dst")) not in self._device_of:
-                self._device_of[("rt", fid, ev.get("src"), ev.get("dst"))] = mac
         if (self.on_change or self.decimate > 1) and not self._keep(
                 ch, (ev.get("words"), ev.get("raw"), ev.get("signals")), ev.get("ts_ns") or 0):
             return
