@@ -272,24 +272,19 @@ class CyclicTracker:
         prof = getattr(self.a.session, "profile_for", None)
         ax.profile, ax.reason = prof(fm.device_mac) if prof else (self.s.profile if self.s.profile != "auto" else "generic",
                                                                   "settings" if self.s.profile != "auto" else "no session profile")
-        bf = self.bf00.get(fm.device_mac)
         iso = None
         fid = fm.frame_id
         if fid is not None:
             iso = tg_is_irt(fid)
-        cfg = EncoderConfig.from_settings(self.s, profile=ax.profile, telegram=o.telegram, bf00=bf[1] if bf else None,
-                                          cycle_ns=fm.cycle_time_ns, iso=iso, profile_reason=ax.reason,
-                                          telegram_source=o.source)
+        cfg = EncoderConfig.from_settings(self.s, profile=ax.profile, telegram=o.telegram, cycle_ns=fm.cycle_time_ns,
+                                          iso=iso, profile_reason=ax.reason, telegram_source=o.source)
         ax.checker = Checker(cfg, info)
         self._refine_profile(ax)
         ax.checker.prev_bf00 = self.prev_bf00.get(fm.device_mac)
         self.axes[o.key] = ax
-        for ev in self.records.get(fm.device_mac, ()):  # records seen before the first cyclic frame
-            if ev.get("kind") == "record" and ev.get("index") in BF00_INDEXES and bf is not None:
-                continue  # already applied through the config
-            self._out(ax.checker.on_record(ev))
-        if bf is not None:
-            ax.checker.bf00_seen = True
+        for ev in self.records.get(fm.device_mac, ()):  # records seen before the first cyclic frame, in order
+            if ev.get("ar_uuid") is None or fm.ar_uuid is None or ev.get("ar_uuid") == fm.ar_uuid:
+                self._out(ax.checker.on_record(ev))  # a 0xBF00 among them configures the checker
         return ax
 
     def _startup(self, ax: _Axis, fn: int, ts: int) -> None:

@@ -220,3 +220,23 @@ def test_report_sections_render():
         con.print(sec)
     text = con.export_text()
     assert "CTRLREQ-MISMATCH" in text and "Settings in force" in text and "enc1" in text
+
+
+def test_records_before_the_first_cyclic_frame_are_replayed():
+    # a 0xBF00 written before any cyclic frame configures the checker (compat = 0: CREQ must be 0)
+    sp = bytes.fromhex("14002000")
+    ac = bytes.fromhex("1200 2000 00000005 00000005".replace(" ", ""))
+    events = []
+    a = Analyzer(sink=events.append)
+    maps = _maps()
+    a.session.lookup = lambda fid, src, dst: maps.get(fid)
+    a.cyclic.on_record({"frame": 1, "ts_ns": 1, "kind": "record", "op": "write", "index": 0xBF00, "length": 31,
+                        "device_mac": DEV, "data": "00" * 31, "decoded": {"compat": 0, "class4": 1, "problems": []}})
+    for fn in range(2, 8, 2):
+        a.feed(fn, fn, 1, _frame(DEV, CTRL, 0x8001, sp + b"\x80\x80"))
+        a.feed(fn + 1, fn + 1, 1, _frame(CTRL, DEV, 0x8000, ac + b"\x80\x80"))
+    a.finish()
+    rules = {e["rule"] for e in events if e["kind"] == "violation"}
+    assert "CTRLREQ-SET-IN-COMPAT" in rules and "STARTUP-NO-PARAM-RECORD" not in rules
+    enc = a.summary()["cyclic"]["encoders"][0]
+    assert enc["settings"]["compat"]["value"] == 0 and "0xBF00" in enc["settings"]["compat"]["source"]
