@@ -169,12 +169,43 @@ class Timeline:
         return (t - self.origin()) / 1e9
 
 
+def _window_ns(tl: Timeline, window) -> tuple[int, int]:
+    """(first, last) ns shown: ``window`` = (start s, end s) on the plot's axis, or everything."""
+    if window is None:
+        lo = min([tl.origin()] + [t for t, _, _ in tl.violations])
+        return lo, max(tl.last_ts or lo, lo + 1)
+    lo, hi = (tl.origin() + int(w * 1e9) for w in window)
+    return lo, max(hi, lo + 1)
+
+
+def _series_in(s: Series, lo: int, hi: int) -> tuple[list, list]:
+    ts, vs = [], []
+    for t, v in zip(s.t, s.v):
+        if lo <= t <= hi:
+            ts.append(t)
+            vs.append(v)
+    return ts, vs
+
+
+def _lane_in(lane: Lane, lo: int, hi: int) -> list[tuple[int, int]]:
+    """Transitions inside [lo, hi], starting with the value the lane has at ``lo``."""
+    out, cur = [], None
+    for t, v in lane.changes:
+        if t <= lo:
+            cur = v
+        elif t <= hi:
+            out.append((t, v))
+    if cur is not None:
+        out.insert(0, (lo, cur))
+    return out
+
+
 # -- PNG (matplotlib) ---------------------------------------------------------------------------
 class PlotUnavailable(Exception):
     pass
 
 
-def render_png(tl: Timeline, path: str, title: str = "") -> None:
+def render_png(tl: Timeline, path: str, title: str = "", window=None) -> None:
     try:
         import matplotlib
         matplotlib.use("Agg")
@@ -194,26 +225,30 @@ def render_png(tl: Timeline, path: str, title: str = "") -> None:
     fig, axes = plt.subplots(len(rows), 1, sharex=True, squeeze=False,
                              figsize=(11, 1.2 + 2.2 * sum(heights)), gridspec_kw={"height_ratios": heights})
     axes = [a[0] for a in axes]
-    end = tl.sec(tl.last_ts) if tl.last_ts is not None else 1.0
+    lo_t, hi_t = _window_ns(tl, window)
+    end = tl.sec(hi_t)
     for ax, (kind, e) in zip(axes, rows):
         if kind == "motion":
-            if e.position.t:
-                ax.plot([tl.sec(t) for t in e.position.t], e.position.v, color="#1f77b4", lw=1.2,
+            ts, vs = _series_in(e.position, lo_t, hi_t)
+            if ts:
+                ax.plot([tl.sec(t) for t in ts], vs, color="#1f77b4", lw=1.2,
                         drawstyle="steps-post", label=e.position_name)
             ax.set_ylabel(f"{e.position_name or 'position'}", color="#1f77b4", fontsize=8)
             ax.text(0.005, 0.97, e.label, transform=ax.transAxes, fontsize=9, va="top", weight="bold",
                     bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none"})
-            if e.speed.t:
+            ts, vs = _series_in(e.speed, lo_t, hi_t)
+            if ts:
                 ax2 = ax.twinx()
-                ax2.plot([tl.sec(t) for t in e.speed.t], e.speed.v, color="#2ca02c", lw=1.0, label=e.speed_name)
+                ax2.plot([tl.sec(t) for t in ts], vs, color="#2ca02c", lw=1.0, label=e.speed_name)
                 ax2.set_ylabel(e.speed_name, color="#2ca02c", fontsize=8)
                 ax2.tick_params(labelsize=7)
         elif kind == "lanes":
             lanes = tl.shown_lanes(e)
             for i, (name, lane) in enumerate(lanes):
                 y0 = len(lanes) - 1 - i
-                xs = [tl.sec(t) for t, _ in lane.changes] + [end]
-                ys = [y0 + 0.7 * v for _, v in lane.changes]
+                ch = _lane_in(lane, lo_t, hi_t) or [(lo_t, lane.changes[0][1])]
+                xs = [tl.sec(t) for t, _ in ch] + [end]
+                ys = [y0 + 0.7 * v for _, v in ch]
                 ys.append(ys[-1])
                 ax.step(xs, ys, where="post", lw=1.1, color="#444")
                 ax.fill_between(xs, y0, ys, step="post", alpha=0.25, color="#9467bd")
@@ -227,11 +262,14 @@ def render_png(tl: Timeline, path: str, title: str = "") -> None:
         ax.tick_params(labelsize=7)
         ax.grid(True, axis="x", alpha=0.3)
         for t, rule, sev in tl.violations:
-            ax.axvline(tl.sec(t), color=SEV_COLOURS.get(sev, "#d62728"), lw=0.9, alpha=0.8)
+            if lo_t <= t <= hi_t:
+                ax.axvline(tl.sec(t), color=SEV_COLOURS.get(sev, "#d62728"), lw=0.9, alpha=0.8)
+        if window is not None:
+            ax.set_xlim(tl.sec(lo_t), end)
     # one label per cluster of markers (its distinct rule IDs), at most 60 labels: legible
-    gap = (max(end, 1e-9) - min(0.0, tl.sec(tl.first_ts or 0))) / 60
+    gap = (end - tl.sec(lo_t)) / 60
     clusters: list[list] = []
-    for t, rule, sev in sorted(tl.violations):
+    for t, rule, sev in sorted(v for v in tl.violations if lo_t <= v[0] <= hi_t):
         xs = tl.sec(t)
         if clusters and xs - clusters[-1][0] < gap:
             if rule not in clusters[-1][1]:
@@ -251,15 +289,18 @@ def render_png(tl: Timeline, path: str, title: str = "") -> None:
 
 
 # -- HTML (inline SVG, no dependencies, no network) ------------------------------------------------
-def render_html(tl: Timeline, path: str, title: str = "") -> None:
+def render_html(tl: Timeline, path: str, title: str = "", window=None) -> None:
     W, LEFT, RIGHT = 1100, 170, 20
-    lo_t = min(tl.origin(), *(t for t, _, _ in tl.violations)) if tl.violations else tl.origin()
-    span = max((tl.last_ts or 0) - lo_t, 1)
+    lo_t, hi_t = _window_ns(tl, window)
+    span = hi_t - lo_t
     x = lambda t: LEFT + (t - lo_t) * (W - LEFT - RIGHT) / span  # noqa: E731
     parts, y = [], 30
     esc = html.escape
 
-    def line(ts, vs, y0, h, colour):
+    def line(s: Series, y0, h, colour):
+        ts, vs = _series_in(s, lo_t, hi_t)
+        if not ts:
+            return
         lo, hi = min(vs), max(vs)
         sc = h / (hi - lo) if hi > lo else 0
         pts = []
@@ -273,15 +314,15 @@ def render_html(tl: Timeline, path: str, title: str = "") -> None:
         parts.append(f'<text x="4" y="{y}" class="h">{esc(e.label)}</text>')
         y += 8
         if e.position.t:
-            line(e.position.t, e.position.v, y, 90, "#1f77b4")
+            line(e.position, y, 90, "#1f77b4")
             parts.append(f'<text x="4" y="{y + 40}" fill="#1f77b4">{esc(e.position_name)}</text>')
         if e.speed.t:
-            line(e.speed.t, e.speed.v, y + 100, 60, "#2ca02c")
+            line(e.speed, y + 100, 60, "#2ca02c")
             parts.append(f'<text x="4" y="{y + 130}" fill="#2ca02c">{esc(e.speed_name)}</text>')
         y += 170
         for name, lane in tl.shown_lanes(e):
             pts, prev = [], None
-            for t, v in lane.changes:
+            for t, v in _lane_in(lane, lo_t, hi_t) or [(lo_t, lane.changes[0][1])]:
                 yy = y + 14 - 12 * v
                 if prev is not None:
                     pts.append(f"{x(t):.1f},{prev:.1f}")
@@ -296,6 +337,8 @@ def render_html(tl: Timeline, path: str, title: str = "") -> None:
         parts.append(f'<text x="{LEFT}" y="{y + 20}">no telegram samples in this capture</text>')
         y += 40
     for t, rule, sev in tl.violations:
+        if not lo_t <= t <= hi_t:
+            continue
         c = SEV_COLOURS.get(sev, "#d62728")
         parts.append(f'<line x1="{x(t):.1f}" y1="14" x2="{x(t):.1f}" y2="{y}" stroke="{c}">'
                      f'<title>{esc(rule)} ({esc(sev)}) at {tl.sec(t):.6f} s</title></line>'

@@ -140,3 +140,27 @@ def test_cli_plot_without_matplotlib(tmp_path, monkeypatch, capsys):
     assert "pndiss[plot]" in capsys.readouterr().err
     assert not (tmp_path / "t.png").exists()
     assert cli_main(["plot", SMALL[0], "-o", str(tmp_path / "t.html")]) == 0  # HTML needs nothing
+
+
+def test_window(tmp_path):
+    tl = Timeline()
+    for ev in preset_run():
+        tl.on_event(ev)
+    t_in, t_out = 1_000_000_000 + 305 * 1_000_000, 1_000_000_000 + 500 * 1_000_000
+    tl.on_event({"frame": 1, "ts_ns": t_in, "kind": "violation", "rule": "R-IN", "severity": "error"})
+    tl.on_event({"frame": 2, "ts_ns": t_out, "kind": "violation", "rule": "R-OUT", "severity": "error"})
+    out = tmp_path / "w.html"
+    render_html(tl, str(out), "w", window=(0.295, 0.310))  # seconds after the first sample
+    doc = out.read_text()
+    assert "R-IN" in doc and "R-OUT" not in doc
+    pos = re.findall(r'points="([^"]*)"', doc)[0].split()
+    assert len(pos) == 16  # samples 295..310 of the 1 ms run
+    # the lane starts at the window with the value it had there, then the two transitions
+    ack = re.findall(r'points="([^"]*)"', doc)[3].split()
+    assert len(ack) == 1 + 2 * 1 + 1  # start, one step (two points), end: ack rises at 303, falls at 343
+
+
+@pytest.mark.skipif(not SMALL, reason="no captures")
+def test_cli_window_errors(tmp_path):
+    for bad in ("1", "a:b", "2:1"):
+        assert cli_main(["plot", SMALL[0], "-o", str(tmp_path / "t.html"), "--window", bad]) == 2

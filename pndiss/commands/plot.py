@@ -14,6 +14,8 @@ def add_parser(sub) -> None:
                    help="picture to write; the suffix picks the format")
     p.add_argument("--max-points", type=int, default=4000, metavar="N",
                    help="samples kept per curve (longer captures are thinned evenly)")
+    p.add_argument("--window", metavar="START:END",
+                   help="show only this time range, in seconds on the plot's axis (e.g. 0.74:0.77)")
     add_settings_args(p)
     p.set_defaults(func=run)
 
@@ -36,6 +38,15 @@ def run(args) -> int:
         except ImportError:
             raise UsageError("PNG output needs matplotlib: pip install 'pndiss[plot]' "
                              "(or write .html, which needs nothing)") from None
+    window = None
+    if args.window:
+        try:
+            a, b = (float(v) for v in args.window.split(":"))
+        except ValueError:
+            raise UsageError(f"--window {args.window!r}: expected START:END in seconds") from None
+        if not b > a:
+            raise UsageError(f"--window {args.window!r}: END must be after START")
+        window = (a, b)
     settings = settings_from_args(args)
     tl = Timeline(args.max_points)
     try:
@@ -45,7 +56,7 @@ def run(args) -> int:
               file=sys.stderr)
     title = os.path.basename(args.capture)
     try:
-        (render_png if ext == ".png" else render_html)(tl, args.output, title)
+        (render_png if ext == ".png" else render_html)(tl, args.output, title, window)
     except PlotUnavailable as e:
         raise UsageError(str(e)) from None
     except OSError as e:
