@@ -256,6 +256,8 @@ class SessionTracker:
                 call["pdu"] = pdu
             if op == 3:
                 self._writes(fn, ts, pdu, key, src, dst)
+            elif op == 4:
+                self._control(pdu)  # PrmEnd from the controller, ApplicationReady from the device
             elif op == 0 and key in self.orphans and call is not None:
                 # the capture holds the response before its request (seen in profinet_io_cm_connect)
                 rfn, rts, rpdu, rsrc, rdst = self.orphans.pop(key)
@@ -276,8 +278,6 @@ class SessionTracker:
             self._write_results(fn, ts, pdu, key)
         elif op in (2, 5):
             self._reads(fn, ts, pdu, req, call, src, dst)
-        elif op == 4:
-            self._control(pdu)
 
     def _station(self, mac: str | None) -> str | None:
         if mac is None:
