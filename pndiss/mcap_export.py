@@ -126,12 +126,23 @@ def _default(o):
 _dumps = json.JSONEncoder(separators=(",", ":"), default=_default, allow_nan=False).encode
 
 
+def _clean(v):
+    """JSON-safe copy for the rare message the fast path refuses: NaN/inf -> null (JSON has no
+    such numbers, Foxglove would choke), non-string keys -> strings."""
+    if isinstance(v, dict):
+        return {k if isinstance(k, str) else str(k): _clean(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple, set, frozenset)):
+        return [_clean(x) for x in v]
+    if isinstance(v, float) and (v != v or v in (float("inf"), float("-inf"))):
+        return None
+    return v
+
+
 def _encode(msg: dict) -> bytes:
     try:
         return _dumps(msg).encode()
-    except ValueError:  # NaN / inf from a decoder: JSON has no such numbers, Foxglove would choke
-        return json.dumps(msg, separators=(",", ":"), default=_default).replace(
-            "NaN", "null").replace("-Infinity", "null").replace("Infinity", "null").encode()
+    except (ValueError, TypeError):
+        return _dumps(_clean(msg)).encode()
 
 
 class _Chan:
@@ -166,10 +177,19 @@ class McapExporter:
         self.on_change, self.decimate = on_change, int(decimate)
         self.keyframe_ns = int(keyframe_s * 1e9)
         self.compression = compression
-        self._f = open(path, "wb")
-        self.w = Writer(self._f, chunk_size=chunk_size,
-                        compression={"none": CompressionType.NONE, "lz4": CompressionType.LZ4,
-                                     "zstd": CompressionType.ZSTD}[compression])
+        try:
+            self._f = open(path, "wb")
+        except OSError as e:
+            from .errors import UsageError
+            raise UsageError(f"cannot write {path}: {e.strerror}") from None
+        try:
+            self.w = Writer(self._f, chunk_size=chunk_size,
+                            compression={"none": CompressionType.NONE, "lz4": CompressionType.LZ4,
+                                         "zstd": CompressionType.ZSTD}[compression])
+        except Exception:  # e.g. lz4 not installed: leave no empty file behind
+            self._f.close()
+            os.remove(path)
+            raise
         self.w.start(profile="", library=f"pndiss {__version__}")
         self._schemas: dict[bytes, int] = {}
         self._chans: dict[tuple, _Chan] = {}

@@ -400,9 +400,15 @@ def test_cli_export_and_analyze(tmp_path):
     assert set(cc) == set(ca) and sum(cc.values()) <= sum(ca.values())
 
 
-def test_cli_errors(tmp_path, capsys):
+def test_cli_errors(tmp_path, capsys, monkeypatch):
     assert cli_main(["export", str(tmp_path / "missing.pcap"), "-o", str(tmp_path / "x.mcap")]) == 2
     if SMALL:
         assert cli_main(["export", SMALL[0], "-o", str(tmp_path / "x.mcap"), "--decimate", "0"]) == 2
         assert cli_main(["export", SMALL[0], "-o", str(tmp_path / "nodir" / "x.mcap")]) == 2
-    assert "error" in capsys.readouterr().err
+        assert cli_main(["analyze", SMALL[0], "-q", "--mcap", str(tmp_path / "nodir" / "x.mcap")]) == 2
+        import mcap.writer
+        monkeypatch.setattr(mcap.writer, "lz4", None)  # as if lz4 were not installed
+        assert cli_main(["export", SMALL[0], "-o", str(tmp_path / "l.mcap"), "--compression", "lz4"]) == 2
+        assert not (tmp_path / "l.mcap").exists()
+    err = capsys.readouterr().err
+    assert "error" in err and "internal error" not in err
