@@ -68,7 +68,9 @@ for _, sig in ipairs(sig_names) do
         if not F[ab] then field(ab, ProtoField.uint8, b.title) end
     end
 end
-field("pndiss.g1_xist2.error", ProtoField.string, "G1_XIST2 error code")
+-- telegram event "xist2_error": G1_XIST2 holds an error code while g1_zsw.sensor_error = 1 (cyclic.md §9)
+field("pndiss.xist2_error.code", ProtoField.uint32, "G1_XIST2 error code", base.HEX)
+field("pndiss.xist2_error.text", ProtoField.string, "G1_XIST2 error")
 
 -- records / parameters (record and param events)
 field("pndiss.record.op", ProtoField.string, "Record access")
@@ -87,6 +89,7 @@ field("pndiss.param.subindex", ProtoField.uint16, "Subindex")
 field("pndiss.param.name", ProtoField.string, "Parameter name")
 field("pndiss.param.format", ProtoField.uint8, "Format", base.HEX)
 field("pndiss.param.value", ProtoField.string, "Value")
+field("pndiss.param.value_text", ProtoField.string, "Value (text, octets or float)")
 field("pndiss.param.error_code", ProtoField.uint16, "Error number", base.HEX)
 field("pndiss.param.error", ProtoField.string, "Error")
 field("pndiss.param.pairing", ProtoField.string, "Pairing problem")
@@ -206,10 +209,18 @@ local function compile_obj(o, direction)
     return {o = o, telegram = t, source = src, dir = dir, rows = rows, len = off}
 end
 
+-- like pndiss/cyclic.py CyclicTracker._frame: a layout, once found, stays (with its objects); an
+-- unmapped key is looked up again only every RELOOKUP_EVERY frames of that key
+local RELOOKUP_EVERY = 1024
+local misses = {}
 local function lookup(fid, src, dst)
     local key = fid .. "|" .. src .. "|" .. dst
     local c = map_cache[key]
-    if c ~= nil then return c or nil end
+    if c ~= nil then
+        if c then return c end
+        misses[key] = misses[key] + 1
+        if misses[key] % RELOOKUP_EVERY ~= 0 then return nil end
+    end
     local fm = maps[key]
     if fm == nil and usermap[fid] then
         local u = usermap[fid]
@@ -228,9 +239,10 @@ local function lookup(fid, src, dst)
                 if c2 then objs[#objs + 1] = c2 end
             end
         end
-        if #objs > 0 then out = {fm = fm, objs = objs} end
+        out = {fm = fm, objs = objs}
     end
     map_cache[key] = out
+    if not out and misses[key] == nil then misses[key] = 0 end
     return out or nil
 end
 
@@ -365,23 +377,29 @@ local function connect_response(key, pinfo)
             maps[fid .. "|" .. s .. "|" .. d] = fm
         end
     end
-    map_cache = {}
 end
 
 -- 5. records --------------------------------------------------------------------------------------
 local axes = {}      -- axis key -> rule state (section 6)
 local devices = {}   -- device MAC -> {bf00 = decoded 0xBF00 written, p922 = first P922 value read}
 local checker_p922   -- defined with the rules (section 6)
-local pairer = {}   -- param key -> {req, frame}
+local pairer = {}       -- param key -> {req, frame} of the request awaiting its response
+local superseded = {}   -- param key -> frames of requests overwritten before a response
 local frame_cache = {}   -- frame number -> list of {kind, ...} to show (computed on the first pass)
 
 local function u8(t, o) return t(o, 1):uint() end
 local function u16(t, o) return t(o, 2):uint() end
 
+local function request_id_name(id)
+    return T.request_ids[id] or ((id >= 0x40 and id <= 0x7F) and "manufacturer-specific" or "reserved")
+end
+
 local function param_name(pnu, profile)
     local v = T.vendor_params[profile]
     return (v and v[pnu]) or T.params[pnu] or ("P" .. pnu)
 end
+
+local INT_CODES = {B = true, H = true, I = true, b = true, h = true, i = true, q = true, Q = true}
 
 -- a value block at off: returns block, next offset (nil + reason when it does not fit)
 local function value_block(t, off, len)
@@ -407,6 +425,7 @@ local function value_block(t, off, len)
         elseif code == "hex" then v = t(o, size):bytes():tohex():lower()
         end
         if v then blk.values[#blk.values + 1] = v end
+        blk.int = INT_CODES[code] or false
     end
     if spec.code == "str" then blk.values[1] = t(off + 2, size * n):raw() end
     if fmt == 0x44 and n > 0 then
@@ -470,6 +489,21 @@ local function decode_bf00(t, len, profile)
     end
     if len >= 17 then d.mupr = t(1, 8):uint64(); d.tmr = t(9, 8):uint64() end
     if len >= 18 then d.max_master_sol_failures = u8(t, 17) end
+    if len >= 17 then
+        if d.mupr < UInt64(1) then d.problems[#d.problems + 1] = "BF00-VALUE-OUT-OF-RANGE" end
+        if d.tmr < UInt64(2) then d.problems[#d.problems + 1] = "BF00-VALUE-OUT-OF-RANGE" end
+    end
+    if len >= 18 and d.max_master_sol_failures < (profile == "psm" and 0 or 1) then
+        d.problems[#d.problems + 1] = "BF00-VALUE-OUT-OF-RANGE"
+    end
+    if len >= 19 and u8(t, 18) > (profile == "psm" and 4 or 3) then
+        d.problems[#d.problems + 1] = "BF00-VALUE-OUT-OF-RANGE"
+    end
+    if profile == "lika" or profile == "generic" then   -- CHECK_RESERVED: bits 0.6-7, bytes 19-30
+        local bad = len >= 1 and bit.rshift(u8(t, 0), 6) ~= 0
+        for i = 19, math.min(len, 31) - 1 do if u8(t, i) ~= 0 then bad = true end end
+        if bad then d.problems[#d.problems + 1] = "BF00-RESERVED-NONZERO" end
+    end
     if len >= 19 then
         d.velocity_unit = u8(t, 18)
         local tbl = profile == "psm" and T.bf00_velocity_units_psm or T.bf00_velocity_units
@@ -521,7 +555,10 @@ local function record_items(pinfo, recs)
             if r.op == "write" then
                 local req = decode_request(t, len, profile)
                 if req then
-                    if pairer[key] then pairer[key].superseded = true end
+                    if pairer[key] then   -- ParamPairer.request: an unanswered request is overwritten
+                        superseded[key] = superseded[key] or {}
+                        table.insert(superseded[key], pairer[key].frame)
+                    end
                     pairer[key] = {req = req, frame = pinfo.number}
                     it.request = req
                 else
@@ -533,17 +570,42 @@ local function record_items(pinfo, recs)
                     local p = pairer[key]
                     pairer[key] = nil
                     local ev = {rsp = rsp, pairing = {}, params = {}}
+                    local sup = superseded[key]
+                    superseded[key] = nil
+                    if sup then
+                        local fr = {}
+                        for j, f in ipairs(sup) do fr[j] = tostring(f) end
+                        ev.pairing[#ev.pairing + 1] = "request(s) in frame(s) " .. table.concat(fr, ", ")
+                            .. " overwritten before their response was read"
+                    end
                     if p == nil then
-                        ev.pairing[1] = "no request"
+                        ev.pairing[#ev.pairing + 1] = "no request"
                     else
-                        ev.request_frame, ev.req = p.frame, p.req
-                        if rsp.ref ~= p.req.ref then ev.pairing[#ev.pairing + 1] = "request ref mismatch" end
+                        local q = p.req
+                        ev.request_frame, ev.req = p.frame, q
+                        local w = ev.pairing
+                        if rsp.ref ~= q.ref then
+                            w[#w + 1] = string.format("request ref mismatch (request 0x%02X, response 0x%02X)", q.ref, rsp.ref)
+                        end
+                        if rsp.id ~= q.id and rsp.id ~= bit.bor(q.id, 0x80) then
+                            w[#w + 1] = string.format("response id mismatch (request 0x%02X, response 0x%02X)", q.id, rsp.id)
+                        end
+                        if rsp.axis ~= q.axis then
+                            w[#w + 1] = string.format("axis not mirrored (request %d, response %d)", q.axis, rsp.axis)
+                        end
+                        if rsp.n ~= q.n then
+                            w[#w + 1] = string.format("number of parameters mismatch (request %d, response %d)", q.n, rsp.n)
+                        end
+                        if #rsp.blocks > 0 and #rsp.blocks ~= #q.params then
+                            w[#w + 1] = string.format("%d value blocks for %d requested parameters", #rsp.blocks, #q.params)
+                        end
                     end
                     local reqp = p and p.req.params or {}
                     for i = 1, math.max(#reqp, #rsp.blocks) do
                         local a, blk = reqp[i], rsp.blocks[i]
                         ev.params[i] = {pnu = a and a.pnu, subindex = a and a.subindex, name = a and a.name,
                                         format = blk and blk.format, values = blk and blk.values or {},
+                                        int = blk and blk.int,
                                         error = blk and blk.error}
                         if a and a.pnu == 922 and blk and not blk.error and blk.values[1] and (a.subindex or 0) == 0 then
                             -- session.py: a P922 read names the telegram of the device's submodules
@@ -568,8 +630,6 @@ local function record_items(pinfo, recs)
                                 for _, ax in pairs(axes) do
                                     if ax.device == device then checker_p922(ax, tnum) end
                                 end
-                                -- like pndiss/cyclic.py, a frame layout already in use keeps its telegram
-                                for k, v in pairs(map_cache) do if v == false then map_cache[k] = nil end end
                             end
                         end
                     end
@@ -869,7 +929,7 @@ local function add_object(tree, tvb, c, cached, fm)
     if cached.iops then st:add(F["pndiss.iops"], tvb(o.offset + o.length, 1), cached.iops) end
     st:add(F["pndiss.judged"], cached.ok and true or false)
     st:add(F["pndiss.profile"], cached.profile)
-    local zsw, x2
+    local serr, x2
     for _, row in ipairs(c.rows) do
         local r = tvb(o.offset + row.off, row.size)
         local v = sig_value(tvb, o.offset, row)
@@ -877,12 +937,16 @@ local function add_object(tree, tvb, c, cached, fm)
         if T.bitmaps[row.name] then
             for _, b in ipairs(bits_of(row.name, v, cached.profile)) do
                 it:add(F["pndiss." .. row.name .. "." .. b[1]], r, b[2])
+                if row.name == "g1_zsw" and b[1] == "sensor_error" and b[2] ~= 0 then serr = true end
             end
         end
-        if row.name == "g1_zsw" then zsw = v elseif row.name == "g1_xist2" then x2 = v end
+        if row.name == "g1_xist2" then x2 = {v, r} end
     end
-    if zsw and x2 and bit.rshift(zsw, 15) == 1 then
-        st:add(F["pndiss.g1_xist2.error"], T.xist2_errors[x2] or string.format("device-specific error code 0x%04X", x2))
+    if serr and x2 then
+        local code = x2[1]
+        local es = st:add(F["pndiss.xist2_error.code"], x2[2], code)
+        es:add(F["pndiss.xist2_error.text"], x2[2],
+            T.xist2_errors[code] or string.format("device-specific error code 0x%04X", code))
     end
 end
 
@@ -905,7 +969,7 @@ local function heuristic(tvb, pinfo, tree)
     if cached == nil then
         if pinfo.visited then return false end
         local entry = lookup(fid, tostring(pinfo.dl_src), tostring(pinfo.dl_dst))
-        if entry == nil then return false end
+        if entry == nil or #entry.objs == 0 then return false end
         local v, op = X["pn_rt.ds_valid"](), X["pn_rt.ds_operate"]()
         local ok_ds = v ~= nil and op ~= nil and v.value ~= 0 and op.value ~= 0
         local res = first_pass(pinfo, tvb, entry, ok_ds, fid)
@@ -952,7 +1016,6 @@ function pndiss.dissector(tvb, pinfo, tree)
             if v and not im0_seen[tostring(pinfo.dl_src)] then
                 local dv = X["pn_dcp.suboption_device_devicevendorvalue"]()
                 profiles[tostring(pinfo.dl_src)] = select_profile(v.value, dv and dv.value)
-                map_cache = {}
             end
         end
         return
@@ -977,7 +1040,6 @@ function pndiss.dissector(tvb, pinfo, tree)
             local dev = tostring(pinfo.dl_src)
             profiles[dev] = select_profile(vh.value * 256 + vl.value, oid and oid.value)
             im0_seen[dev] = true
-            map_cache = {}
             items[#items + 1] = {im0 = im.value}
         end
         rec_cache[pinfo.number] = items
@@ -1004,7 +1066,7 @@ function pndiss.dissector(tvb, pinfo, tree)
                 local q = it.request
                 st:add(F["pndiss.param.kind"], "parameter request")
                 st:add(F["pndiss.param.request_ref"], q.ref)
-                st:add(F["pndiss.param.request_id"], T.request_ids[q.id] or "reserved")
+                st:add(F["pndiss.param.request_id"], request_id_name(q.id))
                 st:add(F["pndiss.param.axis"], q.axis)
                 for _, a in ipairs(q.params) do
                     local pt2 = st:add(F["pndiss.param.pnu"], a.pnu)
@@ -1017,7 +1079,7 @@ function pndiss.dissector(tvb, pinfo, tree)
                 if ev.request_frame then st:add(F["pndiss.param.request_frame"], ev.request_frame) end
                 if ev.req then
                     st:add(F["pndiss.param.request_ref"], ev.req.ref)
-                    st:add(F["pndiss.param.request_id"], T.request_ids[ev.req.id] or "reserved")
+                    st:add(F["pndiss.param.request_id"], request_id_name(ev.req.id))
                     st:add(F["pndiss.param.axis"], ev.req.axis)
                 end
                 st:add(F["pndiss.param.response_id"], ev.rsp.id)
@@ -1032,7 +1094,8 @@ function pndiss.dissector(tvb, pinfo, tree)
                         pt2:add(F["pndiss.param.error_code"], p.error.code)
                         pt2:add(F["pndiss.param.error"], p.error.text)
                     else
-                        for _, v in ipairs(p.values) do pt2:add(F["pndiss.param.value"], v) end
+                        local vf = p.int and F["pndiss.param.value"] or F["pndiss.param.value_text"]
+                        for _, v in ipairs(p.values) do pt2:add(vf, v) end
                     end
                 end
             elseif it.bf00 then

@@ -33,7 +33,7 @@ def base_session(tmp_dir):
 
         path = os.path.join(tmp_dir, "base.pcapng")
         subprocess.run([sys.executable, "-m", "pndiss", "simulate", "--scenario", "preset", "--profile", "lika",
-                        "--cycles", "60", "--no-expected", "-o", path], check=True, capture_output=True, cwd=ROOT)
+                        "--cycles", "150", "--no-expected", "-o", path], check=True, capture_output=True, cwd=ROOT)
         evs = []
         analyze_file(path, sink=evs.append)
         frames = _read_pcapng_frames(path)

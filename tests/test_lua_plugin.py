@@ -75,9 +75,10 @@ class _Multi(list):
     pass
 
 
-def lua_fields(path):
-    """frame number -> {field: [values as shown]} for every pndiss field, and tshark's stderr."""
-    rc, out, err = tshark(path, "-T", "json", "-J", "pndiss frame")
+def lua_fields(path, prefs=()):
+    """frame number -> {field: [values as shown]} for every pndiss field (prefs: -o name:value)."""
+    extra = [a for p_ in prefs for a in ("-o", p_)]
+    rc, out, err = tshark(path, "-T", "json", "-J", "pndiss frame", *extra)
     assert rc == 0, err
     assert "Lua" not in err and "lua" not in err, err
     assert "Lua Error" not in out, "Lua error items in the dissection"
@@ -100,6 +101,17 @@ def _num(s):
         return int(s, 0)
     except ValueError:
         return s
+
+
+# PROFIdrive formats whose values are integers (records/profidrive.py FORMATS): compared exactly;
+# floats/strings/octets are shown but not compared (Lua and Python print them differently)
+INT_FORMATS = {0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x07, 0x0A, 0x37, 0x38, 0x41, 0x42, 0x43, 0x71, 0x72, 0x73, 0x74,
+               0x75, 0x76, 0x77, 0x78, 0x79, 0x7A, 0x7B, 0x7C}
+
+
+def add(d, key, value):
+    if value is not None:
+        d.setdefault(key, []).append(value)
 
 
 def profile_at(a, ev):
@@ -134,36 +146,73 @@ def python_expect(path, settings=None):
             prof = profile_at(a, ev)
             for b, v in tg.bits(ev["signals"], prof).items():
                 d.setdefault(f"pndiss.{b}", []).append(v)
-            if "g1_xist2.error" in ev["bits"]:
-                d.setdefault("pndiss.g1_xist2.error", []).append(ev["bits"]["g1_xist2.error"])
+            if ev.get("xist2_error"):
+                d.setdefault("pndiss.xist2_error.code", []).append(ev["xist2_error"]["code"])
+                d.setdefault("pndiss.xist2_error.text", []).append(ev["xist2_error"]["text"])
         elif k == "record":
             d = want.setdefault(ev["frame"], {})
             d.setdefault("pndiss.record.index", []).append(ev["index"])
             d.setdefault("pndiss.record.index_name", []).append(ev["index_name"])
+            d.setdefault("pndiss.record.op", []).append(ev["op"])
             dec = ev.get("decoded") or {}
             if ev["op"] == "write" and dec.get("kind") == "parameter request":
+                add(d, "pndiss.param.request_ref", dec["request_ref"])
+                add(d, "pndiss.param.request_id", dec["request_id_name"])
+                add(d, "pndiss.param.axis", dec["axis"])
                 for p in dec["params"]:
-                    d.setdefault("pndiss.param.pnu", []).append(p["pnu"])
+                    add(d, "pndiss.param.pnu", p["pnu"])
+                    add(d, "pndiss.param.subindex", p["subindex"])
+                    add(d, "pndiss.param.name", p["name"])
+            if "problems" in dec and "flags" in dec:   # 0xBF00 / PS/PSM 0xFFFF
+                for k in ("flags", "code_sequence", "direction", "class4", "preset_control", "scaling",
+                          "alarm_channel_control", "compat", "max_master_sol_failures", "velocity_unit",
+                          "velocity_unit_name", "mupr", "tmr"):
+                    add(d, f"pndiss.bf00.{k}", dec.get(k))
+                for pr in dec["problems"]:
+                    add(d, "pndiss.bf00.problem", pr["rule"])
+            if ev["index"] == 0xAFF0 and "profile_id" in dec:
+                add(d, "pndiss.im0.profile_id", dec["profile_id"])
+                add(d, "pndiss.im0.profile_name", dec["profile_name"])
         elif k == "param":
             d = want.setdefault(ev["frame"], {})
+            add(d, "pndiss.param.request_frame", ev["request_frame"])
+            add(d, "pndiss.param.request_ref", ev["request_ref"])
+            add(d, "pndiss.param.request_id", ev["request_id"])
+            add(d, "pndiss.param.axis", ev["axis"])
+            add(d, "pndiss.param.response_id", ev["response_id"])
+            add(d, "pndiss.param.ok", int(ev["ok"]))
+            for w in ev["pairing"]:
+                add(d, "pndiss.param.pairing", w)
             for p in ev["params"]:
-                d.setdefault("pndiss.param.pnu", []).append(p["pnu"] or 0)
+                add(d, "pndiss.param.pnu", p["pnu"] or 0)
+                add(d, "pndiss.param.subindex", p["subindex"])
+                add(d, "pndiss.param.name", p["name"])
+                add(d, "pndiss.param.format", p["format"])
+                if p["error"]:
+                    add(d, "pndiss.param.error_code", p["error"]["code"])
+                    add(d, "pndiss.param.error", p["error"]["text"])
+                elif p["format"] in INT_FORMATS:
+                    for v in p["values"]:
+                        add(d, "pndiss.param.value", v)
         elif k == "violation" and ev["rule"] in PLUGIN_RULES:
             viol.add((ev["frame"], ev["rule"]))
     return want, viol
 
 
-COMPARED = ("pndiss.telegram", "pndiss.slot", "pndiss.subslot", "pndiss.g1_xist2.error",
-            "pndiss.record.index", "pndiss.record.index_name", "pndiss.param.pnu")
+COMPARED = ("pndiss.telegram", "pndiss.slot", "pndiss.subslot", "pndiss.xist2_error.code",
+            "pndiss.xist2_error.text", "pndiss.record.op", "pndiss.record.index", "pndiss.record.index_name")
+COMPARED_PREFIXES = ("pndiss.param.", "pndiss.bf00.", "pndiss.im0.")
+NOT_COMPARED = {"pndiss.param.kind", "pndiss.param.value_text"}
 
 
-def compare(path, settings=None):
-    got = lua_fields(path)
+def compare(path, settings=None, prefs=()):
+    got = lua_fields(path, prefs)
     want, viol = python_expect(path, settings)
     n, bad = 0, []
     for fn in sorted(set(got) | set(want)):
         g, w = got.get(fn, {}), want.get(fn, {})
-        keys = {k for k in set(g) | set(w) if k in COMPARED or k.split(".")[1] in gen_lua_signals()}
+        keys = {k for k in set(g) | set(w) if (k in COMPARED or k.startswith(COMPARED_PREFIXES)
+                                                 or k.split(".")[1] in gen_lua_signals()) and k not in NOT_COMPARED}
         for k in keys:
             gv = sorted(map(str, map(_num, g.get(k, []))))
             wv = sorted(map(str, w.get(k, [])))
@@ -201,6 +250,17 @@ def public_captures():
 @pytest.mark.parametrize("path", own_captures() + public_captures(), ids=os.path.basename)
 def test_fields_equal_python(path):
     n, bad, lua_viol, viol = compare(path)
+    assert not bad, bad[:10]
+    assert lua_viol == viol
+
+
+@pytest.mark.parametrize("path", [p for p in public_captures() if "connect" in p or "mixed" in p or "device" in p],
+                         ids=os.path.basename)
+def test_public_connect_learning(path):
+    """Real Connects (ET200SP, plant mix): with a forced telegram (Settings.telegram / the plugin's
+    Telegram preference) both sides decode the same data objects at the same offsets, so the
+    Connect-derived map (frame IDs, MACs, slot/subslot, frame offsets, lengths) agrees."""
+    n, bad, lua_viol, viol = compare(path, Settings(telegram=87), prefs=("pndiss.telegram:87",))
     assert not bad, bad[:10]
     assert lua_viol == viol
 
