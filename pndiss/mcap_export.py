@@ -30,9 +30,19 @@ from . import __version__
 # One declared table; per-channel schemas only add the names seen in the channel's first
 # event (signals, bits) so Foxglove's message-path completion knows them. Extra fields are
 # always allowed: events grow as the decoders land.
+# Foxglove turns a jsonschema into datatypes and refuses the whole channel on anything else
+# than (foxglove/studio packages/mcap-support/src/parseJsonSchema.ts): one "type" string of
+# boolean/string/number/integer, "object" WITH "properties", "array" WITH typed "items", or a
+# "oneOf" of numeric consts. No type lists, no "null", no untyped properties.
+_JSON_TYPES = ((bool, "boolean"), (int, "number"), (float, "number"), (str, "string"))
 
-_NUM = {"type": ["number", "integer", "boolean", "null"]}
-_ANY = {}
+
+def _type_of(v) -> dict | None:
+    """Schema of a scalar seen in a first message, None for what is better left undeclared."""
+    for t, name in _JSON_TYPES:
+        if isinstance(v, t):
+            return {"type": name}
+    return None
 
 
 def _obj(title: str, props: dict, required=("frame",)) -> dict:
@@ -64,7 +74,7 @@ SCHEMAS: dict[str, dict] = {
     }, required=("frame", "cycle_counter")),
     "state": _obj("pndiss.EncoderState", {
         "frame": _FRAME,
-        "state": {"type": ["string", "integer", "null"], "description": "state entered"},
+        "state": {"type": "string", "description": "which state machine (control_by_plc, preset ...)"},
     }),
     "records": _obj("pndiss.Record", {
         "frame": _FRAME,
@@ -72,7 +82,9 @@ SCHEMAS: dict[str, dict] = {
         "op": {"type": "string"}, "index": {"type": "integer"}, "index_name": {"type": "string"},
         "api": {"type": "integer"}, "slot": {"type": "integer"}, "subslot": {"type": "integer"},
         "data": {"type": "string", "description": "record data, hex"},
-        "decoded": {"type": "object"}, "params": {"type": "array"}, "ok": {"type": "boolean"},
+        "decoded": {"type": "object", "properties": {}},
+        "params": {"type": "array", "items": {"type": "object", "properties": {}}},
+        "ok": {"type": "boolean"},
     }, required=("frame", "kind")),
     "event": _obj("pndiss.Event", {
         "frame": _FRAME,
@@ -359,7 +371,11 @@ class McapExporter:
             schema = json.loads(json.dumps(SCHEMAS["telegram"]))
             for part in ("signals", "bits"):
                 if isinstance(ev.get(part), dict):
-                    schema["properties"][part]["properties"] = {str(k): _ANY for k in ev[part]}
+                    props = schema["properties"][part]["properties"]
+                    for k, v in ev[part].items():
+                        t = _type_of(v)
+                        if t is not None:
+                            props[str(k)] = t
             ch = self._chan(ckey, topic, "telegram", {
                 "device_mac": mac, "station": ev.get("station"), "api": api, "slot": slot,
                 "subslot": sub, "telegram": tg, "direction": side,

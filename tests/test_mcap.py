@@ -28,6 +28,34 @@ CAPTURES = sorted(glob.glob(os.path.join(ROOT, "captures", "*.pcap*"))
 
 
 # -- helpers ---------------------------------------------------------------------------------
+def foxglove_problems(schema, path="$"):
+    """What Foxglove's jsonschema reader would refuse (facts from foxglove/studio
+    packages/mcap-support/src/parseJsonSchema.ts): an object needs "properties"; a property is a
+    oneOf of numeric consts, or one type of boolean/string/number/integer, an object (same rules)
+    or an array whose items are one of those."""
+    if schema.get("type") != "object" or not isinstance(schema.get("properties"), dict):
+        return [f"{path}: not an object with properties"]
+    out = []
+    for name, p in schema["properties"].items():
+        where = f"{path}.{name}"
+        if isinstance(p.get("oneOf"), list):
+            if not all(isinstance(a.get("const"), (int, float)) for a in p["oneOf"]):
+                out.append(f"{where}: oneOf alternatives must be numbers")
+            continue
+        t = p.get("type")
+        if t == "object":
+            out += foxglove_problems(p, where)
+        elif t == "array":
+            it = p.get("items")
+            if not isinstance(it, dict) or it.get("type") not in ("boolean", "string", "number", "integer", "object"):
+                out.append(f"{where}: array items need one type")
+            elif it["type"] == "object":
+                out += foxglove_problems(it, where + "[]")
+        elif t not in ("boolean", "string", "number", "integer"):
+            out.append(f"{where}: type {t!r} is not supported")
+    return out
+
+
 def _shape(v):
     """Structure and value types of a message (what a schema can reject), values aside."""
     if isinstance(v, dict):
@@ -45,7 +73,7 @@ def read_back(path, strict=True, every=1):
     counts, chans, problems = Counter(), {}, []
     last_t = {}
     validators = {}
-    shapes = set()
+    shapes, fox_checked = set(), set()
     with open(path, "rb") as f:
         r = make_reader(f)
         for schema, ch, m in r.iter_messages(log_time_order=False):
@@ -56,6 +84,10 @@ def read_back(path, strict=True, every=1):
             last_t[ch.id] = m.log_time
             assert schema is not None and schema.encoding == "jsonschema" and ch.message_encoding == "json"
             msg = json.loads(m.data)
+            if schema.id not in fox_checked:
+                fox_checked.add(schema.id)
+                if not strict:
+                    problems += foxglove_problems(json.loads(schema.data), schema.name)
             if not strict:
                 continue
             frame = msg.get("line") if schema.name == "foxglove.Log" else msg.get("frame")
@@ -69,6 +101,7 @@ def read_back(path, strict=True, every=1):
             v = validators.get(schema.id)
             if v is None:
                 v = validators[schema.id] = jsonschema.Draft202012Validator(json.loads(schema.data))
+                problems += foxglove_problems(json.loads(schema.data), schema.name)
             for e in v.iter_errors(msg):
                 problems.append(f"{ch.topic} frame {m.sequence}: {e.message}")
         summary = r.get_summary()
@@ -257,6 +290,13 @@ def test_synthetic_topics_and_log(tmp_path):
     assert msgs["/pn/enc-1/records"][1]["data"] == "0102"
     tgs = json.loads(msgs["/pn/enc-1/1.2/tg81/actual"][0].data)
     assert set(tgs["properties"]["signals"]["properties"]) == {"G1_XIST1", "G1_ZSW"}
+
+
+def test_declared_schemas_foxglove_readable():
+    from pndiss.mcap_export import SCHEMAS
+    for name, sch in SCHEMAS.items():
+        assert foxglove_problems(sch, name) == []
+    assert foxglove_problems({"type": "object", "properties": {"a": {"type": ["string", "null"]}}})  # the checker bites
 
 
 def test_duplicate_station_names(tmp_path):
