@@ -445,6 +445,8 @@ class SessionTracker:
               "device_mac": device, "controller_mac": controller, "station": self._station(device),
               "ar_uuid": hb["ar_uuid"], "request_frame": request_frame, "seq_number": hb["seq_number"],
               "length": len(data), "data": data.hex(), "profile": profile}
+        if "record_blocks" in hb:  # PDev/diagnosis/I&M records are blocks: name them
+            ev["blocks"] = hb["record_blocks"]
         if _records is not None:
             try:
                 ev["decoded"] = _records.decode_record(hb["index"], data, write=op == "write", profile=profile)
@@ -461,7 +463,7 @@ class SessionTracker:
         for hb in pnio_cm.records(pdu):
             if hb["block_type"] != 0x0008 or hb.get("inner") or "data" not in hb:
                 continue
-            ev = self._rec_event(fn, ts, hb, "write", hb["data"], dst, src, fn)
+            ev = self._rec_event(fn, ts, hb, "write", bytes.fromhex(hb["data"]), dst, src, fn)
             self.counts["records"] += 1
             self.a.emit(ev)
             self.a.cyclic.on_record(ev)
@@ -502,7 +504,7 @@ class SessionTracker:
         for hb in pnio_cm.records(pdu):
             if hb["block_type"] != 0x8009:
                 continue
-            data = hb.get("data", b"")
+            data = bytes.fromhex(hb.get("data", ""))
             ev = self._rec_event(fn, ts, hb, "read", data, src, dst, call["frame"] if call else None)
             ev["result"] = pdu["status"]["text"]
             self.counts["records"] += 1

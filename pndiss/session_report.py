@@ -79,7 +79,8 @@ def sections(tracker) -> list:
         for r in tracker.record_rows[:MAX_RECORD_LINES]:
             t.add_row(str(r["frame"]), f"{(r['ts_ns'] - t0) / 1e9:.6f}", r["op"],
                       r["station"] or r["device_mac"] or "", f"{r['slot']}/{_hex(r['subslot'])}",
-                      f"{_hex(r['index'])} {r['index_name']}", _short(r.get("decoded"))[:80],
+                      f"{_hex(r['index'])} {r['index_name']}",
+                      (_short(r.get("decoded")) or ", ".join(r.get("blocks", ())))[:80],
                       r.get("result") or "")
         out.append(t)
     if tracker.profiles:

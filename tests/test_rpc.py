@@ -149,7 +149,7 @@ def test_multiple_write_inner_records():
     outer = rf.rw_header(0x0008, 0xE040, len(inner), api=0, slot=0, subslot=0) + inner
     d = pnio_cm.decode_stub(rf.ndr_request(outer), "big", True, 3)
     recs = [b for b in pnio_cm.records(d) if "data" in b]
-    assert [(b["index"], b["data"]) for b in recs] == [(0xBF00, d1), (0xB02E, d2)]
+    assert [(b["index"], b["data"]) for b in recs] == [(0xBF00, d1.hex()), (0xB02E, d2.hex())]
 
 
 def test_block_overrun_is_malformed():

@@ -597,9 +597,11 @@ def _rw_payload(b: bytes, c: _Cur, d: dict, end: int, out: list, depth: int) -> 
                 o = inner.pop("_end")
                 o += (-o) % 4 if o < nxt else 0
         else:
-            d["data"] = data
+            d["data"] = data.hex()  # hex keeps events JSON-able
             if d["index"] in BLOCK_RECORDS and n >= 6 and depth < MAX_DEPTH:
+                first = len(out)
                 decode_blocks(b, hdr_end, nxt, out, depth + 1)
+                d["record_blocks"] = [x["block_name"] for x in out[first:] if x["depth"] == depth + 1]
     d["_next"] = nxt
 
 
@@ -623,9 +625,11 @@ def _one_inner(b: bytes, off: int, end: int, out: list, depth: int) -> None:
     n = d["record_data_length"]
     if bend + n > end:
         raise Malformed(L, f"multiple write: inner record data of {n} bytes runs past the outer record")
-    d["data"] = b[bend:bend + n]
+    d["data"] = b[bend:bend + n].hex()
     if d["index"] in BLOCK_RECORDS and n >= 6 and depth < MAX_DEPTH:
+        first = len(out)
         decode_blocks(b, bend, bend + n, out, depth + 1)
+        d["record_blocks"] = [x["block_name"] for x in out[first:] if x["depth"] == depth + 1]
     out[mark]["_end"] = bend + n
 
 
