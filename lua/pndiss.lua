@@ -181,10 +181,19 @@ function pndiss.prefs_changed()
     map_cache = {}
 end
 
+-- session.profile_for: decided at its first use for a device from what is known then (I&M0 vendor
+-- and order ID, else DCP vendor ID and DeviceVendorValue) and kept until an I&M0 read
+local facts = {}    -- device MAC -> {dcp = {vendor, type}, im0 = {vendor, order}}
+local select_profile   -- defined with the postdissector
 local function profile_for(mac)
     local p = PROFILE_PREF[pndiss.prefs.profile] or "auto"
     if p ~= "auto" then return p end
-    return profiles[mac] or "generic"
+    if profiles[mac] == nil then
+        local f = facts[mac] or {}
+        local src = f.im0 or f.dcp
+        profiles[mac] = src and select_profile(src[1], src[2]) or "generic"
+    end
+    return profiles[mac]
 end
 
 -- compile one data object: telegram, layout rows {name, offset, size, signed}
@@ -811,22 +820,25 @@ function checker_p922(ax, v)
     end
 end
 
--- cyclic.py _ambiguous: a length guess is judged only when the profile leaves one candidate
-local function ambiguous(ax, o)
+-- cyclic.py _ambiguous: a length guess is judged when both data lengths leave one candidate among
+-- the profile's telegrams, or when the guess is a standard telegram (81 is mandatory in every class)
+local function ambiguous(ax)
     if not tostring(ax.source):find("length", 1, true) then return false end
+    local ia, is = ax.io_len.actual, ax.io_len.setpoint
     local n = 0
     for t, d in pairs(T.telegrams) do
-        if tg_len(t, "actual") == o.length then
+        if (ia == nil or tg_len(t, "actual") == ia) and (is == nil or tg_len(t, "setpoint") == is) then
             local ok = ax.profile == "generic" and d.standard
             for _, p in ipairs(d.profiles) do if p == ax.profile then ok = true end end
             if ok then n = n + 1 end
         end
     end
-    return n > 1
+    return n > 1 and not T.telegrams[ax.telegram].standard
 end
 
 -- cyclic.py _refine_profile: telegrams that exist only in PS/PSM make a 'generic' device PS/PSM
 local function refine_profile(ax)
+    if tostring(ax.source):find("length", 1, true) then return end   -- a length guess proves nothing
     local d = T.telegrams[ax.telegram]
     if ax.profile == "generic" and d and #d.profiles == 1 and d.profiles[1] == "psm" then ax.profile = "psm" end
 end
@@ -885,6 +897,7 @@ local function first_pass(pinfo, tvb, entry, ok_ds, fid)
         local ax = axes[key]
         if ax == nil then
             ax = new_axis(key, c, profile_for(fm.device), fm.device)
+            refine_profile(ax)
             axes[key] = ax
             local d = devices[fm.device]
             for _, v in ipairs(d and d.p922s or {}) do checker_p922(ax, v) end   -- records seen before
@@ -906,7 +919,7 @@ local function first_pass(pinfo, tvb, entry, ok_ds, fid)
                 end
             end
         else
-            if ax.ambiguous == nil then ax.ambiguous = ambiguous(ax, o) end
+            if ax.ambiguous == nil then ax.ambiguous = ambiguous(ax) end
             if ax.sp ~= nil then
                 if not (ok and ax.sp_ok) or ax.ambiguous then gap(ax) else judge(ax, sig, found) end
             end
@@ -992,7 +1005,7 @@ local ORDER_PATTERNS = {
     {{"^E%u?%u?%u?M?58", "ENA58IL"}, "hohner"},
     {{"%f[%w]PSM?%f[%W]", "ACURO"}, "psm"},
 }
-local function select_profile(vendor, order)
+function select_profile(vendor, order)
     if vendor == 0x0239 then return "lika" end
     if order then
         local u = order:upper():gsub("^%s+", ""):gsub("%s+$", "")
@@ -1015,7 +1028,9 @@ function pndiss.dissector(tvb, pinfo, tree)
             local v = X["pn_dcp.suboption_vendor_id"]()
             if v and not im0_seen[tostring(pinfo.dl_src)] then
                 local dv = X["pn_dcp.suboption_device_devicevendorvalue"]()
-                profiles[tostring(pinfo.dl_src)] = select_profile(v.value, dv and dv.value)
+                local f = facts[tostring(pinfo.dl_src)] or {}
+                facts[tostring(pinfo.dl_src)] = f
+                f.dcp = {v.value, dv and dv.value}
             end
         end
         return
@@ -1038,7 +1053,10 @@ function pndiss.dissector(tvb, pinfo, tree)
         local vh, vl, oid = X["pn_io.vendor_id_high"](), X["pn_io.vendor_id_low"](), X["pn_io.order_id"]()
         if im and vh and vl then
             local dev = tostring(pinfo.dl_src)
-            profiles[dev] = select_profile(vh.value * 256 + vl.value, oid and oid.value)
+            local f = facts[dev] or {}
+            facts[dev] = f
+            f.im0 = {vh.value * 256 + vl.value, oid and oid.value}
+            profiles[dev] = nil   -- decided again at the next use
             im0_seen[dev] = true
             items[#items + 1] = {im0 = im.value}
         end
