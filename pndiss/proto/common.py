@@ -24,8 +24,17 @@ def need(data: bytes, off: int, n: int, layer: str, what: str) -> None:
         raise Malformed(layer, f"{what} truncated (needs {n} bytes at offset {off}, frame has {len(data)})")
 
 
+_MAC_CACHE: dict[bytes, str] = {}
+
+
 def mac(b: bytes) -> str:
-    return ":".join(f"{x:02x}" for x in b)
+    """'aa:bb:cc:dd:ee:ff'; cached, since a capture has few distinct MACs and many frames."""
+    s = _MAC_CACHE.get(b)
+    if s is None:
+        s = ":".join(f"{x:02x}" for x in b)
+        if len(_MAC_CACHE) < 65536:  # bounded: a flood of random MACs must not grow memory
+            _MAC_CACHE[bytes(b)] = s
+    return s
 
 
 def ipv4(b: bytes) -> str:
