@@ -170,6 +170,7 @@ class CyclicTracker:
                 ax = self._axis(o, fr)
             if fr.direction not in ax.checker.io_len:
                 ax.checker.io_len[fr.direction] = o.do.length
+                self._refine_profile(ax)
             if fr.direction == "setpoint":
                 ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, bool(ok)
                 continue
@@ -210,22 +211,31 @@ class CyclicTracker:
         ax.checker._reset_history()
 
     def _ambiguous(self, ax, o: _Obj) -> bool:
-        """A length guess is judged only when the profile's telegrams leave one candidate (cyclic.md §14)."""
+        """A length guess is judged when both data lengths leave one candidate among the profile's telegrams,
+        or a standard telegram among several (81 is mandatory in every class, 002_d69f444daf0f8af2.txt:528);
+        otherwise cycles are reported, not judged, until P922 names the telegram (cyclic.md §14)."""
         if "length" not in str(o.source):
             return False
-        cands = [t for t in tg.telegrams_for_length(o.do.length)
+        io = ax.checker.io_len
+        cands = [t for t in tg.telegrams_for_length(io.get("actual"), io.get("setpoint"))
                  if ax.profile in tg.TELEGRAMS[t]["profiles"] or (ax.profile == "generic" and t in tg.STANDARD)]
-        return len(cands) > 1
+        return len(cands) > 1 and ax.telegram not in tg.STANDARD
 
     def _refine_profile(self, ax) -> None:
         """Telegrams 86-89/100/101 exist only in PS/PSM (cyclic.md §2): a 'generic' device using one is PS/PSM."""
         t = ax.telegram
+        if "length" in str(ax.source) and tg.telegrams_for_length(ax.checker.io_len.get("actual"),
+                                                                  ax.checker.io_len.get("setpoint")) != [t]:
+            return  # a length guess proves the vendor only when no other telegram fits
         if ax.profile == "generic" and t in tg.TELEGRAMS and tg.TELEGRAMS[t]["profiles"] == ["psm"]:
             ax.profile, ax.reason = "psm", f"telegram {t} exists only in PS/PSM (cyclic.md §2); {ax.reason}"
             if ax.checker is not None:
                 ax.checker.cfg.profile = "psm"
                 ax.checker.cfg.sources["profile"] = ax.reason
                 ax.checker._apply_cfg()
+                for ev in self.records.get(ax.info["device_mac"], ()):  # PS/PSM keeps its parameters at 0xFFFF
+                    if ev.get("kind") == "record" and ev.get("index") == 0xFFFF:
+                        self._out(ax.checker.on_record(ev))
 
     def _out(self, evs) -> None:
         if evs:
