@@ -81,3 +81,19 @@ if given is not None:
         p = subprocess.run([lua, "-e", f"io.write({gen_lua.lua(value)})"], capture_output=True)
         assert p.returncode == 0
         assert p.stdout.decode("utf-8", "surrogatepass") == value.encode("utf-8", "surrogatepass").decode("utf-8", "surrogatepass")
+
+
+def test_wireshark_command_install_and_path(tmp_path):
+    """`pndiss wireshark install --dir D` copies both files unchanged and prints D; `path` names both folders."""
+    dest = tmp_path / "plugins"
+    p = subprocess.run([sys.executable, "-m", "pndiss", "wireshark", "install", "--dir", str(dest)],
+                       capture_output=True, text=True, cwd=ROOT)
+    assert p.returncode == 0, p.stderr
+    assert str(dest) in p.stdout
+    for f in ("pndiss.lua", "pndiss_tables.lua"):
+        assert (dest / f).read_bytes() == open(os.path.join(ROOT, "lua", f), "rb").read()
+    p = subprocess.run([sys.executable, "-m", "pndiss", "wireshark", "path"], capture_output=True, text=True,
+                       cwd=ROOT, env=dict(os.environ, HOME=str(tmp_path)))
+    assert p.returncode == 0
+    assert os.path.join(ROOT, "lua") in p.stdout
+    assert os.path.join(str(tmp_path), ".local", "lib", "wireshark", "plugins") in p.stdout
