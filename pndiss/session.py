@@ -112,7 +112,14 @@ class SessionTracker:
 
     # ---------------------------------------------------------------- IPv4 / UDP
     def on_ipv4(self, fn, ts, data, off, src, dst) -> str:
-        h = ip.decode_ipv4(data, off)
+        if len(data) - off >= 20 and data[off + 9] != ip.PROTO_UDP:
+            return "not_profinet"  # TCP, ICMP, IGMP ...: no header work for traffic we do not decode
+        try:
+            h = ip.decode_ipv4(data, off)
+        except Malformed:
+            if self._pn_ports(data, off + 20):
+                raise
+            return "not_profinet"  # e.g. a snaplen-cut datagram of some other protocol
         self._expire(ts)
         if h["flags_mf"] or h["frag_offset"]:
             return self._ip_fragment(fn, ts, data, h, src, dst)
@@ -147,6 +154,13 @@ class SessionTracker:
         hh = dict(h, payload_off=0, payload_end=len(whole), len=len(whole) + h["hdr_len"])
         st = self._udp(fn, ts, whole, 0, len(whole), hh, src, dst)
         return "decoded" if st == "not_profinet" else st
+
+    def _pn_ports(self, b: bytes, p: int) -> bool:
+        """UDP ports at b[p:] (an option-less IPv4 header assumed) are PNIO's."""
+        if len(b) - p < 4:
+            return False
+        ports = {(b[p] << 8) | b[p + 1], (b[p + 2] << 8) | b[p + 3]}
+        return bool(ports & (self.rt_ports | {PORT_RPC}))
 
     @staticmethod
     def _looks_pnio(b: bytes, p: int, e: int) -> bool:

@@ -205,6 +205,15 @@ def test_other_ip_is_not_profinet():
     assert [a.feed(i, 0, f) for i, f in enumerate((tcp, dns, other_rpc))] == ["not_profinet"] * 3
 
 
+def test_truncated_datagram_malformed_only_on_pnio_ports():
+    # a snaplen-cut datagram (IP total length > captured bytes)
+    pn = rf.frame(rf.CONTROLLER_MAC, rf.DEVICE_MAC, rf.CONTROLLER_IP, rf.DEVICE_IP, 49153, 34964, b"\0" * 200)
+    other = rf.frame(rf.CONTROLLER_MAC, rf.DEVICE_MAC, rf.CONTROLLER_IP, rf.DEVICE_IP, 5000, 5001, b"\0" * 200)
+    a = FakeAnalyzer()
+    assert a.feed(1, 0, pn[:100]) == "malformed" and a.malformed[0]["layer"] == "ip"
+    assert a.feed(2, 0, other[:100]) == "not_profinet"
+
+
 # ---------------------------------------------------------------- bounded memory
 def test_ip_reassembly_bounded():
     r = ip.IpReassembler(max_datagrams=64, max_bytes=1 << 16)
