@@ -41,7 +41,8 @@ IDX_IM0 = 0xAFF0
 P922 = 922  # telegram selection (spec/records.md)
 
 MAX_CALLS = 4096      # open requests remembered for pairing (oldest dropped first)
-MAX_RECORD_ROWS = 2000  # record accesses kept for the report (events carry all of them)
+MAX_RECORD_ROWS = 2000  # record accesses / Connects kept for the report (events carry all of them)
+MAX_ARS = 4096          # ARs (and their frame maps) kept for lookups
 
 
 def _telegram_lengths() -> list[tuple[int, int, int]]:
@@ -109,6 +110,7 @@ class SessionTracker:
             from .gsdml import GsdmlIndex
             self.gsdml = GsdmlIndex(s.gsdml)
         self._fallback: dict[tuple, armap.FrameMap | None] = {}
+        self.map_generation = 0  # bumped whenever a lookup answer may change (cache key for callers)
 
     # ---------------------------------------------------------------- IPv4 / UDP
     def on_ipv4(self, fn, ts, data, off, src, dst) -> str:
@@ -401,10 +403,20 @@ class SessionTracker:
         rec = dict(ar, maps=frame_maps)
         if ok or ar_uuid not in self.ars:  # a refused retry does not hide the AR that is up
             self.ars[ar_uuid] = rec
+            if len(self.ars) > MAX_ARS:  # bounded: forget the oldest AR and its frame maps
+                old = self.ars.pop(next(iter(self.ars)))
+                for k in [k for k, fm in self.maps.items() if any(fm is m for m in old["maps"])]:
+                    del self.maps[k]
+        for cr in rb.get(0x0102, []):  # RT_CLASS_UDP: follow the UDP port the AR names
+            if cr["iocr_properties_rtclass"] == 4:
+                self.rt_ports.add(arq["cminitiator_udprtport"])
+                if ars:
+                    self.rt_ports.add(ars["cmresponder_udprtport"])
         if len(self.ar_list) < MAX_RECORD_ROWS:
             self.ar_list.append(rec)
         if dev_station:
             self.a.stations.update(device, name=dev_station)
+        self.map_generation += 1
         self.a.emit(ar)
 
     def _assign_telegram(self, do: armap.DataObject, e: dict, device: str, station: str | None) -> None:
@@ -561,6 +573,7 @@ class SessionTracker:
         except (TypeError, ValueError):
             return
         self.telegram_p922[(device, api, slot, subslot)] = t
+        self.map_generation += 1
         # parameter access goes to the DAP/parameter-access submodule, not always the telegram's:
         # apply to the telegram submodules of this device unless a more specific entry exists
         for fm in self._maps_of(device):
@@ -590,6 +603,8 @@ class SessionTracker:
         if k in self._fallback:
             return self._fallback[k]
         fm = self.usermap.frame_map(frame_id, src, dst) if self.usermap is not None else None
+        if len(self._fallback) >= MAX_CALLS:
+            self._fallback.clear()
         self._fallback[k] = fm
         return fm
 

@@ -73,10 +73,10 @@ def block(bt: int, body: bytes, vlow: int = 0) -> bytes:
     return struct.pack(">HHBB", bt, len(body) + 2, 1, vlow) + body
 
 
-def ar_block_req(station: str = "plc", ar_uuid: str = AR_UUID) -> bytes:
+def ar_block_req(station: str = "plc", ar_uuid: str = AR_UUID, udp_port: int = 0x8892) -> bytes:
     name = station.encode()
     body = struct.pack(">H", 1) + uuid_bytes(ar_uuid) + struct.pack(">H", 1) + mac_bytes(CONTROLLER_MAC)
-    body += uuid_bytes("dea00000-6c97-11d1-8271-000100010279") + struct.pack(">IHHH", 0x11, 600, 0x8892, len(name))
+    body += uuid_bytes("dea00000-6c97-11d1-8271-000100010279") + struct.pack(">IHHH", 0x11, 600, udp_port, len(name))
     return block(0x0101, body + name)
 
 
@@ -85,8 +85,9 @@ def ar_block_res(ar_uuid: str = AR_UUID) -> bytes:
                  + mac_bytes(DEVICE_MAC) + struct.pack(">H", 0x8892))
 
 
-def iocr_req(iocr_type: int, ref: int, frame_id: int, data_len: int, objects, iocs, api: int = 0) -> bytes:
-    body = struct.pack(">HHHIHHHHHHIHHH", iocr_type, ref, 0x8892, 1, data_len, frame_id, 32, 2, 1, 0,
+def iocr_req(iocr_type: int, ref: int, frame_id: int, data_len: int, objects, iocs, api: int = 0,
+             rt_class: int = 1) -> bytes:
+    body = struct.pack(">HHHIHHHHHHIHHH", iocr_type, ref, 0x8892, rt_class, data_len, frame_id, 32, 2, 1, 0,
                        0xFFFFFFFF, 3, 3, 0xC000)
     body += b"\0" * 6 + struct.pack(">H", 1) + struct.pack(">IH", api, len(objects))
     for s, ss, off in objects:
@@ -133,7 +134,7 @@ def rw_header(bt: int, index: int, length: int, *, seq: int = 1, api: int = 0x3D
     return block(bt, body)
 
 
-def connect_pair(subs, api: int = 0x3D00, in_fid: int = 0x8000, out_fid: int = 0x8001, **kw):
+def connect_pair(subs, api: int = 0x3D00, in_fid: int = 0x8000, out_fid: int = 0x8001, rt_class: int = 1, **kw):
     """(request frame, response frame) of a Connect with one slot-1 module and ``subs``."""
     in_objs, out_objs, in_iocs, out_iocs = [], [], [], []
     ioff = ooff = 0
@@ -150,8 +151,8 @@ def connect_pair(subs, api: int = 0x3D00, in_fid: int = 0x8000, out_fid: int = 0
     for s, ss, _ in in_objs:
         out_iocs.append((s, ss, ooff))
         ooff += 1
-    req_blocks = (ar_block_req(**kw) + iocr_req(1, 1, in_fid, max(40, ioff), in_objs, in_iocs, api)
-                  + iocr_req(2, 2, 0xFFFF, max(40, ooff), out_objs, out_iocs, api) + alarmcr_req()
+    req_blocks = (ar_block_req(**kw) + iocr_req(1, 1, in_fid, max(40, ioff), in_objs, in_iocs, api, rt_class)
+                  + iocr_req(2, 2, 0xFFFF, max(40, ooff), out_objs, out_iocs, api, rt_class) + alarmcr_req()
                   + expected(api, 1, 0x100, subs))
     res_blocks = ar_block_res() + iocr_res(1, 1, in_fid) + iocr_res(2, 2, out_fid) + alarmcr_res()
     act = "00000007-0000-1010-8000-000000000007"

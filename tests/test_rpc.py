@@ -196,6 +196,16 @@ def test_udp_rt_class_goes_to_pn_rt():
     assert a.rt and a.rt[0][3] is True and a.rt[0][1] == 14 + 20 + 8
 
 
+def test_rt_class_udp_port_from_connect():
+    a = FakeAnalyzer()
+    req, res = rf.connect_pair([(1, 0x51, 3, 12, 4)], rt_class=4, udp_port=40000)
+    a.feed(1, 0, req)
+    a.feed(2, 1, res)
+    fr = rf.frame(rf.DEVICE_MAC, rf.CONTROLLER_MAC, rf.DEVICE_IP, rf.CONTROLLER_IP, 40001, 40000,
+                  b"\x80\x00" + b"\0" * 44)
+    assert a.feed(3, 2, fr) == "decoded" and a.rt and a.rt[0][0] == 3
+
+
 def test_other_ip_is_not_profinet():
     a = FakeAnalyzer()
     tcp = rf.eth(rf.CONTROLLER_MAC, rf.DEVICE_MAC, rf.ipv4(rf.CONTROLLER_IP, rf.DEVICE_IP, b"\0" * 20, proto=6))
