@@ -163,14 +163,14 @@ class CyclicTracker:
                 o.bits = None
             iops = csdu[o.iops_at] if o.iops_at < len(csdu) else None
             ok = ds_ok and iops is not None and iops & IOPS_GOOD
-            if sink is not None:
-                self._telegram_event(o, fr, rt_ev, iops, bool(ok))
             ax = self.axes.get(o.key)
             if ax is None:
                 ax = self._axis(o, fr)
             if fr.direction not in ax.checker.io_len:
                 ax.checker.io_len[fr.direction] = o.do.length
                 self._refine_profile(ax)
+            if sink is not None:  # after the axis exists: its bits follow the axis profile
+                self._telegram_event(o, fr, rt_ev, iops, bool(ok))
             if fr.direction == "setpoint":
                 ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, bool(ok)
                 continue
@@ -229,6 +229,10 @@ class CyclicTracker:
             return  # a length guess proves the vendor only when no other telegram fits
         if ax.profile == "generic" and t in tg.TELEGRAMS and tg.TELEGRAMS[t]["profiles"] == ["psm"]:
             ax.profile, ax.reason = "psm", f"telegram {t} exists only in PS/PSM (cyclic.md §2); {ax.reason}"
+            for fr in self.frames.values():  # bits were cached with the old profile
+                for ob in (fr.objs if fr else ()):
+                    if ob.key == ax.key:
+                        ob.bits = None
             if ax.checker is not None:
                 ax.checker.cfg.profile = "psm"
                 ax.checker.cfg.sources["profile"] = ax.reason
@@ -289,6 +293,7 @@ class CyclicTracker:
         cfg = EncoderConfig.from_settings(self.s, profile=ax.profile, telegram=o.telegram, cycle_ns=fm.cycle_time_ns,
                                           iso=iso, profile_reason=ax.reason, telegram_source=o.source)
         ax.checker = Checker(cfg, info)
+        ax.checker.io_len[fr.direction] = do.length
         self._refine_profile(ax)
         ax.checker.prev_bf00 = self.prev_bf00.get(fm.device_mac)
         self.axes[o.key] = ax
