@@ -265,7 +265,7 @@ for _, n in ipairs({"pn_io.opnum", "pn_io.block_type", "pn_io.ar_uuid", "pn_io.c
                     "pn_io.module_ident_number", "pn_io.submodule_ident_number", "pn_io.iocr_multicast_mac_add",
                     "pn_io.index", "pn_io.im_profile_id", "pn_io.vendor_id_high", "pn_io.vendor_id_low",
                     "pn_io.order_id", "dcerpc.pkt_type", "dcerpc.dg_act_id", "dcerpc.dg_seqnum",
-                    "pn_rt.frame_id", "pn_rt.cycle_counter", "pn_rt.ds_valid", "pn_rt.ds_operate",
+                    "pn_rt.frame_id", "pn_rt.ds",
                     "pn_dcp.suboption_vendor_id", "pn_dcp.suboption_device_id", "pn_dcp.suboption_device_devicevendorvalue"}) do
     X[n] = Field.new(n)
 end
@@ -392,6 +392,7 @@ end
 local axes = {}      -- axis key -> rule state (section 6)
 local devices = {}   -- device MAC -> {bf00 = decoded 0xBF00 written, p922 = first P922 value read}
 local checker_p922   -- defined with the rules (section 6)
+local apply_seq = 0  -- order in which 0xBF00/0xFFFF parameter sets were applied (latest wins)
 local pairer = {}       -- param key -> {req, frame} of the request awaiting its response
 local superseded = {}   -- param key -> frames of requests overwritten before a response
 local frame_cache = {}   -- frame number -> list of {kind, ...} to show (computed on the first pass)
@@ -647,12 +648,21 @@ local function record_items(pinfo, recs)
                     it.malformed = true
                 end
             end
+        end
+        if r.index == 0xFFFF and r.op == "write" and len > 0 then
+            local d = devices[device] or {}
+            devices[device] = d
+            d.ffff = ByteArray.new(t:raw(0, len), true)   -- bytes: a Tvb would expire with this frame
+        end
+        if r.index == 0xB02E or r.index == 0xB02F then
+            -- handled above
         elseif r.index == 0xBF00 or (r.index == 0xFFFF and profile == "psm") then
             it.bf00 = decode_bf00(t, len, r.index == 0xFFFF and "psm" or profile)
             if r.op == "write" then   -- cyclic.py on_record: the written parameter set is in force
                 local d = devices[device] or {}
                 devices[device] = d
-                d.bf00 = it.bf00
+                apply_seq = apply_seq + 1
+                d.bf00 = {seq = apply_seq, d = it.bf00}
             end
         end
         items[#items + 1] = it
@@ -722,7 +732,9 @@ local function is_std(t) return T.telegrams[t] ~= nil and (T.telegrams[t].standa
 -- compat in force: captured 0xBF00 > profile default (EncoderConfig.from_settings / acyclic.py)
 local function compat_of(ax)
     local d = devices[ax.device]
-    if d and d.bf00 and d.bf00.compat ~= nil then return d.bf00.compat end
+    local w = d and d.bf00
+    if ax.bf00 and (w == nil or ax.bf00.seq > w.seq) then w = ax.bf00 end
+    if w and w.d.compat ~= nil then return w.d.compat end
     local pd = T.profile_defaults[ax.profile] or T.profile_defaults.generic
     return pd.compat
 end
@@ -736,8 +748,9 @@ local function sp_conditions(ax, sp)
     return c
 end
 
-local function all_h(H, f)
-    for i = 1, #H do if not f(H[i]) then return false end end
+-- every cycle of the window W(n, -L_max, 0) has h[k] == v (no closures: this runs every cycle)
+local function all_is(H, k, v)
+    for i = 1, #H do if H[i][k] ~= v then return false end end
     return true
 end
 
@@ -764,8 +777,8 @@ local function ac_conditions(ax, sp, ac)
     local pACKIP, pPDONE, pATX, pPKA, pSERR = bitv(pz, 11), bitv(pz, 12), bitv(pz, 13), bitv(pz, 14), bitv(pz, 15)
     -- 9.2 control by PLC (#13, #14, #16)
     if compat == 1 then
-        c["CTRLREQ-MISMATCH"] = full and all_h(H, function(h) return h.CTRL == CTRL end) and CREQ ~= CTRL
-        c["CMD-EXECUTED-WITHOUT-CONTROL"] = full and all_h(H, function(h) return h.CTRL == 0 end) and not first
+        c["CTRLREQ-MISMATCH"] = full and all_is(H, "CTRL", CTRL) and CREQ ~= CTRL
+        c["CMD-EXECUTED-WITHOUT-CONTROL"] = full and all_is(H, "CTRL", 0) and not first
             and has_g1 and ((PDONE == 1 and pPDONE == 0) or (ATX == 1 and pATX == 0) or (PKA == 1 and pPKA == 0))
     else
         c["CTRLREQ-SET-IN-COMPAT"] = CREQ == 1
@@ -776,23 +789,23 @@ local function ac_conditions(ax, sp, ac)
     c["RESERVED-BIT-SET-G1ZSW"] = bit.band(g1zsw, reserved_mask("g1_zsw", p)) ~= 0
     local X1, X2 = ac.g1_xist1, ac.g1_xist2
     -- 9.3 preset handshake edges (#20, #21)
-    c["PRESET-ACK-SPURIOUS"] = not first and PDONE == 1 and pPDONE == 0 and all_h(H, function(h) return h.PREQ == 0 end)
-    c["PRESET-ACK-DROPPED"] = not first and PDONE == 0 and pPDONE == 1 and full and all_h(H, function(h) return h.PREQ == 1 end)
+    c["PRESET-ACK-SPURIOUS"] = not first and PDONE == 1 and pPDONE == 0 and all_is(H, "PREQ", 0)
+    c["PRESET-ACK-DROPPED"] = not first and PDONE == 0 and pPDONE == 1 and full and all_is(H, "PREQ", 1)
     -- 9.5 absolute value request (#36-39)
-    c["ABSVAL-ACK-MISSING"] = full and ATX == 0 and all_h(H, function(h) return h.AREQ == 1 and h.VALID and h.PKA == 0 and h.SERR == 0 end)
-    c["ABSVAL-ACK-STUCK"] = full and ATX == 1 and all_h(H, function(h) return h.AREQ == 0 and h.VALID end)
+    c["ABSVAL-ACK-MISSING"] = full and ATX == 0 and all_is(H, "AREQ", 1) and all_is(H, "VALID", true) and all_is(H, "PKA", 0) and all_is(H, "SERR", 0)
+    c["ABSVAL-ACK-STUCK"] = full and ATX == 1 and all_is(H, "AREQ", 0) and all_is(H, "VALID", true)
     c["ZSW-ATX-AND-SERR"] = ATX == 1 and SERR == 1
     c["XIST2-NOT-ZERO"] = p == "lika" and X2 ~= nil and ATX == 0 and SERR == 0 and PKA == 0 and X2 ~= 0
     -- 9.6 parking (#45-48)
-    c["PARK-ACK-MISSING"] = full and PKA == 0 and all_h(H, function(h) return h.PARK == 1 and h.VALID end)
-    c["PARK-ACK-NOT-CLEARED"] = full and PKA == 1 and all_h(H, function(h) return h.PARK == 0 and h.VALID end)
+    c["PARK-ACK-MISSING"] = full and PKA == 0 and all_is(H, "PARK", 1) and all_is(H, "VALID", true)
+    c["PARK-ACK-NOT-CLEARED"] = full and PKA == 1 and all_is(H, "PARK", 0) and all_is(H, "VALID", true)
     c["PARK-OUTPUTS-NOT-CLEARED"] = p == "lika" and PKA == 1 and
         ((X1 or 0) ~= 0 or (X2 or 0) ~= 0 or PDONE == 1 or ATX == 1)
     c["PARK-ERROR-REPORTED"] = PKA == 1 and not first and pPKA == 1 and SERR == 1 and pSERR == 0
     -- 9.7 sensor error and acknowledgement (#51, #53, #54, #59)
     c["SERR-CODE-INVALID"] = SERR == 1 and X2 ~= nil and (X2 == 0 or (p == "lika" and T.xist2_errors[X2] == nil))
-    c["ACKIP-SPURIOUS"] = not first and ACKIP == 1 and pACKIP == 0 and all_h(H, function(h) return h.SACK == 0 end)
-    c["ACKIP-STUCK"] = full and ACKIP == 1 and all_h(H, function(h) return h.SACK == 0 end)
+    c["ACKIP-SPURIOUS"] = not first and ACKIP == 1 and pACKIP == 0 and all_is(H, "SACK", 0)
+    c["ACKIP-STUCK"] = full and ACKIP == 1 and all_is(H, "SACK", 0)
     c["FAULT-PRESENT-INCONSISTENT"] = p == "psm" and SERR == 1 and bitv(zsw2, 3) == 0
     return c
 end
@@ -837,26 +850,55 @@ local function ambiguous(ax)
 end
 
 -- cyclic.py _refine_profile: telegrams that exist only in PS/PSM make a 'generic' device PS/PSM
+-- (a length guess proves it only when no other telegram fits both lengths); PS/PSM keeps its
+-- parameters at 0xFFFF, so the last 0xFFFF written is applied again, decoded as PS/PSM
 local function refine_profile(ax)
-    if tostring(ax.source):find("length", 1, true) then return end   -- a length guess proves nothing
-    local d = T.telegrams[ax.telegram]
-    if ax.profile == "generic" and d and #d.profiles == 1 and d.profiles[1] == "psm" then ax.profile = "psm" end
+    local t = ax.telegram
+    if tostring(ax.source):find("length", 1, true) then
+        local ia, is = ax.io_len.actual, ax.io_len.setpoint
+        local fits = {}
+        for u in pairs(T.telegrams) do
+            if (ia == nil or tg_len(u, "actual") == ia) and (is == nil or tg_len(u, "setpoint") == is) then
+                fits[#fits + 1] = u
+            end
+        end
+        if #fits ~= 1 or fits[1] ~= t then return end
+    end
+    local d = T.telegrams[t]
+    if ax.profile == "generic" and d and #d.profiles == 1 and d.profiles[1] == "psm" then
+        ax.profile = "psm"
+        local dev = devices[ax.device]
+        if dev and dev.ffff then
+            apply_seq = apply_seq + 1
+            ax.bf00 = {seq = apply_seq, d = decode_bf00(dev.ffff:tvb("0xFFFF record"), dev.ffff:len(), "psm")}
+        end
+    end
 end
 
 local function gap(ax)
-    ax.open, ax.hist, ax.prev_ac = {}, {}, nil   -- Checker.gap: end every run, forget history
+    ax.open, ax.hist, ax.prev_ac, ax.prev_sp, ax.same = {}, {}, nil, nil, 0   -- Checker.gap: end runs, forget history
 end
 
 local function judge(ax, ac, found)
+    -- Checker.cycle fast path: the same decoded words again (sig tables are reused while the bytes
+    -- repeat), no run open and a saturated history cannot give a new result
+    local same = ax.sp == ax.prev_sp and ac == ax.prev_ac
+    ax.same = same and (ax.same or 0) + 1 or 0
+    if same and ax.same > L_MAX + 1 and ax.last_hit ~= ax.n then
+        ax.n = ax.n + 1
+        return
+    end
     ax.n = ax.n + 1
+    ax.prev_sp = ax.sp
     if not is_std(ax.cfg_telegram) then return end
     for rule, cond in pairs(ax.sp_cond or {}) do
-        if cond then ax.open[rule] = ax.n end   -- already reported on the setpoint frame
+        if cond then ax.open[rule], ax.last_hit = ax.n, ax.n end   -- already reported on the setpoint frame
     end
     for rule, cond in pairs(ac_conditions(ax, ax.sp, ac)) do
         if cond and E[rule] then
             run(ax, rule, ax.n - 1, found)
             ax.open[rule] = ax.n
+            ax.last_hit = ax.n
         end
     end
     ax.prev_ac = ac
@@ -868,7 +910,11 @@ local function first_pass(pinfo, tvb, entry, ok_ds, fid)
     local fm = entry.fm
     for i, c in ipairs(entry.objs) do
         local o = c.o
-        local key = table.concat({fm.ar or (fm.controller .. "/" .. fm.device), o.api or 0, o.slot or 0, o.subslot or 0}, "|")
+        local key = c.key
+        if key == nil then
+            key = table.concat({fm.ar or (fm.controller .. "/" .. fm.device), o.api or 0, o.slot or 0, o.subslot or 0}, "|")
+            c.key = key
+        end
         if o.telegram ~= nil and o.telegram ~= c.telegram and o.telegram ~= c.rejected then
             -- cyclic.py _relabel: the session learnt the telegram (P922) after the first frame
             local ax = axes[key]
@@ -902,10 +948,18 @@ local function first_pass(pinfo, tvb, entry, ok_ds, fid)
             local d = devices[fm.device]
             for _, v in ipairs(d and d.p922s or {}) do checker_p922(ax, v) end   -- records seen before
         end
-        if ax.io_len[c.dir] == nil then ax.io_len[c.dir] = o.length end
-        local sig = {}
-        for _, row in ipairs(c.rows) do
-            sig[row.name] = sig_value(tvb, o.offset, row)
+        if ax.io_len[c.dir] == nil then
+            ax.io_len[c.dir] = o.length
+            refine_profile(ax)
+        end
+        local raw = tvb:raw(o.offset, c.len)
+        local sig = c.last_sig
+        if raw ~= c.last_raw or sig == nil then   -- cyclic.py: an unchanged C_SDU reuses the decode
+            sig = {}
+            for _, row in ipairs(c.rows) do
+                sig[row.name] = sig_value(tvb, o.offset, row)
+            end
+            c.last_raw, c.last_sig = raw, sig
         end
         out.objs[#out.objs + 1] = {c = c, iops = iops, ok = ok, profile = ax.profile}
         local found = {}
@@ -934,14 +988,16 @@ local function add_object(tree, tvb, c, cached, fm)
     local st = tree:add(pndiss, tvb(o.offset, c.len),
         string.format("PROFINET encoder: telegram %d %s, slot %s/%s", c.telegram, c.dir, tostring(o.slot), tostring(o.subslot)))
     st:add(F["pndiss.telegram"], c.telegram)
-    st:add(F["pndiss.direction"], c.dir)
-    st:add(F["pndiss.telegram_source"], c.source or "")
-    st:add(F["pndiss.api"], o.api or 0)
     st:add(F["pndiss.slot"], o.slot or 0)
     st:add(F["pndiss.subslot"], o.subslot or 0)
-    if cached.iops then st:add(F["pndiss.iops"], tvb(o.offset + o.length, 1), cached.iops) end
-    st:add(F["pndiss.judged"], cached.ok and true or false)
-    st:add(F["pndiss.profile"], cached.profile)
+    if tree.visible then   -- shown, not needed for filtering: skipped in plain tshark runs (hot path)
+        st:add(F["pndiss.direction"], c.dir)
+        st:add(F["pndiss.telegram_source"], c.source or "")
+        st:add(F["pndiss.api"], o.api or 0)
+        if cached.iops then st:add(F["pndiss.iops"], tvb(o.offset + o.length, 1), cached.iops) end
+        st:add(F["pndiss.judged"], cached.ok and true or false)
+        st:add(F["pndiss.profile"], cached.profile)
+    end
     local serr, x2
     for _, row in ipairs(c.rows) do
         local r = tvb(o.offset + row.off, row.size)
@@ -974,7 +1030,10 @@ end
 
 local cyc_cache = {}   -- frame number -> first-pass result (entry + decoded flags + rules)
 
+local cyclic_frame = nil   -- number of the frame the heuristic saw last: the postdissector skips it
+
 local function heuristic(tvb, pinfo, tree)
+    cyclic_frame = pinfo.number
     local fi = X["pn_rt.frame_id"]()
     if fi == nil then return false end
     local fid = fi.value
@@ -983,8 +1042,9 @@ local function heuristic(tvb, pinfo, tree)
         if pinfo.visited then return false end
         local entry = lookup(fid, tostring(pinfo.dl_src), tostring(pinfo.dl_dst))
         if entry == nil or #entry.objs == 0 then return false end
-        local v, op = X["pn_rt.ds_valid"](), X["pn_rt.ds_operate"]()
-        local ok_ds = v ~= nil and op ~= nil and v.value ~= 0 and op.value ~= 0
+        -- DataStatus: DataValid (bit 2) and ProviderState RUN (bit 4), wire.md §2.3
+        local ds = X["pn_rt.ds"]()
+        local ok_ds = ds ~= nil and bit.band(ds.value, 0x14) == 0x14
         local res = first_pass(pinfo, tvb, entry, ok_ds, fid)
         cached = {entry = entry, res = res}
         cyc_cache[pinfo.number] = cached
@@ -1022,6 +1082,7 @@ local im0_seen = {}
 -- postdissector: Connect learning, DCP/I&M0 identity, records
 local rec_cache = {}
 function pndiss.dissector(tvb, pinfo, tree)
+    if cyclic_frame == pinfo.number then return end   -- cyclic data: nothing for the postdissector
     local op = X["pn_io.opnum"]()
     if op == nil then
         if not pinfo.visited then

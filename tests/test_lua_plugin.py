@@ -114,23 +114,10 @@ def add(d, key, value):
         d.setdefault(key, []).append(value)
 
 
-def profile_at(a, ev):
-    """The axis profile behind a telegram event: the axis' final profile while the event shows its final
-    telegram (cyclic.py may refine generic -> psm on a relabel), else the device profile."""
-    for ax in a.cyclic.axes.values():
-        i = ax.info
-        if (i["device_mac"], i["api"], i["slot"], i["subslot"]) == (ev["device_mac"], ev["api"], ev["slot"], ev["subslot"]):
-            if ax.telegram == ev["telegram"]:
-                return ax.profile
-    return a.session.profile_for(ev["device_mac"])[0]
-
-
 def python_expect(path, settings=None):
     """frame -> {field: [values]} from the Python events, and the (frame, rule) violation set."""
-    from pndiss import telegrams as tg
-
     evs = []
-    a = analyze_file(path, settings or Settings(), sink=evs.append)
+    analyze_file(path, settings or Settings(), sink=evs.append)
     want, viol = {}, set()
     for ev in evs:
         k = ev["kind"]
@@ -141,10 +128,7 @@ def python_expect(path, settings=None):
             d.setdefault("pndiss.subslot", []).append(ev["subslot"])
             for s, v in ev["signals"].items():
                 d.setdefault(f"pndiss.{s}", []).append(v)
-            # bits from the signals with the device's profile (telegrams.bits); cyclic.py caches the
-            # bits of a setpoint object computed before its axis (profile) exists
-            prof = profile_at(a, ev)
-            for b, v in tg.bits(ev["signals"], prof).items():
+            for b, v in ev["bits"].items():
                 d.setdefault(f"pndiss.{b}", []).append(v)
             if ev.get("xist2_error"):
                 d.setdefault("pndiss.xist2_error.code", []).append(ev["xist2_error"]["code"])
