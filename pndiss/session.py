@@ -360,8 +360,8 @@ class SessionTracker:
                     do = armap.DataObject(api=a["api"], slot=o["slot_nr"], subslot=o["subslot_nr"],
                                           offset=o["io_data_object_frame_offset"], length=ln, iops_len=iops,
                                           module_ident=e.get("module_ident"), submodule_ident=e.get("submodule_ident"))
-                    self._assign_telegram(do, e, device, dev_station)
-                    info["objects"].append(_do_row(do))
+                    note = self._assign_telegram(do, e, device, dev_station)
+                    info["objects"].append(dict(_do_row(do), telegram_note=note) if note else _do_row(do))
                     if fm is not None:
                         fm.objects.append(do)
                 for o in a["iocs"]:
@@ -419,26 +419,28 @@ class SessionTracker:
         self.map_generation += 1
         self.a.emit(ar)
 
-    def _assign_telegram(self, do: armap.DataObject, e: dict, device: str, station: str | None) -> None:
-        """user map > P922 > GSDML > length guess (the order the brief and docs/map.md give)."""
+    def _assign_telegram(self, do: armap.DataObject, e: dict, device: str, station: str | None) -> str | None:
+        """user map > P922 > GSDML > length guess (docs/map.md); returns the guess's note, if any."""
         if self.usermap is not None:
             t = self.usermap.telegram_for(device, station, do.api, do.slot, do.subslot)
             if t is not None:
                 do.telegram, do.telegram_source = t, "map"
-                return
+                return None
         t = self.telegram_p922.get((device, do.api, do.slot, do.subslot))
         if t is not None:
             do.telegram, do.telegram_source = t, "P922"
-            return
+            return None
         if self.gsdml is not None and do.submodule_ident is not None:
             t = self.gsdml.telegram_for(do.module_ident, do.submodule_ident)
             if t is not None:
                 do.telegram, do.telegram_source = t, "gsdml"
-                return
+                return None
         if "input" in e and "output" in e:
-            t, _note = guess_telegram(e["output"][0], e["input"][0], do.api)
+            t, note = guess_telegram(e["output"][0], e["input"][0], do.api)
             if t is not None:
                 do.telegram, do.telegram_source = t, "length"
+                return note
+        return None
 
     def _release(self, fn, pdu) -> None:
         self.counts["releases"] += 1

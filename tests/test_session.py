@@ -89,6 +89,9 @@ def test_length_guess_needs_both_directions():
     a = connected([(1, 0x51, 3, 12, 4)])
     o = objects(a, 0x8000, rf.DEVICE_MAC, rf.CONTROLLER_MAC)[(1, 1)]
     assert (o.telegram, o.telegram_source) == (81, "length")
+    (ar,) = [e for e in a.events if e["kind"] == "ar"]
+    row = ar["iocrs"][0]["objects"][0]
+    assert row["telegram"] == 81 and "standard telegram preferred" in row["telegram_note"]
 
 
 # ---------------------------------------------------------------- precedence
