@@ -46,5 +46,13 @@ class Settings:
             raise ValueError(f"unknown setting(s) in {path}: {', '.join(sorted(unknown))}")
         return cls(**data)
 
+    @classmethod
+    def field_type(cls, name: str) -> str:
+        """The declared type of a setting as written in the dataclass ('int | None', ...)."""
+        for f in fields(cls):
+            if f.name == name:
+                return f.type if isinstance(f.type, str) else getattr(f.type, "__name__", str(f.type))
+        raise KeyError(name)
+
     def as_dict(self) -> dict:
         return asdict(self)

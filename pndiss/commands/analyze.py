@@ -53,20 +53,30 @@ def settings_from_args(args) -> Settings:
         key, sep, val = kv.partition("=")
         if not sep or not hasattr(s, key):
             raise UsageError(f"--set {kv!r}: expected KEY=VALUE with a known key (docs/settings.md)")
-        cur = getattr(s, key)
         try:
-            if isinstance(cur, bool) or key in ("iso", "sol_threshold_ge", "sol_monitor_rt"):
-                v = {"1": True, "true": True, "yes": True, "0": False, "false": False, "no": False}[val.lower()]
-            elif isinstance(cur, int) or key in ("compat", "class4"):
-                v = int(val, 0)
-            elif isinstance(cur, float):
-                v = float(val)
-            else:
-                v = val
+            v = _coerce(Settings.field_type(key), val)
         except (KeyError, ValueError):
             raise UsageError(f"--set {kv!r}: bad value for {key}") from None
         setattr(s, key, v)
     return s
+
+
+_BOOLS = {"1": True, "true": True, "yes": True, "on": True, "0": False, "false": False, "no": False, "off": False}
+
+
+def _coerce(typ: str, val: str):
+    """Convert a --set value by the dataclass field's declared type ('int | None', 'bool', ...)."""
+    if val.lower() in ("none", "null") and "None" in typ:
+        return None
+    if typ.startswith("bool"):
+        return _BOOLS[val.lower()]
+    if typ.startswith("int"):
+        return int(val, 0)
+    if typ.startswith("float"):
+        return float(val)
+    if typ.startswith("list"):
+        return [x for x in val.split(",") if x]
+    return val
 
 
 def open_out(path: str):
