@@ -1,0 +1,109 @@
+"""Fast path for report-only analysis (no event sink): cyclic PN-RT frames skip the generic dispatch.
+
+Real captures are 99.9% cyclic frames of a few (FrameID, src, dst) streams. The reference path
+(Analyzer.feed) decodes the link layer, formats both MACs, classifies the FrameID and builds a full
+``rt`` event dict for each of them, although without a sink nobody reads that dict except the
+cyclic tracker. Here the first frame of a stream goes the reference way; later frames whose first
+16 bytes (MACs, EtherType, FrameID) match it are recognised with one dict lookup and handed to
+``CyclicTracker.on_frame`` with a reused minimal ``rt`` dict. Counters (accounting, event kinds,
+frame classes) are tallied per stream and added at the end, so summary() is unchanged.
+
+Only Ethernet II (link type 1) frames, untagged or with one 802.1Q tag, with EtherType 0x8892, a cyclic FrameID and room for
+the APDU status take this path; everything else, and every frame when a sink is set, goes through
+Analyzer.feed. Switch: Settings.fast_path / env PNDISS_FAST_PATH=0 (tests/test_fastpath.py checks
+both paths give the same results on every capture).
+"""
+from __future__ import annotations
+
+import os
+
+from .proto import rt
+from .proto.common import Malformed, mac
+
+ETH_PNRT = b"\x88\x92"
+VLAN_8021Q = b"\x81\x00"
+
+
+def enabled(settings, sink) -> bool:
+    """The fast path applies without a sink, unless switched off by the setting or the environment."""
+    return sink is None and settings.fast_path and os.environ.get("PNDISS_FAST_PATH", "1") != "0"
+
+
+class _Stream:
+    """One cyclic (FrameID, src, dst) stream: its minimal rt dict and the frames it took."""
+
+    __slots__ = ("ev", "cls", "n", "bad")
+
+    def __init__(self, ev: dict, cls: str):
+        self.ev = ev
+        self.cls = cls
+        self.n = 0      # frames taken by the fast path
+        self.bad = 0    # of which malformed (a data object beyond the C_SDU)
+
+
+def run(a, frames) -> None:
+    """Feed ``frames`` ((fn, ts, linktype, data) tuples) into analyzer ``a``."""
+    streams: dict = {}        # data[:16] -> _Stream, or None when the key is not a fast cyclic stream
+    get = streams.get
+    feed = a.feed
+    on_frame = a.cyclic.on_frame
+    fn = ts = None
+    try:
+        for fn, ts, lt, data in frames:
+            if lt == 1 and len(data) >= 24:
+                # untagged: MACs + EtherType + FrameID; one 802.1Q tag (the usual priority tag): 4 more
+                off = 18 if data[12] == 0x81 else 14
+                key = data[:off + 2]
+                s = get(key, False)
+                if s:
+                    ev = s.ev
+                    ev["frame"] = fn
+                    ev["ts_ns"] = ts
+                    ds = data[-2]
+                    ev["ds_valid"] = (ds >> 2) & 1     # DataValid, as rt.decode_apdu_status gives it
+                    ev["ds_operate"] = (ds >> 4) & 1   # ProviderState RUN
+                    s.n += 1
+                    try:
+                        on_frame(ev, data, off + 2)
+                    except Malformed as e:
+                        s.bad += 1
+                        a._malformed(fn, ts, e.layer, e.reason)
+                    continue
+                feed(fn, ts, lt, data)
+                if s is False:
+                    streams[key] = _learn(data, off)
+            else:
+                feed(fn, ts, lt, data)
+    finally:
+        _settle(a, streams, fn, ts)
+
+
+def _learn(data: bytes, off: int):
+    """A _Stream when frames starting with data[:off + 2] are cyclic PN-RT (untagged, or one 802.1Q tag
+    when off is 18), else None."""
+    if data[off - 2:off] != ETH_PNRT or (off == 18 and data[12:14] != VLAN_8021Q):
+        return None
+    fid = (data[off] << 8) | data[off + 1]
+    cls, cyclic = rt.classify(fid, False)
+    if not cyclic:
+        return None
+    return _Stream({"frame": 0, "ts_ns": 0, "kind": "rt", "src": mac(data[6:12]), "dst": mac(data[0:6]),
+                    "frame_id": fid, "frame_class": cls, "ds_valid": 0, "ds_operate": 0}, cls)
+
+
+def _settle(a, streams: dict, fn, ts) -> None:
+    """Add what the fast path counted to the analyzer's totals (the same numbers Analyzer.feed keeps)."""
+    total = 0
+    for s in streams.values():
+        if not s or not s.n:
+            continue
+        total += s.n
+        a.counts["decoded"] += s.n - s.bad
+        a.counts["malformed"] += s.bad
+        a.kinds["rt"] += s.n
+        a.frame_classes[s.cls] += s.n
+        s.n = s.bad = 0
+    a.frames += total
+    if total and fn is not None:
+        a.cur_frame, a.cur_ts = fn, ts
+        a.last_ts = ts
