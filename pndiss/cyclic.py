@@ -135,43 +135,52 @@ class CyclicTracker:
     # -- per frame ---------------------------------------------------------------------------------
     def on_frame(self, rt_ev: dict, pdu: bytes, csdu_off: int) -> None:
         key = (rt_ev["frame_id"], rt_ev["src"], rt_ev["dst"])
-        fr = self._frame(key, rt_ev)
-        if fr is None or not fr.objs:
+        fr = self.frames.get(key)
+        if fr is None:  # not cached, or cached as unmapped (then _frame counts the miss)
+            fr = self._frame(key, rt_ev)
+            if fr is None or not fr.objs:
+                self.unmapped += 1
+                return
+        elif not fr.objs:
             self.unmapped += 1
             return
         self.mapped += 1
-        end = len(pdu) - 4
-        csdu = pdu[csdu_off:end]
+        csdu = pdu[csdu_off:len(pdu) - 4]
         same = csdu == fr.last_csdu
         fr.last_csdu = csdu
         ds_ok = rt_ev["ds_valid"] and rt_ev["ds_operate"]   # DataValid and provider in RUN (wire.md §2.3)
         sink = self.a.sink
         fn, ts = rt_ev["frame"], rt_ev["ts_ns"]
+        direction = fr.direction
+        n_csdu = len(csdu)
         for o in fr.objs:
-            if o.do.telegram is not None and o.do.telegram != o.telegram and o.do.telegram != o.rejected:
+            do = o.do
+            t = do.telegram
+            if t is not None and t != o.telegram and t != o.rejected:
                 self._relabel(o, fr)  # the session learnt the telegram (P922) after the first frame
             if not same or o.sig is None:
-                if o.end > len(csdu):
-                    raise Malformed("telegram", f"data object {o.do.slot}/{o.do.subslot} ends at byte {o.end} of a "
-                                                f"{len(csdu)}-byte C_SDU")
+                if o.end > n_csdu:
+                    raise Malformed("telegram", f"data object {do.slot}/{do.subslot} ends at byte {o.end} of a "
+                                                f"{n_csdu}-byte C_SDU")
                 if not o.length_checked:
                     o.length_checked = True
                     self._length_check(o, fr, fn, ts)
-                if o.do.length < o.layout.length:
+                if do.length < o.layout.length:
                     continue
                 o.sig = o.layout.decode(csdu, o.start)
                 o.bits = None
-            iops = csdu[o.iops_at] if o.iops_at < len(csdu) else None
+            iops = csdu[o.iops_at] if o.iops_at < n_csdu else None
             ok = ds_ok and iops is not None and iops & IOPS_GOOD
             ax = self.axes.get(o.key)
             if ax is None:
                 ax = self._axis(o, fr)
-            if fr.direction not in ax.checker.io_len:
-                ax.checker.io_len[fr.direction] = o.do.length
+            chk = ax.checker
+            if direction not in chk.io_len:
+                chk.io_len[direction] = do.length
                 self._refine_profile(ax)
             if sink is not None:  # after the axis exists: its bits follow the axis profile
                 self._telegram_event(o, fr, rt_ev, iops, bool(ok))
-            if fr.direction == "setpoint":
+            if direction == "setpoint":
                 ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, bool(ok)
                 continue
             if ax.ambiguous is None:
@@ -185,7 +194,9 @@ class CyclicTracker:
                 continue
             if not ax.startup_checked:
                 self._startup(ax, fn, ts)
-            self._out(chk.cycle(fn, ts, ax.sp, o.sig, ax.sp_frame))
+            evs = chk.cycle(fn, ts, ax.sp, o.sig, ax.sp_frame)
+            if evs:
+                self._out(evs)
 
     def _relabel(self, o: _Obj, fr: _Frame) -> None:
         t = o.do.telegram
