@@ -303,12 +303,11 @@ class SessionTracker:
 
     def _connect(self, fn, ts, req, res, call, src, dst) -> None:
         self.counts["connects"] += 1
-        rb = {}
-        for b in req["blocks"]:
-            rb.setdefault(b["block_type"], []).append(b)
-        sb = {}
-        for b in res["blocks"]:
-            sb.setdefault(b["block_type"], []).append(b)
+        rb, sb = {}, {}
+        for blocks, by in ((req["blocks"], rb), (res["blocks"], sb)):
+            for b in blocks:
+                if "undecoded" not in b:  # a block version tshark does not decode either
+                    by.setdefault(b["block_type"], []).append(b)
         arq = (rb.get(0x0101) or [None])[0]
         if arq is None:
             return

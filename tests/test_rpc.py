@@ -332,13 +332,30 @@ def test_pnio_blocks_random(data):
         pass
 
 
+def _write_pair():
+    act = "00000003-0000-1010-8000-000000000003"
+    w = rf.rw_header(0x0008, 0xB02E, 4) + b"\1\1\0\1"
+    req = rf.frame(rf.CONTROLLER_MAC, rf.DEVICE_MAC, rf.CONTROLLER_IP, rf.DEVICE_IP, 49153, 34964,
+                   rf.dcerpc(0, 3, rf.ndr_request(w), act=act))
+    res = rf.frame(rf.DEVICE_MAC, rf.CONTROLLER_MAC, rf.DEVICE_IP, rf.CONTROLLER_IP, 34964, 49153,
+                   rf.dcerpc(2, 3, rf.ndr_response(rf.rw_header(0x8008, 0xB02E, 4)), act=act))
+    return req, res
+
+
 @FAST
-@given(st.lists(st.tuples(st.integers(0, 400), st.integers(0, 255)), max_size=5), st.integers(0, 1600))
-def test_whole_frame_mutated(edits, cut):
-    req, _ = rf.connect_pair([(1, 0x51, 3, 12, 4)])
+@given(st.sampled_from([0, 1]), st.lists(st.tuples(st.integers(0, 400), st.integers(0, 255)), max_size=5),
+       st.integers(0, 1600), st.booleans())
+def test_whole_frames_mutated(which, edits, cut, mutate_request):
+    # request + response pairs, one of them mutated: the tracker's pairing code sees odd blocks too
+    req, res = rf.connect_pair([(1, 0x51, 3, 12, 4)]) if which == 0 else _write_pair()
+    if mutate_request:
+        req = _mutate(req, edits)[:max(cut, 14)]
+    else:
+        res = _mutate(res, edits)[:max(cut, 14)]
     a = FakeAnalyzer()
-    status = a.feed(1, 0, _mutate(req, edits)[:cut] if cut >= 14 else req[:14])
-    assert status in ("decoded", "not_profinet", "malformed")
+    for i, fr in enumerate((req, res)):
+        assert a.feed(i + 1, i, fr) in ("decoded", "not_profinet", "malformed")
+    a.session.finish()
 
 
 # ---------------------------------------------------------------- tshark, duplicate ek keys

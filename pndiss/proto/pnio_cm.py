@@ -553,7 +553,10 @@ def decode_blocks(b: bytes, off: int, end: int, out: list, depth: int = 0) -> No
              "depth": depth}
         out.append(d)
         body = BODIES.get(bt)
-        if body is not None and d["block_version_high"] == 1:
+        if body is not None and d["block_version_high"] != 1:
+            # like tshark ("Block version ... not implemented"): header only; users skip it
+            d["undecoded"] = f"block version {d['block_version_high']}.{d['block_version_low']} not implemented"
+        elif body is not None:
             c = _Cur(b, off + 6, bend, d["block_name"])
             body(c, d)
             if bt in RW_HEADERS:
@@ -647,4 +650,4 @@ def decode_stub(stub: bytes, order: str, request: bool, opnum: int) -> dict:
 
 def records(pdu: dict) -> list[dict]:
     """Read/write headers of a decoded stub that carry or answer a record (inner writes included)."""
-    return [b for b in pdu["blocks"] if b["block_type"] in RW_HEADERS]
+    return [b for b in pdu["blocks"] if b["block_type"] in RW_HEADERS and "undecoded" not in b]
