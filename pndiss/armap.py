@@ -53,6 +53,7 @@ class FrameMap:
     objects: list[DataObject] = field(default_factory=list)
     iocs: list[IocsEntry] = field(default_factory=list)
     source: str = "connect"     # 'connect' | 'map' | 'length'
+    released: bool = False      # the AR was released; the map stays for late frames
 
     @property
     def cycle_time_ns(self) -> int | None:
