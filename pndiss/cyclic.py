@@ -134,7 +134,14 @@ class CyclicTracker:
 
     # -- per frame ---------------------------------------------------------------------------------
     def on_frame(self, rt_ev: dict, pdu: bytes, csdu_off: int) -> None:
-        key = (rt_ev["frame_id"], rt_ev["src"], rt_ev["dst"])
+        # DataValid and provider in RUN (wire.md §2.3)
+        self.on_cyclic((rt_ev["frame_id"], rt_ev["src"], rt_ev["dst"]), rt_ev["frame"], rt_ev["ts_ns"],
+                       bool(rt_ev["ds_valid"] and rt_ev["ds_operate"]), pdu, csdu_off, rt_ev)
+
+    def on_cyclic(self, key: tuple, fn: int, ts: int, ds_ok: bool, pdu: bytes, csdu_off: int,
+                  rt_ev: dict | None = None) -> None:
+        """on_frame without the rt event (pndiss/fast.py): key = (frame_id, src, dst); rt_ev is needed only
+        with a sink (telegram events copy from it)."""
         fr = self.frames.get(key)
         if fr is None:  # not cached, or cached as unmapped (then _frame counts the miss)
             fr = self._frame(key, rt_ev)
@@ -148,9 +155,7 @@ class CyclicTracker:
         csdu = pdu[csdu_off:len(pdu) - 4]
         same = csdu == fr.last_csdu
         fr.last_csdu = csdu
-        ds_ok = rt_ev["ds_valid"] and rt_ev["ds_operate"]   # DataValid and provider in RUN (wire.md §2.3)
         sink = self.a.sink
-        fn, ts = rt_ev["frame"], rt_ev["ts_ns"]
         direction = fr.direction
         n_csdu = len(csdu)
         for o in fr.objs:

@@ -5,7 +5,7 @@ Real captures are 99.9% cyclic frames of a few (FrameID, src, dst) streams. The 
 ``rt`` event dict for each of them, although without a sink nobody reads that dict except the
 cyclic tracker. Here the first frame of a stream goes the reference way; later frames whose first
 16 bytes (MACs, EtherType, FrameID) match it are recognised with one dict lookup and handed to
-``CyclicTracker.on_frame`` with a reused minimal ``rt`` dict. Counters (accounting, event kinds,
+``CyclicTracker.on_cyclic`` (on_frame without the ``rt`` dict). Counters (accounting, event kinds,
 frame classes) are tallied per stream and added at the end, so summary() is unchanged.
 
 Only Ethernet II (link type 1) frames, untagged or with one 802.1Q tag, with EtherType 0x8892, a cyclic FrameID and room for
@@ -30,12 +30,12 @@ def enabled(settings, sink) -> bool:
 
 
 class _Stream:
-    """One cyclic (FrameID, src, dst) stream: its minimal rt dict and the frames it took."""
+    """One cyclic (FrameID, src, dst) stream: its tracker key and the frames it took."""
 
-    __slots__ = ("ev", "cls", "n", "bad")
+    __slots__ = ("key", "cls", "n", "bad")
 
-    def __init__(self, ev: dict, cls: str):
-        self.ev = ev
+    def __init__(self, key: tuple, cls: str):
+        self.key = key
         self.cls = cls
         self.n = 0      # frames taken by the fast path
         self.bad = 0    # of which malformed (a data object beyond the C_SDU)
@@ -46,7 +46,7 @@ def run(a, frames) -> None:
     streams: dict = {}        # data[:16] -> _Stream, or None when the key is not a fast cyclic stream
     get = streams.get
     feed = a.feed
-    on_frame = a.cyclic.on_frame
+    on_cyclic = a.cyclic.on_cyclic
     fn = ts = None
     try:
         for fn, ts, lt, data in frames:
@@ -56,15 +56,10 @@ def run(a, frames) -> None:
                 key = data[:off + 2]
                 s = get(key, False)
                 if s:
-                    ev = s.ev
-                    ev["frame"] = fn
-                    ev["ts_ns"] = ts
-                    ds = data[-2]
-                    ev["ds_valid"] = (ds >> 2) & 1     # DataValid, as rt.decode_apdu_status gives it
-                    ev["ds_operate"] = (ds >> 4) & 1   # ProviderState RUN
                     s.n += 1
                     try:
-                        on_frame(ev, data, off + 2)
+                        # DataStatus: DataValid (0x04) and ProviderState RUN (0x10), wire.md §2.3
+                        on_cyclic(s.key, fn, ts, data[-2] & 0x14 == 0x14, data, off + 2)
                     except Malformed as e:
                         s.bad += 1
                         a._malformed(fn, ts, e.layer, e.reason)
@@ -87,8 +82,7 @@ def _learn(data: bytes, off: int):
     cls, cyclic = rt.classify(fid, False)
     if not cyclic:
         return None
-    return _Stream({"frame": 0, "ts_ns": 0, "kind": "rt", "src": mac(data[6:12]), "dst": mac(data[0:6]),
-                    "frame_id": fid, "frame_class": cls, "ds_valid": 0, "ds_operate": 0}, cls)
+    return _Stream((fid, mac(data[6:12]), mac(data[0:6])), cls)
 
 
 def _settle(a, streams: dict, fn, ts) -> None:
