@@ -139,7 +139,7 @@ def _read_pcapng(path: str, b: _Buffer) -> Iterator[tuple[int, int, int, bytes]]
     n = 0
     bo = "<"
     epb_bo = {"<": struct.Struct("<IIIIII"), ">": struct.Struct(">IIIIII")}  # type, length, if, ts hi/lo, caplen
-    ifaces: list[tuple[int, object, int]] = []  # (linktype, ts->ns function, tsoffset seconds)
+    ifaces: list[tuple[int, object, int, int]] = []  # (linktype, ts->ns function, tsoffset ns, multiplier or 0)
     while True:
         if not b.need(12):
             if len(b.buf) - b.pos:
@@ -170,9 +170,9 @@ def _read_pcapng(path: str, b: _Buffer) -> Iterator[tuple[int, int, int, bytes]]
                 btype, blen, ifid, hi, lo, cap = unpack(buf, pos)
                 if btype != 6 or ifid >= nif or blen % 4 or blen < 32 + cap or pos + blen > end:
                     break
-                lt, conv, off = ifaces[ifid]
+                lt, conv, off, mult = ifaces[ifid]
                 n += 1
-                yield n, conv((hi << 32) | lo) + off, lt, buf[pos + 28:pos + 28 + cap]
+                yield n, (((hi << 32) | lo) * mult if mult else conv((hi << 32) | lo)) + off, lt, buf[pos + 28:pos + 28 + cap]
                 pos += blen
             if pos != b.pos:
                 b.pos = pos
@@ -184,7 +184,7 @@ def _read_pcapng(path: str, b: _Buffer) -> Iterator[tuple[int, int, int, bytes]]
             ifid, hi, lo, cap, _orig = struct.unpack_from(bo + "IIIII", b.buf, body)
             if ifid >= len(ifaces) or 20 + cap > blen - 12:
                 raise CaptureError(f"{path}: bad enhanced packet block after frame {n}", n)
-            lt, conv, off = ifaces[ifid]
+            lt, conv, off, _ = ifaces[ifid]
             n += 1
             yield n, conv((hi << 32) | lo) + off, lt, b.buf[body + 20:body + 20 + cap]
         elif btype == 3:  # Simple Packet Block: interface 0, no timestamp
@@ -198,7 +198,7 @@ def _read_pcapng(path: str, b: _Buffer) -> Iterator[tuple[int, int, int, bytes]]
             ifid, _drops, hi, lo, cap, _orig = struct.unpack_from(bo + "HHIIII", b.buf, body)
             if ifid >= len(ifaces) or 20 + cap > blen - 12:
                 raise CaptureError(f"{path}: bad packet block after frame {n}", n)
-            lt, conv, off = ifaces[ifid]
+            lt, conv, off, _ = ifaces[ifid]
             n += 1
             yield n, conv((hi << 32) | lo) + off, lt, b.buf[body + 20:body + 20 + cap]
         elif btype == 1:  # Interface Description Block
@@ -214,5 +214,6 @@ def _read_pcapng(path: str, b: _Buffer) -> Iterator[tuple[int, int, int, bytes]]
                 elif code == 14 and olen >= 8:
                     tsoff = struct.unpack_from(bo + "q", b.buf, o + 4)[0] * 1_000_000_000
                 o += 4 + ((olen + 3) & ~3)
-            ifaces.append((lt, _tsres_to_ns(resol), tsoff))
+            # decimal resolutions up to ns are a plain multiply: the hot loop inlines it
+            ifaces.append((lt, _tsres_to_ns(resol), tsoff, 10 ** (9 - resol) if resol <= 9 else 0))
         b.pos = p + blen

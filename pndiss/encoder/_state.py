@@ -530,7 +530,7 @@ class Checker:
             # 39: LIKA sends 0 in XIST2 without request (000_37bf2397999f1108.txt:1626-1629)
             self._hit("XIST2-NOT-ZERO", f"G1_XIST2={X2} with G1_ZSW.13=0 and no error; expected 0")
         if ATX and not SERR and X1 is not None and X2 is not None and X3 is None \
-                and (c.xist1_preset_affected or not c.class4) and not c.xist1_counter:
+                and (not c.class4 or c.xist1_preset_affected) and not c.xist1_counter:
             exp1 = (X2 << shift) % U32
             if X1 != exp1:
                 # 40: X1 == X2 << P979.3 (001_9461bb7bc8c2767b.txt:2223-2224)
