@@ -86,6 +86,7 @@ class CyclicTracker:
         self.s = analyzer.settings
         self.frames: dict = {}        # (frame_id, src, dst) -> _Frame | None
         self.misses: dict = {}        # unmapped key -> frames seen since the last lookup
+        self.map_generation = None    # session.map_generation the cached layouts belong to
         self.axes: dict = {}          # axis key -> _Axis
         self.unmapped = 0
         self.mapped = 0
@@ -117,13 +118,8 @@ class CyclicTracker:
             telegram, source = do.telegram, do.telegram_source
             if telegram is None and self.s.telegram:
                 telegram, source = int(self.s.telegram), "settings.telegram"
-            if telegram is None:
-                cands = [t for t in tg.telegrams_for_length(do.length if direction == "actual" else None,
-                                                            do.length if direction == "setpoint" else None)]
-                std = [t for t in cands if t in tg.STANDARD]
-                if not (std or cands):
-                    continue
-                telegram, source = (std or cands)[0], "length (guess)"
+            # No telegram from the session (map, P922, GSDML, or both directions' lengths): not an
+            # encoder submodule. A one-direction length guess would call any IO module a telegram.
             if telegram not in tg.TELEGRAMS:
                 continue
             ax_key = (fm.ar_uuid or (fm.controller_mac, fm.device_mac), do.api, do.slot, do.subslot)
@@ -142,6 +138,11 @@ class CyclicTracker:
                   rt_ev: dict | None = None) -> None:
         """on_frame without the rt event (pndiss/fast.py): key = (frame_id, src, dst); rt_ev is needed only
         with a sink (telegram events copy from it)."""
+        gen = self.a.session.map_generation
+        if gen != self.map_generation:  # a Connect or a P922 read changed the AR maps: look up again
+            self.map_generation = gen
+            self.frames.clear()
+            self.misses.clear()
         fr = self.frames.get(key)
         if fr is None:  # not cached, or cached as unmapped (then _frame counts the miss)
             fr = self._frame(key, rt_ev)

@@ -577,12 +577,22 @@ class SessionTracker:
         self.map_generation += 1
         # parameter access goes to the DAP/parameter-access submodule, not always the telegram's:
         # apply to the telegram submodules of this device unless a more specific entry exists
+        from . import telegrams as tg
+        if t not in tg.TELEGRAMS:
+            return
         for fm in self._maps_of(device):
+            direction = "actual" if fm.direction == "input" else "setpoint"
             for do in fm.objects:
-                if do.telegram_source == "map":
+                if do.telegram_source == "map" or not do.length:
+                    continue
+                if do.telegram_source == "length" and tg.length(t, direction) != do.length:
+                    # the wire's data lengths fit the guessed telegram, not P922's: keep the lengths as the
+                    # configuration; the encoder reports TELEGRAM-SELECTION-MISMATCH (behaviour.md §9 #65)
                     continue
                 same = (do.api, do.slot, do.subslot) == (api, slot, subslot)
-                if same or (do.telegram is not None and do.telegram_source in ("length", "gsdml")):
+                if same or do.telegram is None or do.telegram_source in ("length", "gsdml"):
+                    # P922 names the telegram of a submodule whose lengths fit none (then the cyclic
+                    # length check reports TELEGRAM-LENGTH-MISMATCH, #64) or that was only guessed
                     do.telegram, do.telegram_source = t, "P922"
 
     def _maps_of(self, device):

@@ -114,15 +114,22 @@ def _param_frames(pnu_value: int, seq0: int = 10):
     ]
 
 
-def test_p922_overrides_length_guess():
+def test_p922_confirms_length_guess_but_does_not_overrule_the_lengths():
     a = connected([(1, 0x51, 3, 12, 4)])
-    for i, fr in enumerate(_param_frames(83)):
+    for i, fr in enumerate(_param_frames(81)):
         assert a.feed(10 + i, 10_000 + i, fr) == "decoded"
     p = [e for e in a.events if e["kind"] == "param"]
-    assert len(p) == 1 and p[0]["params"][0]["pnu"] == 922 and p[0]["params"][0]["values"] == [83]
+    assert len(p) == 1 and p[0]["params"][0]["pnu"] == 922 and p[0]["params"][0]["values"] == [81]
     assert p[0]["request_frame"] == 10 and p[0]["frame"] == 13
     o = objects(a, 0x8000, rf.DEVICE_MAC, rf.CONTROLLER_MAC)[(1, 1)]
-    assert (o.telegram, o.telegram_source) == (83, "P922")
+    assert (o.telegram, o.telegram_source) == (81, "P922")
+    # P922 = 83 (16 input bytes) against 12/4 bytes on the wire: the lengths stay the configuration
+    # and the encoder's answer is the suspect (TELEGRAM-SELECTION-MISMATCH), not the frames
+    b = connected([(1, 0x51, 3, 12, 4)])
+    for i, fr in enumerate(_param_frames(83)):
+        b.feed(10 + i, 10_000 + i, fr)
+    o = objects(b, 0x8000, rf.DEVICE_MAC, rf.CONTROLLER_MAC)[(1, 1)]
+    assert (o.telegram, o.telegram_source) == (81, "length")
     res = [e for e in a.events if e["kind"] == "record_result"]
     assert res and res[0]["ok"] and res[0]["request_frame"] == 10
     # records and params reach the cyclic tracker in capture order
