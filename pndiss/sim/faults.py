@@ -550,6 +550,7 @@ class AbsvalAckStuck(Injection):
 @injectable("XIST2-NOT-ZERO")
 class Xist2NotZero(Injection):
     why = "the PLC drops G1_STW.13 for 20 cycles; the encoder clears G1_ZSW.13 but keeps the position in XIST2"
+    profile = "lika"  # #39 is a LIKA rule (behaviour.md §9.5)
 
     def after_plc(self, sess, k, st, out, tags):
         if st.i == 0 and self.k <= k < self.k + 20:
@@ -577,6 +578,7 @@ def sess_tmr(inj):
 @injectable("POSITION-DISCONTINUITY")
 class PositionDiscontinuity(Injection):
     why = "the encoder's position jumps by a quarter of the range at standstill (no preset)"
+    profile = "scancon"  # #42 applies to SCANCON/Hohner/PSM with scaling (behaviour.md §9.5)
 
     def setup(self, sess, sc, params):
         sc.shaft = STANDSTILL
@@ -636,6 +638,7 @@ class ParkAckNotCleared(_ParkFault):
 @injectable("PARK-OUTPUTS-NOT-CLEARED")
 class ParkOutputsNotCleared(_ParkFault):
     why = "while parked the encoder keeps sending the position in XIST1"
+    profile = "lika"  # #47 is a LIKA rule (behaviour.md §9.6)
 
     def after_enc(self, sess, k, st, actual, tags):
         if st.i == 0 and actual["g1_zsw"] & 0x4000:
@@ -659,6 +662,8 @@ class ParkErrorReported(_ParkFault):
 @injectable("PARK-ERRORS-NOT-CLEARED")
 class ParkErrorsNotCleared(_ParkFault):
     why = "a sensor error is active when the PLC parks; the encoder keeps reporting it while parked"
+    profile = "lika"  # #49 is a LIKA rule (behaviour.md §9.6)
+    also = ("PARK-OUTPUTS-NOT-CLEARED",)  # the error code in XIST2 is an output that parking must clear (#47)
 
     def before_cycle(self, sess, k, st, plc, enc, last_in):
         kp = sess.scenario.at(0.3)
@@ -1093,8 +1098,7 @@ class BmpNegFormat(_Bmp):
         sess.bmp(ts, st, req, recdata.param_response(ref, 0x81, [(0x44, [0x0116])]), tags={self.tag})
 
 
-@injectable("BMP-ORDER")
-class BmpOrder(_Bmp):
+class BmpOrder(_Bmp):  # not injectable: see NOT_INJECTABLE["BMP-ORDER"]
     why = "a two-parameter read (P922, P979) is answered in reverse order"
     also = ("BMP-DATATYPE", "TELEGRAM-SELECTION-MISMATCH")   # blocks are paired by position
 
@@ -1208,4 +1212,6 @@ NOT_INJECTABLE.update({
     "PRESET-WITHOUT-NEW-PARAMS": "needs two connections with different 0xBF00 in one capture",
     "BMP-MULTI-NOT-ABORTED": "needs a multi-parameter change with an aborting error; not modelled yet",
     "XIST2-INCONSISTENT": "needs a shift factor (P979.3) != 0 variant; the simulator is right-aligned",
+    "BMP-ORDER": "not decidable from a capture: a response block carries no PNU, so answers in another order "
+                 "look like wrong values (docs/rules.md); the reversed answer still exists as BmpOrder for tests",
 })
