@@ -16,21 +16,27 @@ from . import commands
 from .errors import UsageError
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The parser; with ``argv`` naming a command, only that command's module is imported (the
+    simulator pulls in scapy, which costs seconds of start-up that `analyze` must not pay)."""
     p = argparse.ArgumentParser(prog="pndiss", description="PROFINET encoder dissector and log analyzer")
     p.add_argument("--version", action="version", version=f"pndiss {__version__}")
     p.add_argument("--debug", action="store_true", help="show Python tracebacks on internal errors")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-    for m in sorted(pkgutil.iter_modules(commands.__path__), key=lambda m: m.name):
-        importlib.import_module(f"{commands.__name__}.{m.name}").add_parser(sub)
+    names = sorted(m.name for m in pkgutil.iter_modules(commands.__path__))
+    wanted = next((a for a in (argv or []) if not a.startswith("-")), None)
+    for name in ([wanted] if wanted in names else names):
+        importlib.import_module(f"{commands.__name__}.{name}").add_parser(sub)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     from .capture import CaptureError
 
-    parser = build_parser()
+    if argv is None:
+        argv = sys.argv[1:]
+    parser = build_parser(argv)
     args = parser.parse_args(argv)
     try:
         return args.func(args)
