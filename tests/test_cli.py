@@ -61,3 +61,17 @@ def test_bad_inputs_one_line_exit_2(tmp_path):
 def test_bad_arguments_exit_2():
     assert run("analyze").returncode == 2
     assert run("analyze", MIXED, "--set", "nonsense=1").returncode == 2
+
+
+def test_every_event_kind_is_documented(tmp_path):
+    """docs/events.md (tools/gen_events_doc.py) documents every kind a capture produces."""
+    doc = open(os.path.join(os.path.dirname(__file__), "..", "docs", "events.md"), encoding="utf-8").read()
+    kinds = set()
+    for cap in (MIXED, os.path.join(os.path.dirname(__file__), "..", "captures", "sensor-error-t81-lika.pcapng"),
+                os.path.join(os.path.dirname(__file__), "..", "captures", "fault-preset-ack-missing.pcapng")):
+        out = tmp_path / "e.jsonl"
+        assert run("analyze", cap, "-q", "--jsonl", str(out)).returncode == 0
+        kinds |= {json.loads(x)["kind"] for x in out.read_text().splitlines()}
+    assert {"telegram", "violation", "state", "record", "param", "alarm"} <= kinds
+    missing = [k for k in kinds if f"| `{k}` |" not in doc]
+    assert not missing, f"undocumented event kinds: {missing} (run tools/gen_events_doc.py)"
