@@ -29,7 +29,7 @@ class _Obj:
     """One data object of a mapped frame, compiled once."""
 
     __slots__ = ("do", "telegram", "source", "layout", "start", "end", "iops_at", "key", "last", "sig", "bits",
-                 "length_checked", "rejected")
+                 "length_checked", "rejected", "ax")
 
     def __init__(self, do, telegram, source, layout, key):
         self.do = do
@@ -45,6 +45,7 @@ class _Obj:
         self.bits = None
         self.length_checked = False
         self.rejected = None
+        self.ax = None            # its _Axis once known (axes are never replaced): saves a tuple hash per frame
 
 
 class _Frame:
@@ -177,9 +178,12 @@ class CyclicTracker:
                 o.bits = None
             iops = csdu[o.iops_at] if o.iops_at < n_csdu else None
             ok = ds_ok and iops is not None and iops & IOPS_GOOD
-            ax = self.axes.get(o.key)
+            ax = o.ax
             if ax is None:
-                ax = self._axis(o, fr)
+                ax = self.axes.get(o.key)
+                if ax is None:
+                    ax = self._axis(o, fr)
+                o.ax = ax
             chk = ax.checker
             if direction not in chk.io_len:
                 chk.io_len[direction] = do.length
