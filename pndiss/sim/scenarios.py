@@ -83,12 +83,12 @@ class Preset(Scenario):
         self.cycles = sess.cfg.cycles
         self.k_req = self.at(0.5)
         super().prepare(sess, params)
-        if not self.skip_p65000:
-            for st in sess.stations:
-                sess.write_param(sess.cyc_ts(self.k_req - 40), st, 65000, self.value)
         self.acked = None
 
     def cycle(self, sess, k, st, plc, enc, last_in):
+        if k == 1 and not self.skip_p65000:
+            # written here, not in prepare(): the cyclic time base exists only once the run starts
+            sess.write_param(sess.cyc_ts(max(self.k_req - 40, 2)), st, 65000, self.value)
         cyclic_preset = "g1_stw" not in plc.out_fields.names
         if k == 1 and not cyclic_preset:
             enc.preset_value = self.value
