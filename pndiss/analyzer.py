@@ -13,6 +13,7 @@ from collections import Counter
 from typing import Callable
 
 from . import stations as st
+from .activity import Activity
 from .proto import alarm, dcp, lldp, ptcp, rt
 from .proto.common import Malformed, mac
 from .proto.eth import decode_link
@@ -41,6 +42,7 @@ class Analyzer:
         self.first_ts: int | None = None
         self.last_ts: int | None = None
         self.stations = st.Stations()
+        self.activity = Activity()
         self.dcp_tracker = dcp.DcpTracker()
         self.session = SessionTracker(self)
         self.cyclic = CyclicTracker(self)
@@ -124,6 +126,7 @@ class Analyzer:
             d.update(frame=fn, ts_ns=ts, kind="dcp", src=src, dst=dst, frame_id=frame_id)
             extras = d.pop("events", ())  # e.g. invalid NameOfStation
             self.emit(d)
+            self.activity.on_event(d)
             self.stations.from_dcp(d, src, dst)
             for extra in extras:
                 if extra["kind"] == "violation":
@@ -135,17 +138,20 @@ class Analyzer:
             d = alarm.decode(pdu, body, frame_id)
             d.update(frame=fn, ts_ns=ts, kind="alarm", src=src, dst=dst, frame_id=frame_id)
             self.emit(d)
+            self.activity.on_event(d)
             self.stations.seen(src)
         elif cls in rt.PTCP_CLASSES:
             d = ptcp.decode(pdu, body, frame_id)
-            d.update(frame=fn, ts_ns=ts, kind="ptcp", src=src, dst=dst, frame_id=frame_id)
+            d.update(frame=fn, ts_ns=ts, kind="ptcp", src=src, dst=dst, frame_id=frame_id, frame_class=cls)
             self.emit(d)
+            self.activity.on_event(d)
         return "decoded"
 
     def _lldp(self, fn, ts, data, off, src, dst) -> str:
         d = lldp.decode(data, off)
         d.update(frame=fn, ts_ns=ts, kind="lldp", src=src, dst=dst)
         self.emit(d)
+        self.activity.on_event(d)
         self.stations.from_lldp(d, src)
         return "decoded"
 
@@ -165,6 +171,7 @@ class Analyzer:
             "events": dict(self.kinds),
             "frame_classes": dict(self.frame_classes),
             "stations": self.stations.as_list(),
+            "activity": self.activity.summary(),
             "malformed": self.malformed,
             "session": self.session.summary(),
             "cyclic": self.cyclic.summary(),
