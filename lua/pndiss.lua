@@ -151,19 +151,6 @@ local function guess_telegram(out_len, in_len, api)
     end
 end
 
--- cyclic.py: one-direction length guess, standard telegrams (81-84) first
-local function guess_one(len, dir)
-    local best
-    for _, row in ipairs(T.telegram_lengths) do
-        local t = row[1]
-        if (dir == "actual" and row[3] == len) or (dir == "setpoint" and row[2] == len) then
-            if T.telegrams[t].standard then return t end
-            if best == nil or t < best then best = t end
-        end
-    end
-    return best
-end
-
 local function parse_usermap(s)
     usermap = {}
     for item in tostring(s or ""):gmatch("[^,%s]+") do
@@ -203,10 +190,8 @@ local function compile_obj(o, direction)
     if t == nil and pndiss.prefs.telegram ~= 0 and T.telegrams[pndiss.prefs.telegram] then
         t, src = pndiss.prefs.telegram, "settings.telegram"
     end
-    if t == nil then
-        t = guess_one(o.length, dir)
-        src = "length (guess)"
-    end
+    -- cyclic.py _frame: no telegram from the session (map, P922, both directions' lengths) and no
+    -- preference: not an encoder submodule (a one-direction length guess would take any IO module)
     if t == nil or T.telegrams[t] == nil then return nil end
     local rows, off = {}, 0
     for _, name in ipairs(T.telegrams[t][dir]) do
@@ -218,11 +203,17 @@ local function compile_obj(o, direction)
     return {o = o, telegram = t, source = src, dir = dir, rows = rows, len = off}
 end
 
--- like pndiss/cyclic.py CyclicTracker._frame: a layout, once found, stays (with its objects); an
--- unmapped key is looked up again only every RELOOKUP_EVERY frames of that key
+-- like pndiss/cyclic.py CyclicTracker._frame/on_cyclic: a layout, once found, stays (with its objects)
+-- until the maps change (map_generation: each Connect or P922 read), then every key is looked up
+-- again; an unmapped key is also looked up again every RELOOKUP_EVERY frames of that key
 local RELOOKUP_EVERY = 1024
 local misses = {}
+local map_generation, cache_generation = 0, 0
 local function lookup(fid, src, dst)
+    if cache_generation ~= map_generation then
+        cache_generation = map_generation
+        map_cache, misses = {}, {}
+    end
     local key = fid .. "|" .. src .. "|" .. dst
     local c = map_cache[key]
     if c ~= nil then
@@ -384,6 +375,7 @@ local function connect_response(key, pinfo)
                 fm.objects[#fm.objects + 1] = obj
             end
             maps[fid .. "|" .. s .. "|" .. d] = fm
+            map_generation = map_generation + 1
         end
     end
 end
@@ -618,14 +610,22 @@ local function record_items(pinfo, recs)
                                         int = blk and blk.int,
                                         error = blk and blk.error}
                         if a and a.pnu == 922 and blk and not blk.error and blk.values[1] and (a.subindex or 0) == 0 then
-                            -- session.py: a P922 read names the telegram of the device's submodules
+                            -- session.py _p922: a P922 read names the telegram of the device's submodules
+                            -- with data, unless the user map says; a length guess is kept when P922's
+                            -- telegram has another length in that direction (the checker then reports
+                            -- TELEGRAM-SELECTION-MISMATCH); objects whose lengths fit none take it
                             local tnum = tonumber(blk.values[1])
-                            if tnum then
+                            if tnum then map_generation = map_generation + 1 end
+                            if tnum and T.telegrams[tnum] then
                                 for _, fm in pairs(maps) do
                                     if fm.device == device then
+                                        local dir = fm.direction == "input" and "actual" or "setpoint"
                                         for _, o in ipairs(fm.objects) do
-                                            if o.telegram_source ~= "map" and ((o.api == r.api and o.slot == r.slot and o.subslot == r.subslot)
-                                                    or (o.telegram and (o.telegram_source == "length" or o.telegram_source == "gsdml"))) then
+                                            if o.telegram_source ~= "map" and (o.length or 0) > 0
+                                                    and not (o.telegram_source == "length" and tg_len(tnum, dir) ~= o.length)
+                                                    and ((o.api == r.api and o.slot == r.slot and o.subslot == r.subslot)
+                                                        or o.telegram == nil or o.telegram_source == "length"
+                                                        or o.telegram_source == "gsdml") then
                                                 o.telegram, o.telegram_source = tnum, "P922"
                                             end
                                         end
