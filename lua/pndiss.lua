@@ -122,7 +122,7 @@ pndiss.prefs.map = Pref.string("Manual map", "",
     .. "used for frames no Connect describes (like pndiss --map)")
 pndiss.prefs.profile = Pref.enum("Device profile", 1, "auto = from I&M0 / DCP vendor and order ID",
     {{1, "auto", 1}, {2, "lika", 2}, {3, "scancon", 3}, {4, "hohner", 4}, {5, "psm", 5}, {6, "generic", 6}}, false)
-pndiss.prefs.telegram = Pref.uint("Telegram", 0, "telegram when neither Connect nor map tells it (0 = guess from length)")
+pndiss.prefs.telegram = Pref.uint("Telegram", 0, "telegram when neither Connect nor map tells it (0 = none: only a guess from both directions' lengths)")
 local PROFILE_PREF = {"auto", "lika", "scancon", "hohner", "psm", "generic"}
 
 -- 3. maps ----------------------------------------------------------------------------------------
