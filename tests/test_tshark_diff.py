@@ -3,6 +3,7 @@ import os
 
 import pytest
 
+from conftest import record_count
 from tsharkdiff import capture_files, compare, load_maps, need_tshark
 
 FILES = capture_files()
@@ -14,6 +15,7 @@ def test_fields_equal_tshark(path):
     need_tshark()
     compared, diffs = compare(path, load_maps())
     TOTAL["values"] += compared
+    record_count(f"tshark differential: field values compared over {len(FILES)} captures", compared)
     print(f"\n{os.path.basename(path)}: compared {compared} field values with tshark")
     assert not diffs, f"{len(diffs)} mismatches, first ones:\n" + "\n".join(diffs[:30])
 
