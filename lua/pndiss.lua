@@ -617,12 +617,26 @@ local function record_items(pinfo, recs)
                             local tnum = tonumber(blk.values[1])
                             if tnum then map_generation = map_generation + 1 end
                             if tnum and T.telegrams[tnum] then
+                                -- one telegram per submodule: a length guess yields only if P922's
+                                -- telegram fits the submodule's lengths in both directions
+                                local misfit = {}
                                 for _, fm in pairs(maps) do
                                     if fm.device == device then
                                         local dir = fm.direction == "input" and "actual" or "setpoint"
                                         for _, o in ipairs(fm.objects) do
+                                            if (o.length or 0) > 0 and o.telegram_source == "length"
+                                                    and tg_len(tnum, dir) ~= o.length then
+                                                misfit[o.api .. ":" .. o.slot .. ":" .. o.subslot] = true
+                                            end
+                                        end
+                                    end
+                                end
+                                for _, fm in pairs(maps) do
+                                    if fm.device == device then
+                                        for _, o in ipairs(fm.objects) do
                                             if o.telegram_source ~= "map" and (o.length or 0) > 0
-                                                    and not (o.telegram_source == "length" and tg_len(tnum, dir) ~= o.length)
+                                                    and not (o.telegram_source == "length"
+                                                             and misfit[o.api .. ":" .. o.slot .. ":" .. o.subslot])
                                                     and ((o.api == r.api and o.slot == r.slot and o.subslot == r.subslot)
                                                         or o.telegram == nil or o.telegram_source == "length"
                                                         or o.telegram_source == "gsdml") then

@@ -580,12 +580,19 @@ class SessionTracker:
         from . import telegrams as tg
         if t not in tg.TELEGRAMS:
             return
+        # a submodule has one telegram: a length guess yields to P922 only if P922's telegram fits the
+        # submodule's data lengths in BOTH directions
+        misfit = set()
         for fm in self._maps_of(device):
             direction = "actual" if fm.direction == "input" else "setpoint"
             for do in fm.objects:
+                if do.length and do.telegram_source == "length" and tg.length(t, direction) != do.length:
+                    misfit.add((do.api, do.slot, do.subslot))
+        for fm in self._maps_of(device):
+            for do in fm.objects:
                 if do.telegram_source == "map" or not do.length:
                     continue
-                if do.telegram_source == "length" and tg.length(t, direction) != do.length:
+                if do.telegram_source == "length" and (do.api, do.slot, do.subslot) in misfit:
                     # the wire's data lengths fit the guessed telegram, not P922's: keep the lengths as the
                     # configuration; the encoder reports TELEGRAM-SELECTION-MISMATCH (behaviour.md §9 #65)
                     continue
