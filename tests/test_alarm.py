@@ -92,7 +92,7 @@ def test_manufacturer_ack_err():
     assert a["block"]["name"] == "Alarm Ack Low" and a["status"]["ok"]
     e = alarm.decode(RTA_ERR, 0, 0xFE01)
     assert e["pdu_type_name"] == "ERR-RTA-PDU" and not e["status"]["ok"]
-    assert "AR consumer DHT / WDT expired" in e["status"]["text"]
+    assert "AR consumer DHT/WDT expired" in e["status"]["text"]
     assert alarm.decode(RTA_NACK, 0, 0xFE01)["pdu_type_name"] == "NACK-RTA-PDU"
     mt = alarm.decode(MAINT, 0, 0xFE01)["items"]
     assert mt[0]["maintenance_status"] == {"value": 3, "required": 1, "demanded": 1}

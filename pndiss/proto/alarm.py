@@ -11,6 +11,7 @@ from __future__ import annotations
 import struct
 
 from .common import Malformed, need
+from .pnio_cm import status_be
 
 L = "alarm"
 
@@ -148,41 +149,8 @@ def _ext_field(cet: int) -> str:
 
 
 # PNIOStatus words for RTA (ERR PDUs, AlarmAck) (spec/wire.md §6.1)
-ERROR_CODES = {0x00: "OK", 0x81: "PNIO", 0xCF: "RTA error", 0xDA: "AlarmAck", 0xDB: "IODConnectRes",
-               0xDC: "IODReleaseRes", 0xDD: "IODControlRes", 0xDE: "IODReadRes", 0xDF: "IODWriteRes"}
-ERROR_DECODES = {0x00: "OK", 0x80: "PNIORW", 0x81: "PNIO"}
-ERROR_CODE1_PNIO = {60: "AlarmAck", 253: "RTA_ERR_CLS_PROTOCOL", 255: "User specific"}
-ERROR_CODE2 = {
-    60: {0: "Alarm type not supported", 1: "Wrong submodule state", 2: "IOCARSR backup - alarm not executed"},
-    253: {1: "error within the coordination of sequence numbers (RTA_ERR_CODE_SEQ)",
-          2: "instance closed (RTA_ERR_ABORT)", 3: "AR out of memory (RTA_ERR_ABORT)",
-          4: "AR add provider or consumer failed (RTA_ERR_ABORT)",
-          5: "AR consumer DHT / WDT expired (RTA_ERR_ABORT)", 6: "AR cmi timeout (RTA_ERR_ABORT)",
-          7: "AR alarm-open failed (RTA_ERR_ABORT)", 8: "AR alarm-send.cnf(-) (RTA_ERR_ABORT)",
-          9: "AR alarm-ack-send.cnf(-) (RTA_ERR_ABORT)", 10: "AR alarm data too long (RTA_ERR_ABORT)",
-          11: "AR alarm.ind(err) (RTA_ERR_ABORT)", 12: "AR rpc-client call.cnf(-) (RTA_ERR_ABORT)",
-          13: "AR abort.req (RTA_ERR_ABORT)", 14: "AR re-run aborts existing (RTA_ERR_ABORT)",
-          15: "AR release.ind received (RTA_ERR_ABORT)", 16: "AR device deactivated (RTA_ERR_ABORT)",
-          17: "AR removed (RTA_ERR_ABORT)", 18: "AR protocol violation (RTA_ERR_ABORT)",
-          19: "AR name resolution error (RTA_ERR_ABORT)", 25: "AR forbidden pull or plug (RTA_ERR_ABORT)",
-          26: "AR AP removed (RTA_ERR_ABORT)", 27: "AR link down (RTA_ERR_ABORT)",
-          31: "AR DCP station name changed (RTA_ERR_ABORT)",
-          32: "AR DCP reset to factory or factory reset (RTA_ERR_ABORT)",
-          37: "AR IP suite changed (RTA_ERR_ABORT)"},
-}
-
-
-def pnio_status(data: bytes, off: int) -> dict:
-    """PNIOStatus (4 bytes, always in this byte order inside RTA PDUs) with words."""
-    code, dec, c1, c2 = data[off:off + 4]
-    words = [ERROR_CODES.get(code, f"0x{code:02x}"), ERROR_DECODES.get(dec, f"0x{dec:02x}")]
-    if dec == 0x81:
-        words.append(ERROR_CODE1_PNIO.get(c1, str(c1)))
-        words.append(ERROR_CODE2.get(c1, {}).get(c2, str(c2)))
-    else:
-        words += [f"0x{c1:02x}", str(c2)]
-    return {"error_code": code, "error_decode": dec, "error_code1": c1, "error_code2": c2,
-            "ok": not (code or dec or c1 or c2), "text": "OK" if not (code or dec or c1 or c2) else ", ".join(words)}
+# PNIOStatus words: the one table in pnio_cm (tshark's value tables, spec/wire.md §5.4)
+pnio_status = status_be
 
 
 def _fields(value: int, table) -> dict:
