@@ -183,6 +183,10 @@ class CyclicTracker:
                 ax = self.axes.get(o.key)
                 if ax is None:
                     ax = self._axis(o, fr)
+                elif ax.telegram != o.telegram:
+                    # layouts were rebuilt after the session relabelled the telegram (P922): the
+                    # checker took it from the P922 read itself; keep the axis' report in step
+                    ax.telegram, ax.source = o.telegram, o.source
                 o.ax = ax
             chk = ax.checker
             if direction not in chk.io_len:
