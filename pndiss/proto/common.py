@@ -55,3 +55,31 @@ def u16(d: bytes, o: int) -> int:
 
 def u32(d: bytes, o: int) -> int:
     return U32.unpack_from(d, o)[0]
+
+
+class PendingBuffers:
+    """Bookkeeping shared by the reassemblers (IPv4, DCE/RPC): pending entries with their frames,
+    first time stamp and byte count; dropped ones come back as ``(frames, reason)`` so the caller
+    reports them as malformed. Subclasses set ``what`` (for the reasons) and ``timeout_ns``."""
+
+    what = "reassembly"
+
+    def __init__(self, timeout_ns: int):
+        self.timeout_ns = timeout_ns
+        self.pending: dict[tuple, dict] = {}
+        self.bytes = 0
+        self.dropped: list[tuple[list[int], str]] = []
+
+    def _drop(self, key, reason: str) -> None:
+        p = self.pending.pop(key)
+        self.bytes -= p["bytes"]
+        self.dropped.append((p["frames"], reason))
+
+    def expire(self, now_ns: int | None) -> list[tuple[list[int], str]]:
+        """Drop entries older than the time-out (all of them with ``now_ns=None``, end of capture)."""
+        for key in [k for k, p in self.pending.items()
+                    if now_ns is None or now_ns - p["ts"] > self.timeout_ns]:
+            self._drop(key, f"{self.what} incomplete at end of capture" if now_ns is None
+                       else f"{self.what} timed out")
+        out, self.dropped = self.dropped, []
+        return out

@@ -10,7 +10,7 @@ import struct
 import uuid
 from datetime import datetime, timezone
 
-from .common import Malformed
+from .common import Malformed, PendingBuffers
 
 HDR_LEN = 80
 
@@ -94,7 +94,7 @@ def decode_fack(data: bytes, off: int, end: int, order: str) -> dict:
             "fack_max_frag_size": mfrag, "fack_serial_num": serial, "fack_selack_len": sel}
 
 
-class FragmentReassembler:
+class FragmentReassembler(PendingBuffers):
     """Reassembles fragmented DCE/RPC bodies: key (activity UUID, sequence number, packet type).
 
     Bounded like pndiss.proto.ip.IpReassembler: ``max_calls`` pending calls, ``max_bytes`` in all,
@@ -102,28 +102,14 @@ class FragmentReassembler:
     :meth:`expire` as ``(frames, reason)``.
     """
 
+    what = "DCE/RPC reassembly"
+
     def __init__(self, max_calls: int = 64, max_bytes: int = 4 << 20, max_call_bytes: int = 1 << 20,
                  timeout_ns: int = 30 * 10**9):
+        super().__init__(timeout_ns)
         self.max_calls = max_calls
         self.max_bytes = max_bytes
         self.max_call_bytes = max_call_bytes
-        self.timeout_ns = timeout_ns
-        self.pending: dict[tuple, dict] = {}
-        self.bytes = 0
-        self.dropped: list[tuple[list[int], str]] = []
-
-    def _drop(self, key, reason: str) -> None:
-        p = self.pending.pop(key)
-        self.bytes -= p["bytes"]
-        self.dropped.append((p["frames"], reason))
-
-    def expire(self, now_ns: int | None) -> list[tuple[list[int], str]]:
-        for key in [k for k, p in self.pending.items()
-                    if now_ns is None or now_ns - p["ts"] > self.timeout_ns]:
-            self._drop(key, "DCE/RPC reassembly incomplete at end of capture" if now_ns is None
-                       else "DCE/RPC reassembly timed out")
-        out, self.dropped = self.dropped, []
-        return out
 
     def add(self, fn: int, ts: int, h: dict, data: bytes) -> tuple[bytes, list[int]] | None:
         """Add one fragment; returns (whole body, frames) when the last one closes the set."""

@@ -6,7 +6,7 @@ in the header length), checksums are reported, not verified (tshark: "validation
 """
 from __future__ import annotations
 
-from .common import Malformed, ipv4
+from .common import Malformed, PendingBuffers, ipv4
 
 IP_HDR_MIN = 20
 UDP_HDR = 8
@@ -77,7 +77,7 @@ def decode_udp(data: bytes, off: int, end: int) -> dict:
     }
 
 
-class IpReassembler:
+class IpReassembler(PendingBuffers):
     """IPv4 fragment reassembly (RFC 791), key (src, dst, proto, id).
 
     Bounded: at most ``max_datagrams`` pending datagrams and ``max_bytes`` buffered payload;
@@ -86,29 +86,15 @@ class IpReassembler:
     so the caller can report it as malformed.
     """
 
+    what = "IPv4 reassembly"
+
     def __init__(self, max_datagrams: int = 64, max_bytes: int = 1 << 20, timeout_ns: int = 30 * 10**9,
                  max_datagram: int = 65535):
+        super().__init__(timeout_ns)
         self.max_datagrams = max_datagrams
         self.max_bytes = max_bytes
-        self.timeout_ns = timeout_ns
         self.max_datagram = max_datagram
-        self.pending: dict[tuple, dict] = {}
-        self.bytes = 0
-        self.dropped: list[tuple[list[int], str]] = []
         self.last_frames: list[int] = []  # frames of the datagram add() completed last
-
-    def _drop(self, key, reason: str) -> None:
-        p = self.pending.pop(key)
-        self.bytes -= p["bytes"]
-        self.dropped.append((p["frames"], reason))
-
-    def expire(self, now_ns: int | None) -> list[tuple[list[int], str]]:
-        """Drop datagrams older than the time-out (all of them with ``now_ns=None``)."""
-        for key in [k for k, p in self.pending.items()
-                    if now_ns is None or now_ns - p["ts"] > self.timeout_ns]:
-            self._drop(key, "IPv4 reassembly incomplete" if now_ns is None else "IPv4 reassembly timed out")
-        out, self.dropped = self.dropped, []
-        return out
 
     def add(self, fn: int, ts: int, hdr: dict, data: bytes) -> bytes | None:
         """Add one fragment (``hdr`` from decode_ipv4). Returns the whole IP payload once
