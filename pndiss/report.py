@@ -12,7 +12,6 @@ import time
 from rich.console import Console
 from rich.table import Table
 
-from .proto.common import ipv4  # noqa: F401  (re-exported for section renderers)
 
 
 def _ts(ns: int | None) -> str:
