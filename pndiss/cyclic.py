@@ -96,6 +96,9 @@ class CyclicTracker:
         self.bf00: dict = {}          # device MAC -> (ar_uuid, decoded 0xBF00) of the latest write
         self.prev_bf00: dict = {}     # device MAC -> decoded 0xBF00 of an earlier connection (#31)
         self.byte_order = "little" if self.s.byte_order == "little" else "big"
+        # With a sink: called as telegram_sink(obj, frame, frame_id, fn, ts, iops, judged) instead of building
+        # a ``telegram`` event dict per frame (the MCAP exporter formats its message from obj.sig itself).
+        self.telegram_sink = None
 
     # -- frame layout ------------------------------------------------------------------------------
     def _frame(self, key, rt_ev) -> _Frame | None:
@@ -193,7 +196,10 @@ class CyclicTracker:
                 chk.io_len[direction] = do.length
                 self._refine_profile(ax)
             if sink is not None:  # after the axis exists: its bits follow the axis profile
-                self._telegram_event(o, fr, rt_ev, iops, bool(ok))
+                if self.telegram_sink is None:
+                    self._telegram_event(o, fr, rt_ev, iops, bool(ok))
+                else:
+                    self.telegram_sink(o, fr, key[0], fn, ts, iops, bool(ok))
             if direction == "setpoint":
                 ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, bool(ok)
                 continue
