@@ -571,6 +571,29 @@ class Checker:
         if SERR:
             self._state("sensor_error", X2 if X2 is not None else 1)
 
+    def advance_steady(self, cycles: int, frame: int, ts: int, sp_frame: int | None, sp: dict, ac: dict,
+                       motion_refs: list, cls_seen: bool, dls_seen: bool) -> None:
+        """``cycles`` calls of cycle() that all take the _cycle_steady branch and hit no rule, at once
+        (pndiss/batch.py). The caller has checked on its arrays what makes that so: sign-of-life
+        monitoring off, the checker steady (same key, steady_n > L+1, nothing open or pending), in every
+        cycle a new decode (not the identical-input branch), no sensor error, the key unchanged and no
+        value rule condition (shift learning, #8, #39-42, #44). Then a cycle only moves: n, the frame /
+        time stamps, ``same`` (0 after a new decode), pos_hist, started_C/started_D, nist_bad (0: no
+        sign mismatch) and the previous signals. ``motion_refs`` are the last (up to 3) X1/X3 values,
+        ``sp``/``ac`` the last cycle's signal dicts, cls_seen/dls_seen: some C-LS/DLS was non-zero."""
+        self.out = []
+        self.n += cycles
+        self.f, self.ts = frame, ts
+        self.fc = frame if sp_frame is None else sp_frame
+        self.same = 0
+        self.pos_hist.extend(motion_refs)
+        if cls_seen:
+            self.started_C = True
+        if dls_seen:
+            self.started_D = True
+        self.nist_bad = 0
+        self.prev_sp, self.prev_ac = sp, ac
+
     # -- sign-of-life (§3) -----------------------------------------------------------------------
     def _sign_of_life(self, CLS, pCLS, DLS, pDLS, SERR, X2, first) -> None:
         c, k = self.cfg, self.cfg.k
