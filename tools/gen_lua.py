@@ -159,6 +159,39 @@ def tables() -> dict:
         "bf00_velocity_units_psm": dict(userparams.VELOCITY_UNITS_PSM),
         "im_profile_ids": dict(im.IM_PROFILE_IDS), "vendors": dict(im.VENDORS),
         "rules": cat, "plugin_rules": list(PLUGIN_RULES), "unsupported_rules": unsupported,
+        "checker": checker_tables(),
+    }
+
+
+def checker_tables() -> dict:
+    """What lua/pndiss_checker.lua (the port of pndiss/encoder) reads, taken from the Python modules
+    the reference encoder itself uses, so both judge with the same numbers."""
+    from pndiss import telegrams as tg
+    from pndiss.encoder import _state, acyclic
+    from pndiss.records import profidrive
+
+    words = ("stw2_enc", "g1_stw", "zsw2_enc", "g1_zsw")
+    ptypes = {}
+    for prof in tg.PROFILES:
+        pnus = set(profidrive.PARAMS) | set(profidrive.VENDOR_PARAMS.get(prof, {}))
+        ptypes[prof] = {pnu: profidrive.param_info(pnu, prof)["type"] for pnu in sorted(pnus)}
+    return {
+        "reserved_masks": {w: {prof: tg.reserved_mask(w, prof) for prof in tg.PROFILES} for w in words},
+        "creq_bit": {prof: tg.bit_position("zsw2_enc", "control_requested", prof) for prof in ("generic", "psm")},
+        "telegram_length": {t: {d: tg.length(t, d) for d in tg.DIRECTIONS} for t in tg.TELEGRAMS},
+        "standard": {t: True for t in tg.STANDARD},
+        "lika_codes": {c: True for c in _state.LIKA_CODES},
+        "e_master_sol": _state.E_MASTER_SOL, "e_sync": _state.E_SYNC, "e_param": _state.E_PARAM,
+        "preset_telegrams": dict(_state.PRESET_TELEGRAMS),
+        "bf00_indexes": {i: True for i in _state.BF00_INDEXES},
+        "bf00_len": acyclic.BF00_LEN,
+        "read_only": {prof: {p: True for p in pnus} for prof, pnus in acyclic.READ_ONLY.items()},
+        "profile_pnus": {p: True for p in acyclic.PROFILE_PNUS},
+        "aborting_errors": {c: True for c in acyclic.ABORTING_ERRORS},
+        "pairing_rules": [list(r) for r in acyclic.PAIRING_RULES],
+        "record_rules": {r: True for r in acyclic.RECORD_RULES},
+        "param_types": ptypes,
+        "format_names": {v[0]: True for v in profidrive.FORMATS.values()},
     }
 
 
