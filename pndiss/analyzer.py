@@ -190,12 +190,12 @@ def analyze_file(path: str, settings: Settings | None = None, sink=None, progres
 
     a = Analyzer(settings, sink)
     try:
-        frames = open_capture(path)
-        if progress is not None:
-            frames = _with_progress(frames, progress)
         if fast.enabled(a.settings, sink):
-            fast.run(a, frames)   # same results, cyclic frames without the generic dispatch
+            fast.run_file(a, path, progress)   # same results: steady runs batched, cyclic frames without the dispatch
         else:
+            frames = open_capture(path)
+            if progress is not None:
+                frames = _with_progress(frames, progress)
             for fn, ts, lt, data in frames:
                 a.feed(fn, ts, lt, data)
     except CaptureError as e:

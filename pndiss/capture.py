@@ -70,8 +70,12 @@ class _Buffer:
         return not self.need(1)
 
 
-def open_capture(path: str) -> Iterator[tuple[int, int, int, bytes]]:
-    """Yield frames of the pcap/pcapng file at ``path``; raise CaptureError on bad input."""
+def open_capture(path: str, batch=None) -> Iterator[tuple[int, int, int, bytes]]:
+    """Yield frames of the pcap/pcapng file at ``path``; raise CaptureError on bad input.
+
+    ``batch`` (pndiss/batch.py) is offered the buffered records now and then: it may consume a
+    whole steady run of them itself (those frames are then not yielded; frame numbers still count
+    them) or say after how many frames to ask again."""
     try:
         f = open(path, "rb")
     except OSError as e:
@@ -82,14 +86,17 @@ def open_capture(path: str) -> Iterator[tuple[int, int, int, bytes]]:
             raise CaptureError(f"{path}: empty file or too short to be a capture (no pcap/pcapng header)")
         magic = struct.unpack_from("<I", b.buf, 0)[0]
         if magic in PCAP_MAGICS:
-            yield from _read_pcap(path, b, *PCAP_MAGICS[magic])
+            yield from _read_pcap(path, b, *PCAP_MAGICS[magic], batch)
         elif magic == PCAPNG_SHB:
-            yield from _read_pcapng(path, b)
+            yield from _read_pcapng(path, b, batch)
         else:
             raise CaptureError(f"{path}: not a pcap or pcapng file (magic 0x{magic:08x})")
 
 
-def _read_pcap(path: str, b: _Buffer, bo: str, ns: bool) -> Iterator[tuple[int, int, int, bytes]]:
+NEVER = 1 << 62  # frame number at which to offer records to the batch path when there is none
+
+
+def _read_pcap(path: str, b: _Buffer, bo: str, ns: bool, batch=None) -> Iterator[tuple[int, int, int, bytes]]:
     if not b.need(24):
         raise CaptureError(f"{path}: pcap file header truncated")
     linktype = struct.unpack_from(bo + "I", b.buf, b.pos + 20)[0] & 0x0FFFFFFF  # upper bits: FCS info
@@ -97,10 +104,18 @@ def _read_pcap(path: str, b: _Buffer, bo: str, ns: bool) -> Iterator[tuple[int, 
     unpack = struct.Struct(bo + "IIII").unpack_from
     mult = 1 if ns else 1000
     n = 0
+    take = batch.pcap(bo, linktype, mult) if batch is not None else None
+    retry = 0 if take is not None else NEVER
     while True:
         # Inner loop over the records already buffered: no method call per frame.
         buf, pos, end = b.buf, b.pos, len(b.buf)
         while pos + 16 <= end:
+            if n >= retry:  # the batch path takes a steady run, or says when to ask again
+                r = take(buf, pos, end, n)
+                if r.__class__ is tuple:
+                    pos, n = r
+                    continue
+                retry = n + r
             sec, frac, incl, _orig = unpack(buf, pos)
             start = pos + 16
             stop = start + incl
@@ -135,8 +150,9 @@ def _tsres_to_ns(resol: int):
     return lambda t: t // d
 
 
-def _read_pcapng(path: str, b: _Buffer) -> Iterator[tuple[int, int, int, bytes]]:
+def _read_pcapng(path: str, b: _Buffer, batch=None) -> Iterator[tuple[int, int, int, bytes]]:
     n = 0
+    retry = 0 if batch is not None else NEVER
     bo = "<"
     epb_bo = {"<": struct.Struct("<IIIIII"), ">": struct.Struct(">IIIIII")}  # type, length, if, ts hi/lo, caplen
     ifaces: list[tuple[int, object, int, int]] = []  # (linktype, ts->ns function, tsoffset ns, multiplier or 0)
@@ -166,7 +182,14 @@ def _read_pcapng(path: str, b: _Buffer) -> Iterator[tuple[int, int, int, bytes]]
             buf, pos, end = b.buf, b.pos, len(b.buf)
             unpack = epb_bo[bo].unpack_from
             nif = len(ifaces)
+            take = batch.pcapng(bo, ifaces) if batch is not None else None
             while pos + 28 <= end:
+                if n >= retry:  # the batch path takes a steady run, or says when to ask again
+                    r = take(buf, pos, end, n)
+                    if r.__class__ is tuple:
+                        pos, n = r
+                        continue
+                    retry = n + r
                 btype, blen, ifid, hi, lo, cap = unpack(buf, pos)
                 if btype != 6 or ifid >= nif or blen % 4 or blen < 32 + cap or pos + blen > end:
                     break

@@ -41,9 +41,39 @@ class _Stream:
         self.bad = 0    # of which malformed (a data object beyond the C_SDU)
 
 
-def run(a, frames) -> None:
-    """Feed ``frames`` ((fn, ts, linktype, data) tuples) into analyzer ``a``."""
-    streams: dict = {}        # data[:16] -> _Stream, or None when the key is not a fast cyclic stream
+def batch_enabled() -> bool:
+    """Steady runs in batches (pndiss/batch.py); env PNDISS_BATCH=0 keeps the frame-by-frame fast path."""
+    return os.environ.get("PNDISS_BATCH", "1") != "0"
+
+
+def run_file(a, path: str, progress=None) -> None:
+    """The capture at ``path`` into analyzer ``a``: steady runs of known cyclic streams go to the
+    batch engine straight from the reader's buffer, every other frame through run()."""
+    from .capture import open_capture
+
+    streams: dict = {}
+    engine = None
+    if batch_enabled():
+        from .batch import Engine
+        engine = Engine(a, streams, progress)
+    frames = open_capture(path, batch=engine)
+    if progress is not None:
+        frames = _with_progress(frames, progress)
+    run(a, frames, streams, engine)
+
+
+def _with_progress(frames, progress):
+    for f in frames:
+        yield f
+        if not f[0] & 0xFFF:
+            progress(f[0])
+
+
+def run(a, frames, streams: dict | None = None, engine=None) -> None:
+    """Feed ``frames`` ((fn, ts, linktype, data) tuples) into analyzer ``a``. ``streams`` is shared
+    with the batch ``engine`` (which takes frames of the streams learned here)."""
+    if streams is None:
+        streams = {}          # data[:16] -> _Stream, or None when the key is not a fast cyclic stream
     get = streams.get
     feed = a.feed
     on_cyclic = a.cyclic.on_cyclic
@@ -70,6 +100,8 @@ def run(a, frames) -> None:
             else:
                 feed(fn, ts, lt, data)
     finally:
+        if engine is not None and engine.last_fn > (fn or 0):
+            fn, ts = engine.last_fn, engine.last_ts   # the capture ended in a batched run
         _settle(a, streams, fn, ts)
 
 
