@@ -24,7 +24,15 @@ import json
 import os
 import re
 
+from operator import itemgetter
+
 from . import __version__
+from . import telegrams as tg
+from .mcap_writer import McapWriter
+
+
+class UnsupportedCompression(Exception):
+    """The compression module (lz4) is not installed; str() is the module name."""
 
 # -- schemas -------------------------------------------------------------------------------
 # One declared table; per-channel schemas only add the names seen in the channel's first
@@ -175,12 +183,47 @@ class _Chan:
 COMPRESSIONS = ("none", "lz4", "zstd")
 
 
+class _RtFast:
+    """Fast path, one cyclic stream (first 16/20 bytes of its frames): its APDU channel, the message
+    text around the values, and the DataStatus part per (frame length, DataStatus, TransferStatus)."""
+    __slots__ = ("ch", "fmt", "off", "tails", "n", "bad", "key", "cls")
+
+    def __init__(self, ch: _Chan, fmt: bytes, off: int):
+        self.ch, self.fmt, self.off = ch, fmt, off
+        self.tails: dict[int, bytes] = {}
+        self.n = 0      # frames taken
+        self.bad = 0    # of which malformed
+        self.key = self.cls = None
+
+
+class _TgFast:
+    """Fast path, one data object: its telegram channel and message text. ``inner`` is the signals
+    and bits text of ``sig`` (the tracker keeps the same dict while the C_SDU does not change);
+    ``bits`` maps the values of the words with bit maps to their bits text."""
+    __slots__ = ("ch", "layout", "source", "profile", "fmt", "sig_fmt", "words", "bits", "sig", "inner", "n")
+
+    def __init__(self, ch: _Chan, layout, source, profile: str):
+        self.ch, self.layout, self.source, self.profile = ch, layout, source, profile
+        self.fmt = (b'{"frame":%d,"telegram_source":' + _dumps(source).encode()
+                    + b',"iops":%d,"judged":%s,"signals":%s}')
+        # struct.unpack gives ints only, and json writes an int as %d does
+        self.sig_fmt = b"{" + b",".join(_dumps(n).encode() + b":%d" for n in layout.names) + b"}"
+        keys = [n for n in layout.names if n in tg.BITMAPS]
+        self.words = itemgetter(*keys) if keys else (lambda sig: None)
+        self.bits: dict = {}
+        self.sig = self.inner = None
+        self.n = 0      # messages written (for ``seen`` and the analyzer's event counts)
+
+
 class McapExporter:
+    """Channels, schemas and messages for the event stream. ``on_event`` takes any event dict (the
+    reference path); ``run`` analyses a capture and writes cyclic frames without event dicts (the
+    fast path, same messages). ``_reference=True`` writes with mcap-python's Writer and makes ``run``
+    use the plain event path: what the tests compare the fast path with."""
+
     def __init__(self, path: str, capture_path: str | None, settings=None, *, on_change: bool = False,
                  decimate: int = 1, keyframe_s: float = 1.0, compression: str = "zstd",
-                 chunk_size: int = 1024 * 1024):
-        from mcap.writer import CompressionType, Writer
-
+                 chunk_size: int = 1024 * 1024, _reference: bool = False):
         if compression not in COMPRESSIONS:
             raise ValueError(f"compression must be one of {', '.join(COMPRESSIONS)}")
         if decimate < 1:
@@ -194,11 +237,20 @@ class McapExporter:
         except OSError as e:
             from .errors import UsageError
             raise UsageError(f"cannot write {path}: {e.strerror}") from None
+        self.reference = _reference
         try:
-            self.w = Writer(self._f, chunk_size=chunk_size,
-                            compression={"none": CompressionType.NONE, "lz4": CompressionType.LZ4,
-                                         "zstd": CompressionType.ZSTD}[compression])
-        except Exception:  # e.g. lz4 not installed: leave no empty file behind
+            if _reference:
+                from mcap.writer import CompressionType, Writer
+                self.w = Writer(self._f, chunk_size=chunk_size,
+                                compression={"none": CompressionType.NONE, "lz4": CompressionType.LZ4,
+                                             "zstd": CompressionType.ZSTD}[compression])
+            else:
+                self.w = McapWriter(self._f, chunk_size=chunk_size, compression=compression)
+        except ImportError as e:  # lz4 not installed: leave no empty file behind
+            self._f.close()
+            os.remove(path)
+            raise UnsupportedCompression(e.name or compression) from None
+        except Exception:
             self._f.close()
             os.remove(path)
             raise
@@ -216,6 +268,9 @@ class McapExporter:
         self._kinds = {"rt": self._rt, "telegram": self._telegram, "state": self._state,
                        "record": self._record, "param": self._record, "record_result": self._record,
                        "violation": self._violation}
+        self._thin = self.on_change or self.decimate > 1
+        self._tgs: dict = {}     # fast path: cyclic._Obj -> _TgFast
+        self._tracker = None     # the CyclicTracker whose telegram_sink we are (fast path)
 
     # -- plumbing ---------------------------------------------------------------------------
     def _schema_id(self, key: str, schema: dict) -> int:
@@ -417,6 +472,151 @@ class McapExporter:
         }
         self._write(ch, ev, msg)
 
+    # -- fast path: cyclic frames without event dicts ------------------------------------------
+    # The first frame of every stream / data object goes the reference way (event dict, on_event),
+    # which creates the channel; later ones fill per-channel byte templates whose text is made by
+    # the same encoder (_dumps) from the same values, so the messages are byte for byte those of
+    # the reference path (tests/test_mcap.py compares them on every capture). Anything unusual
+    # (negative time, IOPS missing, a G1_XIST2 error code, a relabelled telegram) goes the
+    # reference way again.
+    def attach(self, analyzer) -> None:
+        """Become ``analyzer``'s sink and its cyclic tracker's telegram_sink (see ``run``)."""
+        analyzer.sink = self.on_event
+        if not self.reference:
+            self._tracker = analyzer.cyclic
+            analyzer.cyclic.telegram_sink = self._telegram_direct
+
+    def run(self, path: str, settings=None, progress=None):
+        """Analyse ``path`` into this file; returns the Analyzer (as analyzer.analyze_file does).
+        Raises capture.CaptureError like analyze_file, after writing everything read before it."""
+        from .analyzer import Analyzer, _with_progress, analyze_file
+        from .capture import CaptureError, open_capture
+
+        if self.reference:
+            return analyze_file(path, settings, self.on_event, progress)
+        a = Analyzer(settings)
+        self.attach(a)
+        try:
+            frames = open_capture(path)
+            if progress is not None:
+                frames = _with_progress(frames, progress)
+            _run(a, self, frames)
+        except CaptureError as e:
+            a.finish()
+            e.analyzer = a
+            raise
+        a.finish()
+        return a
+
+    def _stream(self, fid: int, src: str, dst: str, data: bytes, off: int) -> _RtFast | None:
+        """Template of the APDU messages of a cyclic stream whose first frame the reference path
+        has just written (so the channel and its previous cycle counter exist)."""
+        ch = self._chans.get(("rt", fid, src, dst))
+        if ch is None or ch.prev_cc is None:
+            return None
+        from .proto.eth import decode_link
+        tags = decode_link(1, data)[4]
+        vlan = b""
+        if tags:  # as Analyzer._pn_rt reports them
+            vlan = b'"vlan":' + _dumps([{"tpid": t[0], "priority": t[1], "dei": t[2], "id": t[3]}
+                                        for t in tags]).encode() + b","
+        return _RtFast(ch, b'{"frame":%d,' + vlan + b'"cycle_counter":%d,%s,"d_cycle":%d,"dt_ns":%d}', off)
+
+    def _apdu_tail(self, r: _RtFast, data: bytes, k: int) -> bytes:
+        from .proto.rt import decode_apdu_status
+        st = decode_apdu_status(data, r.off)
+        del st["cycle_counter"]
+        tail = r.tails[k] = _dumps(st)[1:-1].encode()
+        return tail
+
+    def _apdu_direct(self, r: _RtFast, fn: int, ts: int, data: bytes) -> None:
+        """The APDU message of a cyclic frame of a known stream (what _rt writes for its rt event)."""
+        ch = r.ch
+        cc = data[-4] << 8 | data[-3]
+        d_cycle = (cc - ch.prev_cc) & 0xFFFF
+        dt = ts - ch.prev_t
+        ch.prev_cc, ch.prev_t = cc, ts
+        r.n += 1
+        if self._thin and not self._keep(ch, (data[-2], data[-1], d_cycle, None, None), ts):
+            return
+        k = len(data) << 16 | data[-2] << 8 | data[-1]
+        tail = r.tails.get(k) or self._apdu_tail(r, data, k)
+        t = ch.last_t
+        if ts > t:
+            ch.last_t = t = ts
+        self.w.add_message(ch.id, t, r.fmt % (fn, cc, tail, d_cycle, dt), ts, fn & 0xFFFFFFFF)
+        ch.written += 1
+        ch.last_written_t = ts
+
+    def _telegram_direct(self, o, fr, fid: int, fn: int, ts: int, iops, ok: bool) -> None:
+        """CyclicTracker.telegram_sink: the telegram message of data object ``o`` in this frame."""
+        st = self._tgs.get(o)
+        sig = o.sig
+        if (st is None or st.layout is not o.layout or st.source != o.source or st.profile != o.ax.profile
+                or iops is None or ts < 0 or fn < 0):
+            self._telegram_slow(o, fr, fid, fn, ts, iops, ok)
+            return
+        ch = st.ch
+        if sig is not st.sig:
+            bits = st.bits.get(st.words(sig))
+            if bits is None:
+                bits = self._tg_bits(st, sig)
+                if bits is None:  # G1_XIST2 holds an error code: the event has one more field
+                    self._telegram_slow(o, fr, fid, fn, ts, iops, ok)
+                    return
+            st.sig = sig
+            st.inner = st.sig_fmt % tuple(sig.values()) + b',"bits":' + bits
+        st.n += 1
+        if self._thin and not self._keep(ch, (None, None, sig), ts):
+            return
+        t = ch.last_t
+        if ts > t:
+            ch.last_t = t = ts
+        self.w.add_message(ch.id, t, st.fmt % (fn, iops, b"true" if ok else b"false", st.inner), ts,
+                           fn & 0xFFFFFFFF)
+        ch.written += 1
+        ch.last_written_t = ts
+
+    def _tg_bits(self, st: _TgFast, sig: dict) -> bytes | None:
+        bits = tg.bits(sig, st.profile)
+        if len(st.bits) > 4096:  # words seen so far; a long capture cycles through few of them
+            st.bits.clear()
+        if bits.get("g1_zsw.sensor_error") and "g1_xist2" in sig:
+            return None
+        b = st.bits[st.words(sig)] = _dumps(bits).encode()
+        return b
+
+    def _telegram_slow(self, o, fr, fid: int, fn: int, ts: int, iops, ok: bool) -> None:
+        """The reference way (telegram event dict through on_event), then (re)build o's templates."""
+        self._tracker._telegram_event(o, fr, {"frame": fn, "ts_ns": ts, "frame_id": fid}, iops, ok)
+        side = "setpoint" if str(fr.direction).lower() in _SETPOINT else "actual"
+        do = o.do
+        ch = self._chans.get(("tg", fr.fm.device_mac, do.api, do.slot, do.subslot, side))
+        st = self._tgs.get(o)
+        if st is None or st.ch is not ch or st.layout is not o.layout or st.source != o.source \
+                or st.profile != o.ax.profile:
+            self._tgs[o] = _TgFast(ch, o.layout, o.source, o.ax.profile)
+
+    def _settle(self, a, streams) -> None:
+        """Add the events the fast path stood in for to ``seen`` and to the analyzer's totals, which
+        then equal those of the reference path (fast.py's _settle does the same without a sink)."""
+        n_rt = n_tg = 0
+        for r in streams:
+            if r.n:
+                n_rt += r.n
+                a.counts["decoded"] += r.n - r.bad
+                a.counts["malformed"] += r.bad
+                a.frame_classes[r.cls] += r.n
+                r.n = r.bad = 0
+        for st in self._tgs.values():
+            n_tg += st.n
+            st.n = 0
+        for kind, n in (("rt", n_rt), ("telegram", n_tg)):
+            if n:
+                a.kinds[kind] += n
+                self.seen[kind] = self.seen.get(kind, 0) + n
+        a.frames += n_rt
+
     # -- end --------------------------------------------------------------------------------
     def topic_counts(self) -> dict[str, int]:
         out: dict[str, int] = {}
@@ -446,6 +646,56 @@ class McapExporter:
         self.w.add_metadata("pndiss", meta)
         self.w.finish()
         self._f.close()
+
+
+def _run(a, exp: McapExporter, frames) -> None:
+    """Feed ``frames`` into analyzer ``a`` (sink: ``exp``). As fast.py does for the report: cyclic
+    PN-RT frames of a stream already seen (same first 16 bytes, or 20 with one 802.1Q tag) skip the
+    generic dispatch and its ``rt`` event; ``exp`` writes their APDU message from the frame bytes and
+    the tracker hands their data objects to ``exp`` directly. Every other frame, and the first one of
+    each stream, goes through Analyzer.feed and on_event."""
+    from .proto import rt
+    from .proto.common import Malformed, mac
+
+    streams: dict = {}   # data[:16] or data[:20] -> _RtFast, None (not a fast stream) or absent
+    get = streams.get
+    feed = a.feed
+    on_cyclic = a.cyclic.on_cyclic
+    apdu = exp._apdu_direct
+    fn = ts = None
+    try:
+        for fn, ts, lt, data in frames:
+            if lt == 1 and len(data) >= 24:
+                off = 18 if data[12] == 0x81 else 14
+                key = data[:off + 2]
+                r = get(key, False)
+                if r and ts >= 0:
+                    apdu(r, fn, ts, data)
+                    try:
+                        # DataStatus: DataValid (0x04) and ProviderState RUN (0x10), wire.md §2.3
+                        on_cyclic(r.key, fn, ts, data[-2] & 0x14 == 0x14, data, off + 2)
+                    except Malformed as e:
+                        r.bad += 1
+                        a._malformed(fn, ts, e.layer, e.reason)
+                    continue
+                feed(fn, ts, lt, data)
+                if r is False and data[off - 2:off] == b"\x88\x92" and (off == 14 or data[12:14] == b"\x81\x00"):
+                    fid = (data[off] << 8) | data[off + 1]
+                    cls, cyclic = rt.classify(fid, False)
+                    src, dst = mac(data[6:12]), mac(data[0:6])
+                    r = exp._stream(fid, src, dst, data, off) if cyclic else None
+                    if r is not None:
+                        r.key, r.cls = (fid, src, dst), cls
+                    streams[key] = r
+                elif r is False:
+                    streams[key] = None
+            else:
+                feed(fn, ts, lt, data)
+    finally:
+        exp._settle(a, [r for r in streams.values() if r])
+        if fn is not None:  # as if the last frame had gone through Analyzer.feed
+            a.cur_frame, a.cur_ts = fn, ts
+            a.last_ts = ts
 
 
 def _sha256(path: str) -> str:

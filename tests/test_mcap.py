@@ -422,6 +422,167 @@ def test_arbitrary_events(tmp_path, evs, on_change, decimate):
         1 for e in evs if e["kind"] != "rt" or "cycle_counter" in e)
 
 
+# -- fast path (issue #8): the same file as the reference path --------------------------------
+def _messages(path):
+    """Everything a reader sees, in file order: channels, schemas, messages, metadata."""
+    with open(path, "rb") as f:
+        r = make_reader(f)
+        msgs = [(ch.topic, m.log_time, m.publish_time, m.sequence, m.data)
+                for _, ch, m in r.iter_messages(log_time_order=False)]
+        summ = r.get_summary()
+        chans = [(c.id, c.topic, c.schema_id, c.metadata) for c in summ.channels.values()]
+        schemas = [(x.id, x.name, x.data) for x in summ.schemas.values()]
+        meta = [(md.name, md.metadata) for md in r.iter_metadata()]
+    return chans, schemas, msgs, meta
+
+
+def _assert_same_export(ref, new):
+    with open(ref, "rb") as f:
+        a = f.read()
+    with open(new, "rb") as f:
+        b = f.read()
+    if a == b:
+        return
+    ca, sa, ma, xa = _messages(ref)
+    cb, sb, mb, xb = _messages(new)
+    assert cb == ca and sb == sa and xb == xa
+    for i, (x, y) in enumerate(zip(ma, mb)):
+        assert y == x, f"message {i}"
+    assert len(mb) == len(ma)
+    pytest.fail("same records, different bytes")  # e.g. chunking: still a change to explain
+
+
+def _fast_and_reference(cap, d, **kw):
+    ref, new = str(d / "ref.mcap"), str(d / "new.mcap")
+    for path, reference in ((ref, True), (new, False)):
+        settings = Settings()
+        exp = McapExporter(path, cap, settings, _reference=reference, **kw)
+        try:
+            a = exp.run(cap, settings)
+        finally:
+            exp.close()
+        res = (a.summary(), {k: v for k, v in exp.summary().items() if k != "path"})
+        if reference:
+            want = res
+        else:
+            got = res
+    return ref, new, want, got
+
+
+@pytest.mark.skipif(not CAPTURES, reason="no captures")
+@pytest.mark.parametrize("cap", CAPTURES, ids=os.path.basename)
+def test_fast_path_same_file(cap, tmp_path):
+    """The exporter's fast path (no rt / telegram event dicts, own writer) writes the file the
+    reference path (event dicts through on_event, mcap-python's Writer) writes: same bytes, so
+    the same channels, schemas, messages, times and order; and the analyzer ends in the same state
+    (summary, event counts) as with the event sink."""
+    ref, new, want, got = _fast_and_reference(cap, tmp_path, chunk_size=64 * 1024)
+    _assert_same_export(ref, new)
+    assert json.dumps(got, default=str, sort_keys=True) == json.dumps(want, default=str, sort_keys=True)
+
+
+FEW = [c for c in CAPTURES if any(k in os.path.basename(c) for k in ("motion", "preset", "sensor-error", "3enc"))][:6]
+
+
+@pytest.mark.skipif(not FEW, reason="no captures")
+@pytest.mark.parametrize("opts", [{"on_change": True}, {"decimate": 3}, {"on_change": True, "decimate": 4,
+                                                                         "keyframe_s": 0.01},
+                                  {"compression": "none"}])
+@pytest.mark.parametrize("cap", FEW, ids=os.path.basename)
+def test_fast_path_same_file_options(cap, opts, tmp_path):
+    ref, new, want, got = _fast_and_reference(cap, tmp_path, **opts)
+    _assert_same_export(ref, new)
+    assert got[1] == want[1]
+
+
+def _write_pcap(path, frames):
+    """frames ((ts_ns, data)) as a nanosecond pcap, Ethernet."""
+    import struct
+    with open(path, "wb") as f:
+        f.write(struct.pack("<IHHiIII", 0xA1B23C4D, 2, 4, 0, 0, 65535, 1))
+        for ts, data in frames:
+            f.write(struct.pack("<IIII", ts // 1_000_000_000, ts % 1_000_000_000, len(data), len(data)) + data)
+
+
+def test_fast_path_changes_midstream(tmp_path):
+    """Known streams whose DataStatus, TransferStatus, frame length and VLAN priority change, whose
+    clock steps back, with a sensor error (G1_XIST2 error code) on the way: each change takes a new
+    template or the reference way, and the file stays the reference path's."""
+    from pndiss.capture import open_capture
+    sim = str(tmp_path / "s.pcapng")
+    assert cli_main(["simulate", "--scenario", "sensor-error", "--cycles", "800", "--no-expected", "-o", sim]) == 0
+    out, k = [], 0
+    for fn, ts, lt, data in open_capture(sim):
+        data = bytearray(data)
+        off = 16 if data[12:14] == b"\x81\x00" else 12
+        if data[off:off + 2] == b"\x88\x92" and data[off + 2] >= 0x80:  # cyclic RTC1
+            k += 1
+            if 300 <= k < 340:
+                data[-2] ^= 0x04              # DataValid off: a new DataStatus text, cycles not judged
+            elif 400 <= k < 420:
+                data[-1] = 3                  # TransferStatus
+            elif 500 <= k < 510:
+                data[-4:-4] = b"\x00\x00"     # two more bytes in the C_SDU: c_sdu_len changes
+            elif 600 <= k < 620 and off == 16:
+                data[14] = (data[14] & 0x1F) | 0x80   # VLAN priority 4: a new stream key
+            if k in (700, 701):
+                ts -= 5_000_000               # the clock steps back: log_time is held per channel
+        out.append((ts, bytes(data)))
+    cap = str(tmp_path / "m.pcap")
+    _write_pcap(cap, out)
+    ref, new, want, got = _fast_and_reference(cap, tmp_path)
+    _assert_same_export(ref, new)
+    assert json.dumps(got, default=str, sort_keys=True) == json.dumps(want, default=str, sort_keys=True)
+    with open(new, "rb") as f:
+        topics = {ch.topic for _, ch, _ in make_reader(f).iter_messages()}
+    assert any(t.endswith("/actual") for t in topics) and any("/apdu/" in t for t in topics)
+
+
+def test_writer_same_bytes_as_mcap_python():
+    """pndiss.mcap_writer lays out a file record for record as mcap-python does (chunks, message
+    indexes, summary, CRCs) for an arbitrary sequence of calls."""
+    import io
+    import random
+    from mcap.writer import CompressionType, Writer
+    from pndiss.mcap_writer import McapWriter
+
+    comps = {"none": CompressionType.NONE, "zstd": CompressionType.ZSTD}
+    try:
+        import lz4.frame  # noqa: F401
+        comps["lz4"] = CompressionType.LZ4
+    except ImportError:
+        pass
+    for trial in range(150):
+        rnd = random.Random(trial)
+        comp = rnd.choice(sorted(comps))
+        size = rnd.choice([1, 60, 300, 4096])
+        a, b = io.BytesIO(), io.BytesIO()
+        wa, wb = Writer(a, chunk_size=size, compression=comps[comp]), McapWriter(b, chunk_size=size, compression=comp)
+        for w in (wa, wb):
+            w.start(profile="p", library="lib")
+        channels = 0
+        for i in range(rnd.randint(0, 80)):
+            r = rnd.random()
+            if r < 0.1 or not channels:
+                data = rnd.randbytes(rnd.randint(0, 30))
+                meta = {f"k{j}": rnd.choice(["", "v", "µ"]) for j in range(rnd.randint(0, 3))}
+                sids = [w.register_schema(f"s{i}", "jsonschema", data) for w in (wa, wb)]
+                cids = [w.register_channel(f"/t{i}", "json", sids[0], meta) for w in (wa, wb)]
+                assert sids[0] == sids[1] and cids[0] == cids[1]
+                channels += 1
+            elif r < 0.15:
+                for w in (wa, wb):
+                    w.add_metadata(f"m{i}", {"a": str(i)})
+            else:
+                cid, t, pub = rnd.randint(1, channels), rnd.randint(0, 2**63), rnd.randint(0, 2**64 - 1)
+                data, seq = rnd.randbytes(rnd.randint(0, 50)), rnd.randint(0, 2**32 - 1)
+                for w in (wa, wb):
+                    w.add_message(cid, t, data, pub, seq)
+        for w in (wa, wb):
+            w.finish()
+        assert b.getvalue() == a.getvalue(), (trial, comp, size)
+
+
 # -- command line ----------------------------------------------------------------------------
 SMALL = [c for c in CAPTURES if os.path.getsize(c) < 2_000_000]
 
@@ -446,8 +607,8 @@ def test_cli_errors(tmp_path, capsys, monkeypatch):
         assert cli_main(["export", SMALL[0], "-o", str(tmp_path / "x.mcap"), "--decimate", "0"]) == 2
         assert cli_main(["export", SMALL[0], "-o", str(tmp_path / "nodir" / "x.mcap")]) == 2
         assert cli_main(["analyze", SMALL[0], "-q", "--mcap", str(tmp_path / "nodir" / "x.mcap")]) == 2
-        import mcap.writer
-        monkeypatch.setattr(mcap.writer, "lz4", None)  # as if lz4 were not installed
+        import sys
+        monkeypatch.setitem(sys.modules, "lz4.frame", None)  # as if lz4 were not installed
         assert cli_main(["export", SMALL[0], "-o", str(tmp_path / "l.mcap"), "--compression", "lz4"]) == 2
         assert not (tmp_path / "l.mcap").exists()
     err = capsys.readouterr().err

@@ -122,7 +122,10 @@ def run(args) -> int:
     error = None
     try:
         try:
-            a = analyze_file(args.capture, settings, sink, progress.update if progress else None)
+            if mcap_writer is not None and len(sinks) == 1:  # the exporter alone: its fast path, same file
+                a = mcap_writer.run(args.capture, settings, progress.update if progress else None)
+            else:
+                a = analyze_file(args.capture, settings, sink, progress.update if progress else None)
         except CaptureError as e:
             error = e
             a = e.analyzer if hasattr(e, "analyzer") else None

@@ -24,12 +24,10 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..analyzer import analyze_file
     from ..capture import CaptureError
     from ..errors import UsageError
-    from mcap.exceptions import UnsupportedCompressionError
 
-    from ..mcap_export import McapExporter
+    from ..mcap_export import McapExporter, UnsupportedCompression
 
     check_capture_path(args.capture)
     if args.decimate < 1:
@@ -42,11 +40,11 @@ def run(args) -> int:
                            decimate=args.decimate, keyframe_s=args.keyframe, compression=args.compression)
     except OSError as e:
         raise UsageError(f"cannot write {args.output}: {e.strerror}") from None
-    except UnsupportedCompressionError as e:  # lz4 is not a hard dependency
+    except UnsupportedCompression as e:  # lz4 is not a hard dependency
         raise UsageError(f"--compression {args.compression}: module {e} is not installed") from None
     error = None
     try:
-        analyze_file(args.capture, settings, exp.on_event)
+        exp.run(args.capture, settings)
     except CaptureError as e:
         error = e
     finally:
