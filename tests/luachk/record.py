@@ -226,8 +226,6 @@ class Recorder:
             for key in ("sp", "ac"):
                 if key in o:
                     parts.append(f"{key}={lua(o.pop(key), hilo=True)}")
-            if o.get("key") in ("cfg.sources",):
-                pass
             parts.extend(f"{key}={lua(v)}" for key, v in o.items() if v is not None)
             yield "{" + ",".join(parts) + "}\n"
 
@@ -282,10 +280,14 @@ def compare(rec: Recorder, stdout: str) -> dict:
     counts_got: dict[int, str] = {}
     problems = []
     done = False
+    opens = 0
     for line in stdout.splitlines():
         tag, _, rest = line.partition("\t")
         if tag == "DONE":
             done = True
+            continue
+        if tag == "OPENS":
+            opens = int(rest)
             continue
         if tag == "ERR":
             problems.append(rest)
@@ -313,4 +315,6 @@ def compare(rec: Recorder, stdout: str) -> dict:
     n_calls = sum(1 for o in rec.ops if o["op"] != "set")
     n_viol = sum(len(v) for v in rec.expect.values())
     rules = {v[0] for evs in rec.expect.values() for v in evs}
-    return {"calls": n_calls, "violations": n_viol, "rules": rules, "problems": problems}
+    lua_rules = {v[0] for evs in got.values() for v in evs}
+    return {"calls": n_calls, "violations": n_viol, "rules": rules, "lua_rules": lua_rules, "opens": opens,
+            "problems": problems}

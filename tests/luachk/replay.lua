@@ -41,11 +41,13 @@ end
 local chks, last_sp, last_ac = {}, {}, {}
 local opened = {}     -- k .. rule .. frame -> announced runs not yet reported
 local out = io.stdout
+local n_open = 0
 
 local function report(i, k, evs)
   local parts = {}
   for _, e in ipairs(evs) do
     if e.open then
+      n_open = n_open + 1
       local key = k .. "|" .. e.rule .. "|" .. e.frame
       opened[key] = (opened[key] or 0) + 1
     else
@@ -121,4 +123,5 @@ end
 for key, n in pairs(opened) do
   if n > 0 then out:write("ERR\trun announced open but never reported: ", key, "\n") end
 end
+out:write("OPENS\t", n_open, "\n")
 out:write("DONE\t", i + 1, "\n")

@@ -1,0 +1,309 @@
+"""Random encoder sessions for the Python/Lua checker comparison (tests/test_lua_checker.py).
+
+``run(rnd)`` builds a Checker from random settings and feeds it a random but plausible session:
+a controller that toggles its command bits, an encoder that answers them (on time, late, wrong
+or not at all), sign-of-life counters that mostly count, positions that move and jump, sensor
+errors, gaps, 0xBF00 writes, parameter accesses and the outside changes cyclic.py makes
+(profile/telegram relabel, _apply_cfg, _flush_all, _reset_history). Run it inside a Recorder.
+``rnd`` is a random.Random (hypothesis passes st.randoms()).
+"""
+from __future__ import annotations
+
+from pndiss import telegrams as tg
+from pndiss.encoder import Checker, EncoderConfig
+from pndiss.settings import Settings
+
+STD_TELEGRAMS = (81, 82, 83, 84)
+PRESET_TELEGRAMS = (86, 87, 88, 100, 101, 860)
+ERROR_CODES = (0x0F02, 0x0F04, 0x1002, 0x0003, 0x1001, 0, 0x1234)
+PNUS = (922, 925, 964, 965, 971, 975, 979, 980, 61001, 65000, 65001, 12345, 100)
+PAIRING = ("request(s) in frame(s) 3 overwritten before their response was read", "no request",
+           "response id mismatch (request 0x01, response 0x02)", "request ref mismatch (request 0x01, response 0x02)",
+           "axis not mirrored (request 1, response 2)", "number of parameters mismatch (request 1, response 2)",
+           "2 value blocks for 1 requested parameters")
+FORMAT_NAMES = ("Unsigned16", "Unsigned32", "Integer32", "OctetString", "VisibleString", "Float32", "Word")
+
+
+def _maybe(rnd, p, value, other=None):
+    return value if rnd.random() < p else other
+
+
+def settings(rnd) -> Settings:
+    s = Settings()
+    s.l_max = rnd.choice((1, 2, 2, 3))
+    s.preset_deadline_ms = rnd.choice((10.0, 10.0, 3.0, 2.5))
+    s.sol_threshold_ge = rnd.random() < 0.3
+    s.sol_monitor_rt = rnd.random() < 0.4
+    s.iso = rnd.choice((None, None, True, False))
+    s.master_cycle_ratio = rnd.choice((1, 1, 2, 3))
+    s.compat = rnd.choice((None, None, 0, 1))
+    s.class4 = rnd.choice((None, None, 0, 1))
+    s.st_phys = rnd.choice((None, 8192, 4096, 360))
+    s.mt_phys = rnd.choice((None, 4096, 16, 1))
+    s.xist1_shift = rnd.choice((None, None, 0, 1, 3))
+    s.max_position_step = rnd.choice((None, None, 100, 5000))
+    return s
+
+
+def bf00(rnd) -> dict:
+    d = {}
+    for key, values in (("compat", (0, 1)), ("class4", (0, 1)), ("preset_control", (0, 1)), ("scaling", (0, 1)),
+                        ("direction", (0, 1)), ("mupr", (0, 1, 360, 8192, 100000)),
+                        ("tmr", (1, 2, 1000, 33554432, 1 << 40)), ("max_master_sol_failures", (0, 1, 2, 5)),
+                        ("velocity_unit", (0, 1, 3, 4, 5))):
+        if rnd.random() < 0.7:
+            d[key] = rnd.choice(values)
+    if rnd.random() < 0.2:
+        d["code_sequence"] = d.get("direction", rnd.choice((0, 1)))
+    return d
+
+
+def record_event(rnd, frame: int, ts: int, profile: str) -> dict:
+    r = rnd.random()
+    if r < 0.45:  # a user parameter write (0xBF00, PS/PSM 0xFFFF)
+        idx = rnd.choice((0xBF00, 0xBF00, 0xFFFF))
+        n = rnd.choice((31, 31, 31, 30, 32))
+        data = bytes(rnd.randrange(256) if rnd.random() < 0.15 else 0 for _ in range(n))
+        d = bf00(rnd)
+        if rnd.random() < 0.5:
+            probs = []
+            for rule in ("BF00-LENGTH", "BF00-RESERVED-NONZERO", "BF00-VALUE-OUT-OF-RANGE", "NOT-A-RECORD-RULE"):
+                if rnd.random() < 0.2:
+                    probs.append({"rule": rule, "message": f"{rule.lower()} problem"})
+            d["problems"] = probs
+        ev = {"frame": frame, "ts_ns": ts, "kind": "record", "op": rnd.choice(("write", "write", "read")),
+              "index": idx, "length": n, "data": data.hex(), "decoded": d}
+        if rnd.random() < 0.1:
+            ev["decoded"] = {}
+        return ev
+    if r < 0.55:  # a parameter request written to the PAP
+        rid = rnd.choice((1, 2, 0, 3, 0x41, 0x90))
+        params = []
+        for _ in range(rnd.choice((1, 1, 2))):
+            cnt = rnd.choice((0, 1, 2, 300))
+            params.append({"attribute": rnd.choice((0x10, 0x20, 0x30, 0x11, 0x40)), "count": cnt,
+                           "pnu": rnd.choice((922, 0, 65000)), "subindex": rnd.choice((0, 1, 0xFFFF)),
+                           "no_of_values": rnd.choice((None, cnt, cnt + 1))})
+        return {"frame": frame, "ts_ns": ts, "kind": "record", "op": "write", "index": rnd.choice((0xB02E, 0xB02F)),
+                "decoded": {"kind": rnd.choice(("parameter request", "parameter request", "parameter response")),
+                            "request_id": rid, "no_of_parameters": rnd.choice((len(params), 0, 40)),
+                            "length": rnd.choice((10, 250)), "params": params}}
+    # a paired parameter access (records.ParamPairer shape)
+    change = rnd.random() < 0.4
+    qid = rnd.choice((2,) if change else (1, 1, 1, 5, 0x41))
+    params = []
+    for _ in range(rnd.choice((1, 1, 2, 3))):
+        pnu = rnd.choice(PNUS)
+        p = {"pnu": pnu, "subindex": rnd.choice((0, 0, 1, 3)), "attribute": rnd.choice((0x10, 0x10, 0x20)),
+             "format_name": rnd.choice(FORMAT_NAMES)}
+        if rnd.random() < 0.3:
+            p["error"] = {"code": rnd.choice((0x00, 0x01, 0x02, 0x05, 0x11, 0x16, 0x21, 0x1FF))}
+        else:
+            v = {922: rnd.choice((81, 83, 84, 86, 100, 5)), 965: rnd.choice((31, 41, "29", "1F", 7)),
+                 979: rnd.choice((0, 2, 40)), 980: rnd.choice((922, 0, 65000)), 971: rnd.choice((0, 1, 1)),
+                 65000: rnd.choice((0, 10, 5000, 1 << 30, -5))}.get(pnu, rnd.choice((0, 1, 7)))
+            vals = [v] + ([rnd.choice((922, 965, 979, 0))] if pnu == 980 and rnd.random() < 0.5 else [])
+            if change and rnd.random() < 0.6:
+                p["written"] = {"format": 7, "values": vals}
+                if rnd.random() < 0.5:
+                    vals = []
+            p["values"] = vals
+        params.append(p)
+    ok_rid = (0x02 if change else 0x01) | (0x80 if any("error" in p for p in params) else 0)
+    ev = {"frame": frame, "ts_ns": ts, "kind": "param", "response_frame": frame, "request_frame": frame - 1,
+          "request_id": ("change parameter" if change else "request parameter") if qid in (1, 2) else None,
+          "request_id_code": qid, "response_id": rnd.choice((ok_rid, ok_rid, ok_rid, 0x80, 0x01)),
+          "request_ref": rnd.choice((0, 1, 2, 3, 3, None)), "ok": True, "params": params,
+          "pairing": [rnd.choice(PAIRING)] if rnd.random() < 0.1 else []}
+    return ev
+
+
+class Encoder:
+    """A semi-conforming device plus controller: most reactions right, some late or missing."""
+
+    def __init__(self, rnd, telegram: int, profile: str, lag: int):
+        self.rnd, self.t, self.profile, self.lag = rnd, telegram, profile, lag
+        self.cls = rnd.choice((0, 1))
+        self.dls = 0
+        self.ctrl = 1 if rnd.random() < 0.9 else 0
+        self.g1stw = 0
+        self.stw2_extra = 0
+        self.serr = 0
+        self.code = 0
+        self.pos = rnd.choice((0, 100, 4000, 1 << 20))
+        self.speed = rnd.choice((0, 0, 1, 5, -3, 400))
+        self.queue = []          # (due cycle, status bit, value) answers of the encoder
+        self.g1zsw = 0
+        self.zsw2_extra = 0
+        self.n = 0
+        self.shift = rnd.choice((0, 0, 1, 2))
+        self.preset_word = 0
+        self.p65000 = rnd.choice((0, 10, 5000))
+        self.sp = self.ac = None
+        self.x1_hold = None      # (value, cycles): a device whose XIST1 ignores the preset for a while
+
+    def step(self):
+        rnd, n = self.rnd, self.n
+        self.n += 1
+        changed = rnd.random() < 0.5 or self.sp is None
+        # controller
+        if rnd.random() < 0.06:
+            b = rnd.choice((11, 12, 12, 13, 13, 14, 15))
+            self.g1stw ^= 1 << b
+        if rnd.random() < 0.01:
+            self.ctrl ^= 1
+        if rnd.random() < 0.01:
+            self.stw2_extra ^= 1 << rnd.choice((0, 7, 3, 11))
+        if rnd.random() < 0.01:
+            self.g1stw ^= 1 << rnd.choice((0, 5))
+        r = rnd.random()
+        if r < 0.85:
+            self.cls = (self.cls % 15) + 1 if self.cls else (1 if rnd.random() < 0.3 else 0)
+        elif r < 0.9:
+            self.cls = rnd.randrange(16)
+        # encoder: answers
+        for b, src in ((12, 12), (13, 13), (14, 14)):
+            want = (self.g1stw >> src) & 1
+            have = (self.g1zsw >> b) & 1
+            if want != have and not any(q[1] == b for q in self.queue):
+                if rnd.random() < 0.9:
+                    self.queue.append((n + rnd.choice((0, 1, 1, 2, self.lag, self.lag + 3)), b, want))
+        if (self.g1stw >> 15) & 1 and self.serr and rnd.random() < 0.5:
+            self.queue.append((n + rnd.choice((0, 1, 2, 4)), 11, 1))
+            self.queue.append((n + rnd.choice((1, 2, 3, 5)), 15, 0))
+        if not (self.g1stw >> 15) & 1 and (self.g1zsw >> 11) & 1 and rnd.random() < 0.7:
+            self.queue.append((n + rnd.choice((0, 1, 3)), 11, 0))
+        due = [q for q in self.queue if q[0] <= n]
+        self.queue = [q for q in self.queue if q[0] > n]
+        for _, b, v in due:
+            if b == 12 and v == 1 and rnd.random() < 0.7:  # the preset moves the position
+                mode = (self.g1stw >> 11) & 1
+                if rnd.random() < 0.3:
+                    self.x1_hold = ((self.pos << self.shift) % (1 << 32), rnd.choice((1, 3, 10)))
+                self.pos = self.pos + self.p65000 if mode else self.p65000
+            self.g1zsw = (self.g1zsw & ~(1 << b)) | (v << b)
+            if b == 15:
+                self.serr = v
+        if rnd.random() < 0.02:
+            self.serr = 1
+            self.code = rnd.choice(ERROR_CODES)
+            self.g1zsw |= 1 << 15
+        if rnd.random() < 0.01:
+            self.g1zsw ^= 1 << rnd.choice((11, 12, 13, 14, 15, 0, 3))
+            self.serr = (self.g1zsw >> 15) & 1
+        if rnd.random() < 0.01:
+            self.zsw2_extra ^= 1 << rnd.choice((0, 3, 9, 10, 11))
+        r = rnd.random()
+        if r < 0.8:
+            self.dls = (self.dls % 15) + 1 if (self.dls or self.cls) else 0
+        elif r < 0.85:
+            self.dls = rnd.randrange(16)
+        # motion
+        if rnd.random() < 0.05:
+            self.speed = rnd.choice((0, 0, 0, 2, -7, 300, 70000))
+        self.pos = (self.pos + self.speed) % (1 << 32)
+        if rnd.random() < 0.01:
+            self.pos = rnd.randrange(1 << 32)
+        if not changed:
+            return self.sp, self.ac
+        t = self.t
+        if t in STD_TELEGRAMS or t == 89:
+            creq = self.ctrl if rnd.random() < 0.97 else 1 - self.ctrl
+            creq_bit = 10 if self.profile == "psm" else 9
+            sp = {"stw2_enc": (self.cls << 12) | (self.ctrl << 10) | self.stw2_extra}
+            zsw2 = (self.dls << 12) | (creq << creq_bit) | self.zsw2_extra
+            if self.serr and self.profile == "psm" and rnd.random() < 0.8:
+                zsw2 |= 1 << 3
+            ac = {"zsw2_enc": zsw2 & 0xFFFF}
+            atx, serr = (self.g1zsw >> 13) & 1, (self.g1zsw >> 15) & 1
+            pk = (self.g1zsw >> 14) & 1
+            x2 = self.code if serr else (self.pos if atx else (0 if rnd.random() < 0.9 else 7))
+            x1 = 0 if pk and self.profile == "lika" and rnd.random() < 0.8 else (self.pos << self.shift) % (1 << 32)
+            if self.x1_hold is not None:
+                x1, left = self.x1_hold
+                self.x1_hold = (x1, left - 1) if left > 1 else None
+            if t == 89:
+                sp["g1_xist_preset_b1"] = rnd.randrange(1 << 31)
+                if rnd.random() < 0.05:
+                    sp["stw2_enc"] ^= 1
+                ac["g1_xist1"] = x1
+                ac["nist_b"] = self.speed
+                if rnd.random() < 0.5:
+                    ac["zsw2_enc"] |= sp["stw2_enc"] & 1
+            else:
+                sp["g1_stw"] = self.g1stw & 0xFFFF
+                ac["g1_zsw"] = self.g1zsw & 0xFFFF
+                if t == 84:
+                    ac["g1_xist3"] = self.pos if rnd.random() < 0.98 else rnd.randrange(1 << 52)
+                else:
+                    ac["g1_xist1"] = x1
+                ac["g1_xist2"] = x2 % (1 << 32)
+                if t == 82:
+                    ac["nist_a"] = max(-32768, min(32767, self.speed if rnd.random() < 0.95 else -self.speed))
+                elif t in (83, 84):
+                    ac["nist_b"] = self.speed if rnd.random() < 0.95 else -self.speed
+        else:
+            c = t in (88, 101)
+            top = 63 if c else 31
+            if rnd.random() < 0.05:
+                self.preset_word ^= 1 << top
+            if rnd.random() < 0.05:
+                v = rnd.choice((0, 100, 5000, 1 << 20, (1 << 31) - 1) + (((1 << 53) - 5, 1 << 40) if c else ()))
+                self.preset_word = (self.preset_word & (1 << top)) | v
+            sp = {"g1_xist_preset_c" if c else "g1_xist_preset_b": self.preset_word}
+            if (self.preset_word >> top) & 1 and rnd.random() < 0.3:
+                self.pos = self.preset_word & ((1 << top) - 1)
+            ac = {"g1_xist3" if c else "g1_xist1": self.pos}
+            if t != 87:
+                ac["nist_b"] = self.speed
+        self.sp, self.ac = sp, ac
+        return sp, ac
+
+
+def run(rnd) -> Checker:
+    """One random session through a Checker (the Recorder around it logs everything)."""
+    profile = rnd.choice(tg.PROFILES)
+    telegram = rnd.choice(STD_TELEGRAMS + STD_TELEGRAMS + PRESET_TELEGRAMS + (89,))
+    if telegram in PRESET_TELEGRAMS + (89,) and rnd.random() < 0.7:
+        profile = "psm"
+    s = settings(rnd)
+    cfg = EncoderConfig.from_settings(
+        s, profile=profile, telegram=telegram, bf00=bf00(rnd) if rnd.random() < 0.5 else None,
+        cycle_ns=rnd.choice((None, 1_000_000, 500_000, 2_000_000, 3_000_000)), iso=rnd.choice((None, True, False)),
+        profile_reason="random", telegram_source=rnd.choice(("given", "length", "connect")))
+    info = {"station": "enc", "device_mac": "02:00:00:00:00:01", "api": 0x3D00, "slot": 1, "subslot": 2}
+    chk = Checker(cfg, info)
+    chk.io_len["setpoint"] = tg.length(telegram, "setpoint")
+    if rnd.random() < 0.8:
+        chk.io_len["actual"] = tg.length(telegram, "actual")
+    if rnd.random() < 0.3:
+        chk.prev_bf00 = bf00(rnd)
+    enc = Encoder(rnd, telegram, profile, lag=rnd.choice((1, 3, 12)))
+    frame, ts = 10, 1_000_000_000
+    for _ in range(rnd.randrange(20, 260)):
+        frame += rnd.choice((2, 2, 3))
+        ts += 1_000_000
+        r = rnd.random()
+        if r < 0.02:
+            chk.gap(frame, ts, "not valid")
+        elif r < 0.06:
+            chk.on_record(record_event(rnd, frame, ts, chk.cfg.profile))
+        elif r < 0.065:  # cyclic.py _refine_profile / _relabel from outside
+            if rnd.random() < 0.5:
+                chk.cfg.profile = "psm"
+                chk.cfg.sources["profile"] = "telegram exists only in PS/PSM"
+                chk._apply_cfg()
+            else:
+                chk.cfg.telegram = rnd.choice(STD_TELEGRAMS)
+                chk.cfg.sources["telegram"] = "P922"
+                chk._apply_cfg()
+                chk._flush_all()
+                chk._reset_history()
+                enc.t = chk.cfg.telegram
+                enc.sp = enc.ac = None
+        else:
+            sp, ac = enc.step()
+            sp_frame = frame - 1 if rnd.random() < 0.9 else None
+            chk.cycle(frame, ts, sp, ac, sp_frame)
+    chk.finish()
+    return chk
