@@ -3,12 +3,20 @@
 -- core (pndiss): pndiss.<signal>, pndiss.<signal>.<bit>, pndiss.param.*, pndiss.bf00.*, pndiss.rule.
 --
 -- Tables (telegram layouts, bit maps, names, rule catalogue) are generated from the Python tables
--- into pndiss_tables.lua by tools/gen_lua.py; this file holds only logic.
+-- into pndiss_tables.lua by tools/gen_lua.py; the reference encoder (pndiss/encoder/*.py) is ported
+-- to pndiss_checker.lua; this file decodes and drives the checker as pndiss/cyclic.py does.
 --
 -- Structure:
---   1. tables and fields           4. Connect learning (postdissector, field extractors)
---   2. preferences                 5. records: 0xB02E/0xB02F pairing, 0xBF00, I&M0
---   3. maps: Connect > map > none  6. cyclic heuristic on the pn_io list + rules (first pass only)
+--   1. tables and fields           5. records: Python-shaped record/param events, 0xBF00, I&M0
+--   2. preferences                 6. DCP: NameOfStation rules, duplicate names, occupied IPs
+--   3. maps: Connect > map > none  7. cyclic driver (pndiss/cyclic.py CyclicTracker), violations
+--   4. Connect learning            8. heuristic on the pn_io list, postdissector, init
+--
+-- Violations are decided on the first pass (pinfo.visited false) and cached per frame, also for
+-- an earlier frame (deadline rules, controller-side rules naming the setpoint frame). The first
+-- frame dissected again (visited true: tshark -2's second pass, Wireshark's redissection) runs
+-- every checker's finish() before its tree is built, so the second pass shows every violation
+-- on the frame the Python core names.
 
 local bit = bit32 or bit  -- Lua 5.2 has bit32; some builds ship the BitOp 'bit' module only
 
@@ -17,15 +25,18 @@ local function script_dir()
     local src = debug.getinfo(1, "S").source
     return (src:sub(1, 1) == "@" and src:sub(2):match("^(.*[/\\])")) or ""
 end
--- Wireshark's dofile only searches its own folders: read the tables next to this file ourselves
-local function load_tables()
-    local path = script_dir() .. "pndiss_tables.lua"
+-- Wireshark's dofile only searches its own folders: read the files next to this one ourselves
+local function load_module(file, env)
+    local path = script_dir() .. file
     local fh = assert(io.open(path, "rb"), "pndiss: cannot open " .. path)
     local text = fh:read("*a")
     fh:close()
-    return assert(load(text, "@" .. path, "t", {}))()
+    return assert(load(text, "@" .. path, "t", env))()
 end
-local T = load_tables()
+local T = load_module("pndiss_tables.lua", {})
+-- the checker uses the standard library; globals it might set stay in its own environment
+local C = load_module("pndiss_checker.lua", setmetatable({}, {__index = _G}))
+C.init(T)
 
 local pndiss = Proto("pndiss", "PROFINET encoder (pndiss)")
 local F = {}          -- abbrev -> ProtoField
@@ -103,17 +114,27 @@ field("pndiss.bf00.problem", ProtoField.string, "Problem")
 field("pndiss.im0.profile_id", ProtoField.uint16, "I&M0 profile ID", base.HEX)
 field("pndiss.im0.profile_name", ProtoField.string, "I&M0 profile")
 field("pndiss.rule", ProtoField.string, "Violated rule")
+-- the frame whose dissection decided the violation (0 = at the end of the capture, finish()): a
+-- violation decided on a later frame than the one it names is shown only in a second pass
+field("pndiss.rule.decided_at", ProtoField.uint32, "Decided at frame (0: end of capture)")
 
--- expert infos: one per catalogue rule the plugin implements (filterable: pndiss.rule.<ID>)
+-- expert infos: one per catalogue rule (filterable: pndiss.rule.<ID>)
 local SEV = {error = expert.severity.ERROR, warning = expert.severity.WARN, info = expert.severity.NOTE}
 local E = {}
-for _, id in ipairs(T.plugin_rules) do
+local rule_ids = {}
+for id in pairs(T.rules) do rule_ids[#rule_ids + 1] = id end
+table.sort(rule_ids)
+for _, id in ipairs(rule_ids) do
     local r = T.rules[id]
     E[id] = ProtoExpert.new("pndiss.rule." .. id, id .. " (" .. r.section .. ")", expert.group.PROTOCOL, SEV[r.severity])
 end
 E.malformed = ProtoExpert.new("pndiss.malformed", "pndiss: malformed", expert.group.MALFORMED, expert.severity.WARN)
+E.blind = ProtoExpert.new("pndiss.no_first_pass_tree", "pndiss: no protocol tree on the first pass",
+    expert.group.DEBUG, expert.severity.WARN)
 local experts = {}
-for _, e in pairs(E) do experts[#experts + 1] = e end
+for _, id in ipairs(rule_ids) do experts[#experts + 1] = E[id] end
+experts[#experts + 1] = E.malformed
+experts[#experts + 1] = E.blind
 pndiss.experts = experts
 
 -- 2. preferences ---------------------------------------------------------------------------------
@@ -123,19 +144,65 @@ pndiss.prefs.map = Pref.string("Manual map", "",
 pndiss.prefs.profile = Pref.enum("Device profile", 1, "auto = from I&M0 / DCP vendor and order ID",
     {{1, "auto", 1}, {2, "lika", 2}, {3, "scancon", 3}, {4, "hohner", 4}, {5, "psm", 5}, {6, "generic", 6}}, false)
 pndiss.prefs.telegram = Pref.uint("Telegram", 0, "telegram when neither Connect nor map tells it (0 = none: only a guess from both directions' lengths)")
+pndiss.prefs.settings = Pref.string("Settings", "",
+    "reference encoder settings like pndiss --set, comma separated (e.g. l_max=3,sol_monitor_rt=1,st_phys=8192); "
+    .. "keys: " .. "l_max preset_deadline_ms sol_threshold_ge sol_monitor_rt iso master_cycle_ratio compat class4 "
+    .. "st_phys mt_phys xist1_shift max_position_step")
 local PROFILE_PREF = {"auto", "lika", "scancon", "hohner", "psm", "generic"}
 
+-- pndiss.settings.Settings defaults of the keys EncoderConfig.from_settings reads
+local SETTING_DEFAULTS = {l_max = 2, preset_deadline_ms = 10.0, sol_threshold_ge = false, sol_monitor_rt = false,
+                          master_cycle_ratio = 1}
+local SETTING_BOOLS = {sol_threshold_ge = true, sol_monitor_rt = true, iso = true}
+local SETTING_KEYS = {l_max = true, preset_deadline_ms = true, sol_threshold_ge = true, sol_monitor_rt = true,
+                      iso = true, master_cycle_ratio = true, compat = true, class4 = true, st_phys = true,
+                      mt_phys = true, xist1_shift = true, max_position_step = true}
+local settings = {}
+local function parse_settings(s)
+    settings = {}
+    for k, v in pairs(SETTING_DEFAULTS) do settings[k] = v end
+    for item in tostring(s or ""):gmatch("[^,%s]+") do
+        local k, v = item:match("^([%w_]+)=(.+)$")
+        if k and SETTING_KEYS[k] then
+            if SETTING_BOOLS[k] then
+                settings[k] = ({["1"] = true, ["true"] = true, ["yes"] = true, ["on"] = true})[v:lower()] or false
+            else
+                settings[k] = tonumber(v)
+            end
+        end
+    end
+end
+
 -- 3. maps ----------------------------------------------------------------------------------------
--- Connect-derived maps: key "fid|src|dst" -> {direction, device, controller, station, ar, objects}
-local maps, map_cache = {}, {}
-local usermap = {}     -- fid -> {direction, telegram, offset}
-local profiles = {}    -- device MAC -> profile (I&M0 / DCP)
+-- Per-capture state is (re)created by reset_state() (section 8) from the protocol's init routine,
+-- which Wireshark calls before every (re)dissection of the file.
+-- Connect-derived maps: key "fid|src|dst" -> {direction, device, controller, station, ar, frame_id,
+-- cycle_ns, source, objects}
+local maps, map_cache
+local usermap = {}     -- fid -> {direction, telegram, offset} (preference, not capture state)
+local profiles         -- device MAC -> profile (I&M0 / DCP)
+local ar_devs          -- AR UUID -> {device, controller} (session.ars: records name their AR)
+local p922_of          -- "device|api|slot|subslot" -> telegram read from P922 (session.telegram_p922)
 local DRIVE_APIS = {[0x3A00] = true, [0x3D00] = true}   -- spec/network.md §1.7
 
 local function tg_len(t, dir)
     local n = 0
     for _, s in ipairs(T.telegrams[t][dir]) do n = n + T.signals[s].size end
     return n
+end
+
+-- telegrams.telegrams_for_length: every telegram whose lengths fit (nil = any), in number order
+local tg_sorted = {}
+for t in pairs(T.telegrams) do tg_sorted[#tg_sorted + 1] = t end
+table.sort(tg_sorted)
+local function telegrams_for_length(actual, setpoint)
+    local out = {}
+    for _, t in ipairs(tg_sorted) do
+        if (actual == nil or tg_len(t, "actual") == actual) and (setpoint == nil or tg_len(t, "setpoint") == setpoint) then
+            out[#out + 1] = t
+        end
+    end
+    return out
 end
 
 -- session.guess_telegram: both lengths must fit; 87 (4/4) and 86/860 (4/8) only on drive APIs
@@ -165,50 +232,58 @@ end
 
 function pndiss.prefs_changed()
     parse_usermap(pndiss.prefs.map)
+    parse_settings(pndiss.prefs.settings)
     map_cache = {}
 end
 
 -- session.profile_for: decided at its first use for a device from what is known then (I&M0 vendor
 -- and order ID, else DCP vendor ID and DeviceVendorValue) and kept until an I&M0 read
-local facts = {}    -- device MAC -> {dcp = {vendor, type}, im0 = {vendor, order}}
+local facts            -- device MAC -> {dcp = {vendor, type}, im0 = {vendor, order}}
 local select_profile   -- defined with the postdissector
 local function profile_for(mac)
     local p = PROFILE_PREF[pndiss.prefs.profile] or "auto"
-    if p ~= "auto" then return p end
+    if p ~= "auto" then return p, "set by the Device profile preference" end
     if profiles[mac] == nil then
         local f = facts[mac] or {}
         local src = f.im0 or f.dcp
-        profiles[mac] = src and select_profile(src[1], src[2]) or "generic"
+        profiles[mac] = {src and select_profile(src[1], src[2]) or "generic",
+                         f.im0 and "I&M0" or (f.dcp and "DCP") or "no identity seen"}
     end
-    return profiles[mac]
+    return profiles[mac][1], profiles[mac][2]
 end
 
--- compile one data object: telegram, layout rows {name, offset, size, signed}
-local function compile_obj(o, direction)
-    local dir = direction == "output" and "setpoint" or "actual"
-    local t, src = o.telegram, o.telegram_source
-    if t == nil and pndiss.prefs.telegram ~= 0 and T.telegrams[pndiss.prefs.telegram] then
-        t, src = pndiss.prefs.telegram, "settings.telegram"
+-- telegram layouts (telegrams.layout): rows {name, off, size, signed} and the length, per direction
+local layouts = {}
+local function layout(t, dir)
+    local k = t .. dir
+    local L = layouts[k]
+    if L == nil then
+        local rows, off = {}, 0
+        for _, name in ipairs(T.telegrams[t][dir]) do
+            local s = T.signals[name]
+            rows[#rows + 1] = {name = name, off = off, size = s.size, signed = s.signed}
+            off = off + s.size
+        end
+        L = {rows = rows, len = off}
+        layouts[k] = L
     end
-    -- cyclic.py _frame: no telegram from the session (map, P922, both directions' lengths) and no
-    -- preference: not an encoder submodule (a one-direction length guess would take any IO module)
-    if t == nil or T.telegrams[t] == nil then return nil end
-    local rows, off = {}, 0
-    for _, name in ipairs(T.telegrams[t][dir]) do
-        local s = T.signals[name]
-        rows[#rows + 1] = {name = name, off = off, size = s.size, signed = s.signed}
-        off = off + s.size
-    end
-    if o.length < off then return nil end     -- cyclic.py skips objects shorter than the telegram
-    return {o = o, telegram = t, source = src, dir = dir, rows = rows, len = off}
+    return L
+end
+
+-- cyclic.py _Obj: one data object of a mapped frame (d = the map's DataObject, shared with the map
+-- so that a P922 relabel is seen on the next frame)
+local function new_obj(d, telegram, source, dir, key)
+    local L = layout(telegram, dir)
+    return {d = d, telegram = telegram, source = source, rows = L.rows, len = L.len, key = key,
+            stop = d.offset + d.length, sig = nil, length_checked = false, rejected = nil, ax = nil}
 end
 
 -- like pndiss/cyclic.py CyclicTracker._frame/on_cyclic: a layout, once found, stays (with its objects)
 -- until the maps change (map_generation: each Connect or P922 read), then every key is looked up
 -- again; an unmapped key is also looked up again every RELOOKUP_EVERY frames of that key
 local RELOOKUP_EVERY = 1024
-local misses = {}
-local map_generation, cache_generation = 0, 0
+local misses
+local map_generation, cache_generation
 local function lookup(fid, src, dst)
     if cache_generation ~= map_generation then
         cache_generation = map_generation
@@ -227,25 +302,35 @@ local function lookup(fid, src, dst)
         local inp = u.direction == "input"
         local L = tg_len(u.telegram, inp and "actual" or "setpoint")
         fm = {direction = u.direction, device = inp and src or dst, controller = inp and dst or src,
+              frame_id = fid, source = "map",
               objects = {{api = 0, slot = 0, subslot = 0, offset = u.offset, length = L,
                           telegram = u.telegram, telegram_source = "map"}}}
     end
     local out = false
     if fm then
+        local dir = fm.direction == "output" and "setpoint" or "actual"
         local objs = {}
-        for _, o in ipairs(fm.objects) do
-            if o.length and o.length > 0 then
-                local c2 = compile_obj(o, fm.direction)
-                if c2 then objs[#objs + 1] = c2 end
+        for _, d in ipairs(fm.objects) do
+            if d.length and d.length > 0 then
+                local t, source = d.telegram, d.telegram_source
+                if t == nil and pndiss.prefs.telegram ~= 0 then
+                    t, source = pndiss.prefs.telegram, "settings.telegram"
+                end
+                -- no telegram from the session (map, P922, both directions' lengths) and no preference:
+                -- not an encoder submodule (a one-direction length guess would take any IO module)
+                if t ~= nil and T.telegrams[t] then
+                    local axkey = table.concat({fm.ar or (fm.controller .. "/" .. fm.device), d.api or 0,
+                                                d.slot or 0, d.subslot or 0}, "|")
+                    objs[#objs + 1] = new_obj(d, t, source, dir, axkey)
+                end
             end
         end
-        out = {fm = fm, objs = objs}
+        out = {fm = fm, dir = dir, objs = objs, last_csdu = nil}
     end
     map_cache[key] = out
     if not out and misses[key] == nil then misses[key] = 0 end
     return out or nil
 end
-
 -- 4. Connect learning -----------------------------------------------------------------------------
 local X = {}
 for _, n in ipairs({"pn_io.opnum", "pn_io.block_type", "pn_io.ar_uuid", "pn_io.cminitiator_mac_add",
@@ -256,7 +341,9 @@ for _, n in ipairs({"pn_io.opnum", "pn_io.block_type", "pn_io.ar_uuid", "pn_io.c
                     "pn_io.module_ident_number", "pn_io.submodule_ident_number", "pn_io.iocr_multicast_mac_add",
                     "pn_io.index", "pn_io.im_profile_id", "pn_io.vendor_id_high", "pn_io.vendor_id_low",
                     "pn_io.order_id", "dcerpc.pkt_type", "dcerpc.dg_act_id", "dcerpc.dg_seqnum",
-                    "pn_rt.frame_id", "pn_rt.ds",
+                    "pn_rt.frame_id", "pn_rt.ds", "pn_io.send_clock_factor", "pn_io.reduction_ratio",
+                    "pn_io.error_code", "pn_io.error_decode", "pn_io.error_code1", "pn_io.error_code2",
+                    "pn_dcp.service_id",
                     "pn_dcp.suboption_vendor_id", "pn_dcp.suboption_device_id", "pn_dcp.suboption_device_devicevendorvalue"}) do
     X[n] = Field.new(n)
 end
@@ -300,7 +387,7 @@ local function before(list, off)
     return v
 end
 
-local pending_connects = {}   -- "act|seq" -> request summary
+local pending_connects   -- "act|seq" -> request summary
 
 local function connect_request(key)
     local bl = blocks()
@@ -315,7 +402,8 @@ local function connect_request(key)
             local function first(n) local l = inside(all(n), b); return l[1] and l[1].value end
             local cr = {type = first("pn_io.iocr_type"), ref = first("pn_io.iocr_reference"),
                         frame_id = first("pn_io.frame_id"), data_length = first("pn_io.data_length"),
-                        mcast = first("pn_io.iocr_multicast_mac_add"), objects = {}}
+                        mcast = first("pn_io.iocr_multicast_mac_add"), scf = first("pn_io.send_clock_factor"),
+                        rr = first("pn_io.reduction_ratio"), objects = {}}
             local ba, bs, bss = inside(api, b), inside(slot, b), inside(sub, b)
             for _, fo in ipairs(inside(all("pn_io.io_data_object.frame_offset"), b)) do
                 cr.objects[#cr.objects + 1] = {api = before(ba, fo.offset), slot = before(bs, fo.offset),
@@ -344,6 +432,13 @@ local function connect_response(key, pinfo)
     local req = pending_connects[key]
     pending_connects[key] = nil
     if req == nil or req.controller == nil then return end
+    -- session._connect: a refused Connect (PNIOStatus not 0) maps no frames
+    local ok = true
+    for _, n in ipairs({"pn_io.error_code", "pn_io.error_decode", "pn_io.error_code1", "pn_io.error_code2"}) do
+        local st = all(n)[1]
+        if st and st.value ~= 0 then ok = false end
+    end
+    map_generation = map_generation + 1
     local bl = blocks()
     local device = tostring(pinfo.dl_src)
     local res_fid = {}
@@ -356,6 +451,8 @@ local function connect_response(key, pinfo)
             if r[1] and f[1] then res_fid[r[1].value] = f[1].value end
         end
     end
+    if req.ar and (ok or ar_devs[req.ar] == nil) then ar_devs[req.ar] = {device, req.controller} end
+    if not ok then return end
     for _, cr in ipairs(req.iocrs) do
         local direction = ({[1] = "input", [2] = "output", [3] = "input"})[cr.type]
         if direction then
@@ -363,31 +460,38 @@ local function connect_response(key, pinfo)
             local s, d = device, req.controller
             if direction == "output" then s, d = req.controller, device end
             if cr.type == 3 and cr.mcast then d = tostring(cr.mcast) end
-            local fm = {direction = direction, device = device, controller = req.controller, ar = req.ar, objects = {}}
+            local fm = {direction = direction, device = device, controller = req.controller, ar = req.ar, frame_id = fid,
+                        source = "connect", objects = {},
+                        -- armap.FrameMap.cycle_time_ns: SendClockFactor x ReductionRatio x 31.25 us
+                        cycle_ns = (cr.scf and cr.scf > 0 and cr.rr and cr.rr > 0) and cr.scf * cr.rr * 31250 or nil}
             for _, o in ipairs(cr.objects) do
                 local e = req.expected[table.concat({o.api or 0, o.slot or 0, o.subslot or 0}, "/")] or {}
                 local mine = e[direction] or {0, 1}
                 local obj = {api = o.api, slot = o.slot, subslot = o.subslot, offset = o.offset, length = mine[1]}
-                if e.input and e.output then
+                -- session._assign_telegram: P922 read before > both directions' lengths
+                local pt = p922_of[table.concat({device, o.api or 0, o.slot or 0, o.subslot or 0}, "|")]
+                if pt ~= nil then
+                    obj.telegram, obj.telegram_source = pt, "P922"
+                elseif e.input and e.output then
                     obj.telegram = guess_telegram(e.output[1], e.input[1], o.api)
                     if obj.telegram then obj.telegram_source = "length" end
                 end
                 fm.objects[#fm.objects + 1] = obj
             end
             maps[fid .. "|" .. s .. "|" .. d] = fm
-            map_generation = map_generation + 1
         end
     end
 end
 
+
 -- 5. records --------------------------------------------------------------------------------------
-local axes = {}      -- axis key -> rule state (section 6)
-local devices = {}   -- device MAC -> {bf00 = decoded 0xBF00 written, p922 = first P922 value read}
-local checker_p922   -- defined with the rules (section 6)
-local apply_seq = 0  -- order in which 0xBF00/0xFFFF parameter sets were applied (latest wins)
-local pairer = {}       -- param key -> {req, frame} of the request awaiting its response
-local superseded = {}   -- param key -> frames of requests overwritten before a response
-local frame_cache = {}   -- frame number -> list of {kind, ...} to show (computed on the first pass)
+-- Each IODWriteReq / IODReadRes record becomes a 'record' event shaped like pndiss/session.py's
+-- (kind, op, index, ar_uuid, device_mac, frame, ts_ns, length, data, decoded, profile), each
+-- 0xB02E/0xB02F response a 'param' event shaped like records.ParamPairer.response's; both go to
+-- the cyclic driver (section 7) like SessionTracker -> CyclicTracker.on_record.
+local pairer           -- param key -> {req = Python-shaped request, frame, ts} awaiting its response
+local superseded       -- param key -> frames of requests overwritten before a response
+local on_record        -- the cyclic driver's CyclicTracker.on_record (section 7)
 
 local function u8(t, o) return t(o, 1):uint() end
 local function u16(t, o) return t(o, 2):uint() end
@@ -396,135 +500,187 @@ local function request_id_name(id)
     return T.request_ids[id] or ((id >= 0x40 and id <= 0x7F) and "manufacturer-specific" or "reserved")
 end
 
+local function response_id_name(id)
+    return T.response_ids[id] or (((id >= 0x40 and id <= 0x7F) or id >= 0xC0) and "manufacturer-specific" or "reserved")
+end
+
 local function param_name(pnu, profile)
     local v = T.vendor_params[profile]
     return (v and v[pnu]) or T.params[pnu] or ("P" .. pnu)
 end
 
-local INT_CODES = {B = true, H = true, I = true, b = true, h = true, i = true, q = true, Q = true}
+local function error_text(c)
+    return T.param_errors[c] or ((c >= 0x65 and c <= 0xFF) and "manufacturer-specific error" or
+        (c <= 0xFF and "reserved error number" or "error number above 0x00FF (high byte reserved)"))
+end
 
--- a value block at off: returns block, next offset (nil + reason when it does not fit)
+local INT_CODES = {B = true, H = true, I = true, b = true, h = true, i = true, q = true, Q = true}
+local TWO53 = 2 ^ 53
+
+-- an 8-byte integer at t(o) as a Lua number (exact below 2^53 in magnitude, rounded above: the
+-- checker compares record values as doubles); exact = a signal above 2^53 as {hi, lo} (uint32
+-- halves of the two's complement), the checker's convention for cyclic values
+local function int64_at(t, o, signed, exact)
+    local hi, lo = t(o, 4):uint(), t(o + 4, 4):uint()
+    local v = hi * 4294967296 + lo
+    if signed and hi >= 0x80000000 then v = (hi - 4294967296) * 4294967296 + lo end
+    if exact and (v >= TWO53 or v <= -TWO53) then return {hi = hi, lo = lo} end
+    return v
+end
+
+-- a value block at off (records/profidrive.py _block): returns block, next offset (nil + reason
+-- when it does not fit). shown = strings for the tree; values = Python's typed values
 local function value_block(t, off, len)
     if off + 2 > len then return nil, "value block header truncated" end
     local fmt, n = u8(t, off), u8(t, off + 1)
     local spec = T.param_formats[fmt]
     if spec == nil then return nil, string.format("format 0x%02X unknown", fmt) end
-    local size = spec.size
+    local size, code = spec.size, spec.code
     local e = off + 2 + size * n
     if e > len then return nil, "values truncated" end
-    local blk = {format = fmt, n = n, values = {}}
+    local blk = {format = fmt, format_name = spec.name, no_of_values = n, shown = {}, values = {},
+                 int = INT_CODES[code] or false}
     for i = 0, n - 1 do
         local o = off + 2 + i * size
-        local code = spec.code
-        local v
-        if code == "B" or code == "H" or code == "I" then v = tostring(t(o, size):uint())
-        elseif code == "b" or code == "h" or code == "i" then v = tostring(t(o, size):int())
-        elseif code == "q" then v = tostring(t(o, 8):int64())
-        elseif code == "Q" then v = tostring(t(o, 8):uint64())
-        elseif code == "f" then v = tostring(t(o, 4):float())
-        elseif code == "d" then v = tostring(t(o, 8):float())
-        elseif code == "str" then v = nil
-        elseif code == "hex" then v = t(o, size):bytes():tohex():lower()
+        local v, s
+        if code == "B" or code == "H" or code == "I" then v = t(o, size):uint(); s = tostring(v)
+        elseif code == "b" or code == "h" or code == "i" then v = t(o, size):int(); s = tostring(v)
+        elseif code == "q" then v = int64_at(t, o, true); s = tostring(t(o, 8):int64())
+        elseif code == "Q" then v = int64_at(t, o, false); s = tostring(t(o, 8):uint64())
+        elseif code == "f" then v = t(o, 4):float(); s = tostring(v)
+        elseif code == "d" then v = t(o, 8):float(); s = tostring(v)
+        elseif code == "hex" then v = t(o, size):bytes():tohex():lower(); s = v
         end
-        if v then blk.values[#blk.values + 1] = v end
-        blk.int = INT_CODES[code] or false
+        if v ~= nil then blk.values[#blk.values + 1] = v end
+        if s ~= nil then blk.shown[#blk.shown + 1] = s end
     end
-    if spec.code == "str" then blk.values[1] = t(off + 2, size * n):raw() end
+    if code == "str" then
+        local raw = t(off + 2, size * n):raw()
+        blk.values[1], blk.shown[1] = raw, raw
+    end
     if fmt == 0x44 and n > 0 then
-        local c = t(off + 2, 2):uint()
-        blk.error = {code = c, text = T.param_errors[c] or
-            ((c >= 0x65 and c <= 0xFF) and "manufacturer-specific error" or
-             (c <= 0xFF and "reserved error number" or "error number above 0x00FF (high byte reserved)"))}
+        blk.error = {code = blk.values[1], text = error_text(blk.values[1])}
+        if n > 1 then blk.error_subindex = blk.values[2] end
     end
     if (e - off) % 2 == 1 and e < len then e = e + 1 end   -- odd byte counts padded to a word
     return blk, e
 end
 
+-- records/profidrive.decode_request
 local function decode_request(t, len, profile)
     if len < 4 then return nil, "parameter request header truncated" end
-    local r = {ref = u8(t, 0), id = u8(t, 1), axis = u8(t, 2), n = u8(t, 3), params = {}}
+    local rid = u8(t, 1)
+    local r = {kind = "parameter request", request_ref = u8(t, 0), request_id = rid, request_id_name = request_id_name(rid),
+               axis = u8(t, 2), no_of_parameters = u8(t, 3), params = {}, length = len}
     local off = 4
-    for i = 1, r.n do
+    for i = 1, r.no_of_parameters do
         if off + 6 > len then return nil, "parameter address truncated" end
         local pnu = u16(t, off + 2)
         r.params[i] = {attribute = u8(t, off), count = u8(t, off + 1), pnu = pnu, subindex = u16(t, off + 4),
                        name = param_name(pnu, profile)}
         off = off + 6
     end
-    if r.id == 2 then
-        for i = 1, r.n do
+    if rid == 2 then   -- value blocks only in a change request
+        for i = 1, r.no_of_parameters do
             local blk, e = value_block(t, off, len)
             if not blk then return nil, e end
-            r.params[i].written = blk
+            local p = r.params[i]
+            p.format, p.format_name, p.no_of_values = blk.format, blk.format_name, blk.no_of_values
+            p.values, p.error, p.block = blk.values, blk.error, blk
             off = e
         end
     end
+    if off < len then r.trailing_bytes = len - off end
     return r
 end
 
+-- records/profidrive.decode_response
 local function decode_response(t, len)
     if len < 4 then return nil, "parameter response header truncated" end
-    local r = {ref = u8(t, 0), id = u8(t, 1), axis = u8(t, 2), n = u8(t, 3), blocks = {}}
+    local rid = u8(t, 1)
+    local r = {kind = "parameter response", request_ref = u8(t, 0), response_id = rid,
+               response_id_name = response_id_name(rid), axis = u8(t, 2), no_of_parameters = u8(t, 3),
+               params = {}, length = len}
     local off = 4
-    if r.id ~= 2 then
-        for i = 1, r.n do
-            if off >= len and r.id == 0x80 then break end
+    if rid ~= 2 then
+        for i = 1, r.no_of_parameters do
+            if off >= len and rid == 0x80 then break end   -- illegal-request-ID answer: a bare header
             local blk, e = value_block(t, off, len)
             if not blk then return nil, e end
-            r.blocks[i] = blk
+            r.params[i] = blk
             off = e
         end
     end
-    r.ok = (r.id == 1 or r.id == 2)
-    for _, b in ipairs(r.blocks) do if b.format == 0x44 then r.ok = false end end
+    r.ok = (rid == 1 or rid == 2)
+    for _, b in ipairs(r.params) do if b.format == 0x44 then r.ok = false end end
     return r
 end
 
+-- records/userparams.decode_bf00 (0xBF00; PS/PSM 0xFFFF): problems are {rule, message}; mupr/tmr
+-- as numbers for the checker, mupr64/tmr64 (UInt64) for the tree
+local CHECK_RESERVED = {lika = true, generic = true}
 local function decode_bf00(t, len, profile)
-    local d = {problems = {}}
-    if len ~= 31 then d.problems[#d.problems + 1] = "BF00-LENGTH" end
+    if not T.profile_defaults[profile] then profile = "generic" end
+    local d = {profile = profile, length = len, problems = {}}
+    local P = d.problems
+    local function problem(rule, msg) P[#P + 1] = {rule = rule, message = msg} end
+    if len ~= 31 then problem("BF00-LENGTH", string.format("user parameter record is %d bytes, expected 31", len)) end
     if len >= 1 then
         local b0 = u8(t, 0)
         d.flags = b0
         for _, fb in ipairs(T.bf00_flags) do d[fb[1]] = bit.band(bit.rshift(b0, fb[2]), 1) end
         d.direction = d.code_sequence
+        d.reserved_bits = bit.rshift(b0, profile == "psm" and 7 or 6)
     end
-    if len >= 17 then d.mupr = t(1, 8):uint64(); d.tmr = t(9, 8):uint64() end
-    if len >= 18 then d.max_master_sol_failures = u8(t, 17) end
     if len >= 17 then
-        if d.mupr < UInt64(1) then d.problems[#d.problems + 1] = "BF00-VALUE-OUT-OF-RANGE" end
-        if d.tmr < UInt64(2) then d.problems[#d.problems + 1] = "BF00-VALUE-OUT-OF-RANGE" end
+        d.mupr64, d.tmr64 = t(1, 8):uint64(), t(9, 8):uint64()
+        d.mupr, d.tmr = int64_at(t, 1, false), int64_at(t, 9, false)
+        if d.mupr64 < UInt64(1) then
+            problem("BF00-VALUE-OUT-OF-RANGE", "measuring units per revolution " .. tostring(d.mupr64)
+                .. " outside [1, hardware resolution]")
+        end
+        if d.tmr64 < UInt64(2) then
+            problem("BF00-VALUE-OUT-OF-RANGE", "total measuring range " .. tostring(d.tmr64)
+                .. " outside [2, total hardware resolution]")
+        end
     end
-    if len >= 18 and d.max_master_sol_failures < (profile == "psm" and 0 or 1) then
-        d.problems[#d.problems + 1] = "BF00-VALUE-OUT-OF-RANGE"
-    end
-    if len >= 19 and u8(t, 18) > (profile == "psm" and 4 or 3) then
-        d.problems[#d.problems + 1] = "BF00-VALUE-OUT-OF-RANGE"
-    end
-    if profile == "lika" or profile == "generic" then   -- CHECK_RESERVED: bits 0.6-7, bytes 19-30
-        local bad = len >= 1 and bit.rshift(u8(t, 0), 6) ~= 0
-        for i = 19, math.min(len, 31) - 1 do if u8(t, i) ~= 0 then bad = true end end
-        if bad then d.problems[#d.problems + 1] = "BF00-RESERVED-NONZERO" end
+    if len >= 18 then
+        d.max_master_sol_failures = u8(t, 17)
+        if d.max_master_sol_failures < (profile == "psm" and 0 or 1) then
+            problem("BF00-VALUE-OUT-OF-RANGE", string.format("max. master sign-of-life failures %d outside [1, 255]",
+                d.max_master_sol_failures))
+        end
     end
     if len >= 19 then
         d.velocity_unit = u8(t, 18)
         local tbl = profile == "psm" and T.bf00_velocity_units_psm or T.bf00_velocity_units
         d.velocity_unit_name = tbl[d.velocity_unit] or ("undefined (" .. d.velocity_unit .. ")")
+        local maxv = profile == "psm" and 4 or 3
+        if d.velocity_unit > maxv then
+            problem("BF00-VALUE-OUT-OF-RANGE", string.format("velocity unit %d outside [0, %d]", d.velocity_unit, maxv))
+        end
+    end
+    if CHECK_RESERVED[profile] then   -- bits 0.6-7, bytes 19-30
+        local bad = (d.reserved_bits or 0) ~= 0
+        for i = 19, math.min(len, 31) - 1 do if u8(t, i) ~= 0 then bad = true end end
+        if bad then problem("BF00-RESERVED-NONZERO", "reserved user parameter bits/bytes set") end
     end
     return d
 end
 
--- the record events of this frame (write requests / read responses), from the header blocks
-local function records_of_frame(pinfo)
+local function ts_ns(pinfo) return pinfo.abs_ts * 1e9 end
+
+-- the records of this frame (write requests / read responses), from the header blocks
+local function records_of_frame()
     local out = {}
-    local ok_pkt = all("dcerpc.pkt_type")
-    local ptype = ok_pkt[1] and ok_pkt[1].value
+    local arus = all("pn_io.ar_uuid")
     for _, b in ipairs(blocks()) do
         if (b.type == 0x0008 or b.type == 0x8009) and b.e - b.s >= 64 then
             local t = b.tvb
             local hs = b.s + 6 + 2   -- after block header and SeqNumber
             if hs + 16 + 4 + 2 + 2 + 2 + 2 + 4 <= t:len() then
-                local ar = tostring(t(hs, 16):bytes())
+                local au = inside(arus, b)[1]
+                local ar = au and tostring(au) or tostring(t(hs, 16):bytes())
                 local api = t(hs + 16, 4):uint()
                 local slot, subslot = t(hs + 20, 2):uint(), t(hs + 22, 2):uint()
                 local index = t(hs + 26, 2):uint()
@@ -541,142 +697,158 @@ local function records_of_frame(pinfo)
     return out
 end
 
-local function record_items(pinfo, recs)
-    local items = {}
-    local src, dst = tostring(pinfo.dl_src), tostring(pinfo.dl_dst)
-    for _, r in ipairs(recs) do
-        local device = r.op == "write" and dst or src
-        local controller = r.op == "write" and src or dst
-        local profile = profile_for(device)
-        local it = {rec = r, index_name = T.index_names[r.index] or
-            (r.index < 0x8000 and string.format("user specific record 0x%04X", r.index) or string.format("record 0x%04X", r.index))}
-        local nil_ar = r.ar == string.rep("00", 16)
-        local key = table.concat({nil_ar and (controller .. "/" .. device) or r.ar, r.api, r.slot, r.subslot}, "|")
-        local t, len = r.tvb, r.len
-        if r.index == 0xB02E or r.index == 0xB02F then
-            if r.op == "write" then
-                local req = decode_request(t, len, profile)
-                if req then
-                    if pairer[key] then   -- ParamPairer.request: an unanswered request is overwritten
-                        superseded[key] = superseded[key] or {}
-                        table.insert(superseded[key], pairer[key].frame)
-                    end
-                    pairer[key] = {req = req, frame = pinfo.number}
-                    it.request = req
-                else
-                    it.malformed = true
-                end
-            else
-                local rsp = decode_response(t, len)
-                if rsp then
-                    local p = pairer[key]
-                    pairer[key] = nil
-                    local ev = {rsp = rsp, pairing = {}, params = {}}
-                    local sup = superseded[key]
-                    superseded[key] = nil
-                    if sup then
-                        local fr = {}
-                        for j, f in ipairs(sup) do fr[j] = tostring(f) end
-                        ev.pairing[#ev.pairing + 1] = "request(s) in frame(s) " .. table.concat(fr, ", ")
-                            .. " overwritten before their response was read"
-                    end
-                    if p == nil then
-                        ev.pairing[#ev.pairing + 1] = "no request"
-                    else
-                        local q = p.req
-                        ev.request_frame, ev.req = p.frame, q
-                        local w = ev.pairing
-                        if rsp.ref ~= q.ref then
-                            w[#w + 1] = string.format("request ref mismatch (request 0x%02X, response 0x%02X)", q.ref, rsp.ref)
-                        end
-                        if rsp.id ~= q.id and rsp.id ~= bit.bor(q.id, 0x80) then
-                            w[#w + 1] = string.format("response id mismatch (request 0x%02X, response 0x%02X)", q.id, rsp.id)
-                        end
-                        if rsp.axis ~= q.axis then
-                            w[#w + 1] = string.format("axis not mirrored (request %d, response %d)", q.axis, rsp.axis)
-                        end
-                        if rsp.n ~= q.n then
-                            w[#w + 1] = string.format("number of parameters mismatch (request %d, response %d)", q.n, rsp.n)
-                        end
-                        if #rsp.blocks > 0 and #rsp.blocks ~= #q.params then
-                            w[#w + 1] = string.format("%d value blocks for %d requested parameters", #rsp.blocks, #q.params)
-                        end
-                    end
-                    local reqp = p and p.req.params or {}
-                    for i = 1, math.max(#reqp, #rsp.blocks) do
-                        local a, blk = reqp[i], rsp.blocks[i]
-                        ev.params[i] = {pnu = a and a.pnu, subindex = a and a.subindex, name = a and a.name,
-                                        format = blk and blk.format, values = blk and blk.values or {},
-                                        int = blk and blk.int,
-                                        error = blk and blk.error}
-                        if a and a.pnu == 922 and blk and not blk.error and blk.values[1] and (a.subindex or 0) == 0 then
-                            -- session.py _p922: a P922 read names the telegram of the device's submodules
-                            -- with data, unless the user map says; a length guess is kept when P922's
-                            -- telegram has another length in that direction (the checker then reports
-                            -- TELEGRAM-SELECTION-MISMATCH); objects whose lengths fit none take it
-                            local tnum = tonumber(blk.values[1])
-                            if tnum then map_generation = map_generation + 1 end
-                            if tnum and T.telegrams[tnum] then
-                                -- one telegram per submodule: a length guess yields only if P922's
-                                -- telegram fits the submodule's lengths in both directions
-                                local misfit = {}
-                                for _, fm in pairs(maps) do
-                                    if fm.device == device then
-                                        local dir = fm.direction == "input" and "actual" or "setpoint"
-                                        for _, o in ipairs(fm.objects) do
-                                            if (o.length or 0) > 0 and o.telegram_source == "length"
-                                                    and tg_len(tnum, dir) ~= o.length then
-                                                misfit[o.api .. ":" .. o.slot .. ":" .. o.subslot] = true
-                                            end
-                                        end
-                                    end
-                                end
-                                for _, fm in pairs(maps) do
-                                    if fm.device == device then
-                                        for _, o in ipairs(fm.objects) do
-                                            if o.telegram_source ~= "map" and (o.length or 0) > 0
-                                                    and not (o.telegram_source == "length"
-                                                             and misfit[o.api .. ":" .. o.slot .. ":" .. o.subslot])
-                                                    and ((o.api == r.api and o.slot == r.slot and o.subslot == r.subslot)
-                                                        or o.telegram == nil or o.telegram_source == "length"
-                                                        or o.telegram_source == "gsdml") then
-                                                o.telegram, o.telegram_source = tnum, "P922"
-                                            end
-                                        end
-                                    end
-                                end
-                            end
-                            if tnum then   -- acyclic.py _read, for every axis of the device (and replayed later)
-                                local d = devices[device] or {}
-                                devices[device] = d
-                                d.p922s = d.p922s or {}
-                                d.p922s[#d.p922s + 1] = tnum
-                                for _, ax in pairs(axes) do
-                                    if ax.device == device then checker_p922(ax, tnum) end
-                                end
-                            end
-                        end
-                    end
-                    it.param = ev
-                else
-                    it.malformed = true
+local NIL_UUID = "00000000-0000-0000-0000-000000000000"
+
+local function index_name(index)
+    return T.index_names[index] or (index < 0x8000 and string.format("user specific record 0x%04X", index)
+        or string.format("record 0x%04X", index))
+end
+
+-- session._p922: a P922 read names the telegram of the device's submodules with data, unless the
+-- user map says; a length guess yields only if P922's telegram fits its lengths in both directions
+local function p922_relabel(device, api, slot, subslot, value)
+    local tnum
+    if type(value) == "number" then tnum = value >= 0 and math.floor(value) or math.ceil(value)
+    elseif type(value) == "string" then tnum = tonumber(value, 10)
+    end
+    if tnum == nil then return end
+    p922_of[table.concat({device, api, slot, subslot}, "|")] = tnum
+    map_generation = map_generation + 1
+    if not T.telegrams[tnum] then return end
+    local misfit = {}
+    for _, fm in pairs(maps) do
+        if fm.device == device then
+            local dir = fm.direction == "input" and "actual" or "setpoint"
+            for _, o in ipairs(fm.objects) do
+                if (o.length or 0) > 0 and o.telegram_source == "length" and tg_len(tnum, dir) ~= o.length then
+                    misfit[o.api .. ":" .. o.slot .. ":" .. o.subslot] = true
                 end
             end
         end
-        if r.index == 0xFFFF and r.op == "write" and len > 0 then
-            local d = devices[device] or {}
-            devices[device] = d
-            d.ffff = ByteArray.new(t:raw(0, len), true)   -- bytes: a Tvb would expire with this frame
+    end
+    for _, fm in pairs(maps) do
+        if fm.device == device then
+            for _, o in ipairs(fm.objects) do
+                if o.telegram_source ~= "map" and (o.length or 0) > 0
+                        and not (o.telegram_source == "length" and misfit[o.api .. ":" .. o.slot .. ":" .. o.subslot])
+                        and ((o.api == api and o.slot == slot and o.subslot == subslot)
+                            or o.telegram == nil or o.telegram_source == "length" or o.telegram_source == "gsdml") then
+                    o.telegram, o.telegram_source = tnum, "P922"
+                end
+            end
         end
+    end
+end
+
+-- ParamPairer.response: the response paired with the request written before it on the same key
+local function pair_response(key, rsp, frame, ts, profile)
+    local p = pairer[key]
+    pairer[key] = nil
+    local sup = superseded[key]
+    superseded[key] = nil
+    local ev = {request_frame = nil, response_frame = frame, response_ref = rsp.request_ref, response_id = rsp.response_id,
+                response_id_name = rsp.response_id_name, response_axis = rsp.axis,
+                response_no_of_parameters = rsp.no_of_parameters, ok = rsp.ok, params = {}, pairing = {}}
+    local w = ev.pairing
+    if sup then
+        local fr = {}
+        for j, f in ipairs(sup) do fr[j] = tostring(f) end
+        ev.superseded_request_frames = sup
+        w[#w + 1] = "request(s) in frame(s) " .. table.concat(fr, ", ") .. " overwritten before their response was read"
+    end
+    local blocks_ = rsp.params
+    local q = p and p.req
+    if q == nil then
+        w[#w + 1] = "no request"
+    else
+        ev.request_frame, ev.request_ts_ns, ev.request_ref = p.frame, p.ts, q.request_ref
+        ev.request_id, ev.request_id_code, ev.axis, ev.no_of_parameters = q.request_id_name, q.request_id, q.axis,
+            q.no_of_parameters
+        if rsp.request_ref ~= q.request_ref then
+            w[#w + 1] = string.format("request ref mismatch (request 0x%02X, response 0x%02X)", q.request_ref, rsp.request_ref)
+        end
+        if rsp.response_id ~= q.request_id and rsp.response_id ~= bit.bor(q.request_id, 0x80) then
+            w[#w + 1] = string.format("response id mismatch (request 0x%02X, response 0x%02X)", q.request_id, rsp.response_id)
+        end
+        if rsp.axis ~= q.axis then
+            w[#w + 1] = string.format("axis not mirrored (request %d, response %d)", q.axis, rsp.axis)
+        end
+        if rsp.no_of_parameters ~= q.no_of_parameters then
+            w[#w + 1] = string.format("number of parameters mismatch (request %d, response %d)", q.no_of_parameters,
+                rsp.no_of_parameters)
+        end
+        if #blocks_ > 0 and #blocks_ ~= #q.params then
+            w[#w + 1] = string.format("%d value blocks for %d requested parameters", #blocks_, #q.params)
+        end
+    end
+    local reqp = q and q.params or {}
+    for i = 1, math.max(#reqp, #blocks_) do   -- profidrive._param
+        local a, blk = reqp[i], blocks_[i]
+        local prm = {values = {}}
+        if a then
+            prm.pnu, prm.subindex, prm.count, prm.name, prm.attribute = a.pnu, a.subindex, a.count, a.name, a.attribute
+            if a.values then prm.written = {format = a.format, values = a.values} end
+        end
+        if blk then
+            prm.format, prm.format_name, prm.no_of_values = blk.format, blk.format_name, blk.no_of_values
+            prm.values, prm.error, prm.error_subindex = blk.values, blk.error, blk.error_subindex
+            prm.block = blk
+        end
+        ev.params[i] = prm
+    end
+    return ev
+end
+
+-- the record and param events of one frame, in wire order, each handed to the cyclic driver
+local function record_items(pinfo, recs)
+    local items = {}
+    local src, dst = tostring(pinfo.dl_src), tostring(pinfo.dl_dst)
+    local fn, ts = pinfo.number, ts_ns(pinfo)
+    for _, r in ipairs(recs) do
+        local device = r.op == "write" and dst or src
+        local controller = r.op == "write" and src or dst
+        local known = ar_devs[r.ar]   -- session._rec_event: the AR names device and controller
+        if known then device, controller = known[1], known[2] end
+        local profile = profile_for(device)
+        local it = {rec = r, index_name = index_name(r.index)}
+        local t, len = r.tvb, r.len
+        local ev = {frame = fn, ts_ns = ts, kind = "record", op = r.op, index = r.index, index_name = it.index_name,
+                    api = r.api, slot = r.slot, subslot = r.subslot, device_mac = device, controller_mac = controller,
+                    ar_uuid = r.ar, length = len, profile = profile}
+        local dec
         if r.index == 0xB02E or r.index == 0xB02F then
-            -- handled above
+            if r.op == "write" then dec = decode_request(t, len, profile) else dec = decode_response(t, len) end
+            if dec then it.decoded = dec else it.malformed = true end
         elseif r.index == 0xBF00 or (r.index == 0xFFFF and profile == "psm") then
-            it.bf00 = decode_bf00(t, len, r.index == 0xFFFF and "psm" or profile)
-            if r.op == "write" then   -- cyclic.py on_record: the written parameter set is in force
-                local d = devices[device] or {}
-                devices[device] = d
-                apply_seq = apply_seq + 1
-                d.bf00 = {seq = apply_seq, d = it.bf00}
+            dec = decode_bf00(t, len, r.index == 0xFFFF and "psm" or profile)
+            it.bf00 = dec
+        end
+        if r.index == 0xBF00 or r.index == 0xFFFF then
+            ev.data = len > 0 and t:bytes(0, len):tohex():lower() or ""   -- acyclic._own_bf00_checks reads the bytes
+        end
+        ev.decoded = dec or (not it.malformed and {index = r.index, index_name = it.index_name}) or nil
+        on_record(ev, fn)
+        local nil_ar = r.ar == NIL_UUID
+        local key = table.concat({nil_ar and (controller .. "/" .. device) or r.ar, r.api, r.slot, r.subslot}, "|")
+        if (r.index == 0xB02E or r.index == 0xB02F) and dec then
+            if r.op == "write" then
+                if pairer[key] then   -- ParamPairer.request: an unanswered request is overwritten
+                    superseded[key] = superseded[key] or {}
+                    table.insert(superseded[key], pairer[key].frame)
+                end
+                pairer[key] = {req = dec, frame = fn, ts = ts}
+            else
+                local pev = pair_response(key, dec, fn, ts, profile)
+                pev.frame, pev.ts_ns, pev.kind, pev.index = fn, ts, "param", r.index
+                pev.api, pev.slot, pev.subslot, pev.device_mac = r.api, r.slot, r.subslot, device
+                pev.controller_mac, pev.ar_uuid, pev.profile = controller, r.ar, profile
+                it.param = pev
+                on_record(pev, fn)
+                for _, prm in ipairs(pev.params) do
+                    if prm.pnu == 922 and not prm.error and prm.values[1] ~= nil and (prm.subindex or 0) == 0 then
+                        p922_relabel(device, r.api, r.slot, r.subslot, prm.values[1])
+                    end
+                end
             end
         end
         items[#items + 1] = it
@@ -684,7 +856,422 @@ local function record_items(pinfo, recs)
     return items
 end
 
--- 6. cyclic --------------------------------------------------------------------------------------
+-- 6. DCP ------------------------------------------------------------------------------------------
+-- pndiss/proto/dcp.py: the blocks of a DCP PDU (read from the bytes, so a PDU the Python decoder
+-- calls malformed gives no event here either), NameOfStation rules (name_problems) and DcpTracker
+-- (which MAC holds which name / IP). A violation is noted on the frame being dissected.
+local note_violation   -- section 7
+
+local GET, SET, IDENTIFY, HELLO = 3, 4, 5, 6
+local DCP_SERVICE_TYPES = {[0] = true, [1] = true, [5] = true}
+local DCP_PREFIXED = {[2] = true, [3] = true, [6] = true, [7] = true}
+-- smallest value (after BlockInfo/BlockQualifier) each value decoder accepts (dcp.py _fixed)
+local DCP_MIN = {["1|1"] = 6, ["1|2"] = 12, ["1|3"] = 28, ["2|3"] = 4, ["2|4"] = 2, ["2|7"] = 2, ["2|8"] = 4,
+                 ["2|10"] = 2, ["3|61"] = 2, ["3|255"] = 3, ["5|1"] = 2, ["5|2"] = 2, ["5|3"] = 4, ["5|4"] = 3,
+                 ["5|5"] = 2, ["5|6"] = 2, ["7|1"] = 16, ["7|2"] = 2, ["7|3"] = 16, ["7|4"] = 16, ["7|5"] = 6}
+
+-- dcp._string: tshark's ENC_ASCII view (ends at a NUL; each non-ASCII byte becomes U+FFFD)
+local function dcp_string(t, o, n)
+    local s = n > 0 and t(o, n):raw() or ""
+    s = s:match("^[^%z]*")
+    return (s:gsub("[\128-\255]", "\239\191\189"))
+end
+
+local function ipv4(t, o)
+    return string.format("%d.%d.%d.%d", u8(t, o), u8(t, o + 1), u8(t, o + 2), u8(t, o + 3))
+end
+
+-- dcp.decode: {sid, stype, blocks = {{opt, sub, name?, ip?, erroneous?}}} or nil (malformed)
+local function dcp_decode(t, off)
+    local len = t:len()
+    if len - off < 10 then return nil end
+    local sid, stype, dlen = u8(t, off), u8(t, off + 1), u16(t, off + 8)
+    local start = off + 10
+    local e = start + dlen
+    if e > len then return nil end
+    local d = {sid = sid, stype = stype, blocks = {}}
+    if sid < GET or sid > HELLO or not DCP_SERVICE_TYPES[stype] then return d end
+    local response = stype ~= 0
+    if sid == GET and not response then
+        if dlen % 2 == 1 then return nil end
+        return d
+    end
+    local prefix = ((sid == IDENTIFY and response) or (sid == HELLO and not response) or (sid == GET and response))
+        or (sid == SET and not response)
+    local o = start
+    while o < e do
+        if o + 4 > e then return nil end
+        local opt, sub, blen = u8(t, o), u8(t, o + 1), u16(t, o + 2)
+        local vend = o + 4 + blen
+        if vend > e then return nil end
+        local b = {opt = opt, sub = sub}
+        local vs, vl = o + 4, blen
+        if prefix and (DCP_PREFIXED[opt] or (opt == 1 and sub >= 1 and sub <= 3)) then
+            if blen < 2 then return nil end
+            vs, vl = vs + 2, vl - 2
+        end
+        if opt == 5 and sid == SET and blen == 0 then
+            b.erroneous = true
+        elseif opt == 6 then
+            if vl < 2 then return nil end
+        elseif not (opt == 0xFF and sub == 0xFF) then
+            local k = opt .. "|" .. sub
+            if DCP_MIN[k] and vl < DCP_MIN[k] then return nil end
+            if k == "2|5" and vl % 2 == 1 then return nil end
+            if k == "3|61" then
+                local n = u8(t, vs + 1)
+                if n > 0 and vl < 2 + n then return nil end
+            end
+            if k == "2|2" then b.name = dcp_string(t, vs, vl) end
+            if k == "1|2" or k == "1|3" then b.ip = ipv4(t, vs) end
+        end
+        d.blocks[#d.blocks + 1] = b
+        o = vend + blen % 2   -- odd blocks are followed by one pad byte
+    end
+    return d
+end
+
+-- dcp.name_problems: does the NameOfStation break the rules? (an empty name is a reset)
+local function name_bad(name)
+    if name == "" then return false end
+    if #name > 127 or name:find("[^A-Za-z0-9%.%-]") then return true end
+    if name:sub(1, 1) == "-" or name:sub(-1) == "-" then return true end
+    local labels = {}
+    for l in (name .. "."):gmatch("([^%.]*)%.") do labels[#labels + 1] = l end
+    for i, l in ipairs(labels) do
+        if l == "" or #l > 63 then return true end
+        if (i > 1 and l:sub(1, 1) == "-") or (i < #labels and l:sub(-1) == "-") then return true end
+    end
+    local first = labels[1]:lower()
+    if first:match("^port%-%d%d%d$") or first:match("^port%-%d%d%d%-%d%d%d%d%d$") then return true end
+    return name:match("^%d+%.%d+%.%d+%.%d+$") ~= nil
+end
+
+-- DcpTracker
+local dcp_state   -- {name_at, ip_at, mac_name, mac_ip, reported}
+local function dcp_release(at, by_mac, mac)
+    local old = by_mac[mac]
+    by_mac[mac] = nil
+    if old ~= nil and at[old] and at[old][1] == mac then at[old] = nil end
+end
+
+local function dcp_claim(what, value, mac, assign, fn)
+    local S_ = dcp_state
+    local at, by_mac = S_[what .. "_at"], S_["mac_" .. what]
+    local holder = at[value]
+    if holder ~= nil and holder[1] ~= mac and by_mac[holder[1]] == value then
+        local rule = what == "name" and "DCP-NAME-DUPLICATE" or "IP-ASSIGN-OCCUPIED"
+        local a, b = mac, holder[1]
+        if b < a then a, b = b, a end
+        local key = rule .. "|" .. value .. "|" .. a .. "|" .. b
+        if (what == "name" or assign) and not S_.reported[key] then
+            S_.reported[key] = true
+            note_violation(fn, rule, fn)
+        end
+    end
+    local old = by_mac[mac]
+    if old ~= nil and old ~= value and at[old] and at[old][1] == mac then at[old] = nil end
+    by_mac[mac] = value
+    if holder == nil or holder[1] == mac or by_mac[holder[1]] ~= value or assign then at[value] = {mac, fn} end
+end
+
+local function on_dcp(pinfo)
+    local fi = X["pn_dcp.service_id"]()
+    if fi == nil or fi.source == nil then return end
+    local d = dcp_decode(fi.source, fi.offset)
+    if d == nil then return end
+    local fn = pinfo.number
+    local response = d.stype ~= 0
+    local st_name, st_ip
+    local facts_ok = (response and d.stype == 1 and (d.sid == IDENTIFY or d.sid == GET))
+        or (not response and (d.sid == HELLO or d.sid == SET))
+    for _, b in ipairs(d.blocks) do
+        if b.name ~= nil and d.sid == SET and not response and name_bad(b.name) then
+            note_violation(fn, "DCP-NAME-INVALID", fn)
+        end
+        if facts_ok and not b.erroneous then
+            if b.name ~= nil then st_name = b.name end
+            if b.ip ~= nil then st_ip = b.ip end
+        end
+    end
+    if st_name == nil and st_ip == nil then return end
+    local assign = d.sid == SET and d.stype == 0
+    local target = assign and tostring(pinfo.dl_dst) or tostring(pinfo.dl_src)
+    local S_ = dcp_state
+    if st_name ~= nil and st_name ~= "" then
+        dcp_claim("name", st_name, target, assign, fn)
+    elseif st_name == "" then
+        dcp_release(S_.name_at, S_.mac_name, target)
+    end
+    if st_ip ~= nil and st_ip ~= "0.0.0.0" then
+        dcp_claim("ip", st_ip, target, assign, fn)
+    elseif st_ip == "0.0.0.0" then
+        dcp_release(S_.ip_at, S_.mac_ip, target)
+    end
+end
+
+-- 7. cyclic driver --------------------------------------------------------------------------------
+-- pndiss/cyclic.py CyclicTracker, step for step: one checker (pndiss_checker.lua, the port of
+-- pndiss/encoder) per axis (AR/submodule), fed every judged cycle (an input frame paired with the
+-- latest setpoint), every gap, every record/param event of its device; plus the two rules the
+-- driver itself emits (STARTUP-NO-PARAM-RECORD, TELEGRAM-LENGTH-MISMATCH).
+local axes             -- axis key -> axis (cyclic.py _Axis)
+local axis_list        -- axes in creation order (Python's dict order)
+local dev_records      -- device -> record/param events, replayed into a new axis (cap 256)
+local bf00_last        -- device -> {ar, decoded} of the latest 0xBF00/0xFFFF write
+local prev_bf00        -- device -> decoded 0xBF00 of an earlier connection (#31)
+local viol             -- frame -> list of {rule, decided} (decided: frame whose dissection decided it; 0 = finish)
+local viol_seen        -- "frame|rule" -> that entry
+local finished         -- every checker's finish() has run (first frame dissected again)
+
+local function is_std(t) return T.telegrams[t] ~= nil and (T.telegrams[t].standard or t == 89) end
+
+-- a violation on `frame`, decided while dissecting frame `decided`; `open` = a per-cycle run just
+-- opened (its first frame is final; the flush later repeats it), so it is shown at once
+function note_violation(frame, rule, decided, open)
+    local k = frame .. "|" .. rule
+    local v = viol_seen[k]
+    if v == nil then
+        v = {rule = rule, decided = decided, open_only = open or false}
+        viol_seen[k] = v
+        local l = viol[frame]
+        if l == nil then l = {}; viol[frame] = l end
+        l[#l + 1] = v
+    elseif not open then
+        v.open_only = false
+    end
+end
+
+local function note(evs, decided)
+    if evs == nil then return end
+    for _, ev in ipairs(evs) do
+        if ev.rule ~= nil then note_violation(ev.frame, ev.rule, decided, ev.open) end
+    end
+end
+
+-- cyclic.py _relabel flushes the open runs into the checker's output and drops them (the next call
+-- starts a new output list): a run the plugin showed when it opened is withdrawn like Python does
+local function drop_flushed(evs)
+    for _, ev in ipairs(evs or {}) do
+        local k = ev.rule and (ev.frame .. "|" .. ev.rule)
+        local v = k and viol_seen[k]
+        if v and v.open_only then
+            viol_seen[k] = nil
+            local l = viol[ev.frame]
+            for i = #l, 1, -1 do if l[i] == v then table.remove(l, i) end end
+        end
+    end
+end
+
+-- cyclic.py _refine_profile: telegrams 86-89/100/101 exist only in PS/PSM: a 'generic' device using
+-- one is PS/PSM (a length guess proves it only when no other telegram fits); PS/PSM keeps its
+-- parameters at 0xFFFF, so the device's 0xFFFF records are given to the checker again
+local function refine_profile(ax, fn)
+    local t = ax.telegram
+    local chk = ax.checker
+    if tostring(ax.source):find("length", 1, true) then
+        local fits = telegrams_for_length(chk.io_len.actual, chk.io_len.setpoint)
+        if #fits ~= 1 or fits[1] ~= t then return end
+    end
+    local d = T.telegrams[t]
+    if ax.profile == "generic" and d and #d.profiles == 1 and d.profiles[1] == "psm" then
+        ax.profile = "psm"
+        ax.reason = "telegram " .. t .. " exists only in PS/PSM (cyclic.md §2); " .. tostring(ax.reason)
+        chk.cfg.profile = "psm"
+        chk.cfg.sources.profile = ax.reason
+        chk:apply_cfg()
+        for _, ev in ipairs(dev_records[ax.info.device_mac or ""] or {}) do
+            if ev.kind == "record" and ev.index == 0xFFFF then note(chk:on_record(ev), fn) end
+        end
+    end
+end
+
+-- cyclic.py _ambiguous: a length guess is judged when both data lengths leave one candidate among
+-- the profile's telegrams, or when the guess is a standard telegram (81 is mandatory in every class)
+local function ambiguous(ax, o)
+    if not tostring(o.source):find("length", 1, true) then return false end
+    local io = ax.checker.io_len
+    local n = 0
+    for _, t in ipairs(telegrams_for_length(io.actual, io.setpoint)) do
+        local d = T.telegrams[t]
+        local ok = ax.profile == "generic" and d.standard
+        for _, p in ipairs(d.profiles) do if p == ax.profile then ok = true end end
+        if ok then n = n + 1 end
+    end
+    return n > 1 and not T.telegrams[ax.telegram].standard
+end
+
+-- cyclic.py _axis: a checker configured like EncoderConfig.from_settings (iso from the frame ID
+-- class, cycle time from the Connect), the records seen before replayed in order
+local function new_axis(o, fr, fn)
+    local fm, d = fr.fm, o.d
+    local info = {station = fm.station, device_mac = fm.device, api = d.api, slot = d.slot, subslot = d.subslot}
+    local ax = {key = o.key, info = info, sp = nil, sp_frame = nil, sp_ok = false, telegram = o.telegram,
+                source = o.source, startup_checked = false, fm = fm, ambiguous = nil}
+    ax.profile, ax.reason = profile_for(fm.device)
+    local iso = nil
+    if fm.frame_id ~= nil then iso = fm.frame_id >= 0x0100 and fm.frame_id < 0x1000 end   -- RT_CLASS_3 = IRT
+    local cfg = C.config_from_settings(settings, {profile = ax.profile, telegram = o.telegram, cycle_ns = fm.cycle_ns,
+                                                  iso = iso, profile_reason = ax.reason, telegram_source = o.source})
+    ax.checker = C.new(cfg, info)
+    ax.checker.io_len[fr.dir] = d.length
+    refine_profile(ax, fn)
+    ax.checker.prev_bf00 = prev_bf00[fm.device or ""]
+    axes[o.key] = ax
+    axis_list[#axis_list + 1] = ax
+    for _, ev in ipairs(dev_records[fm.device or ""] or {}) do
+        if ev.ar_uuid == nil or fm.ar == nil or ev.ar_uuid == fm.ar then note(ax.checker:on_record(ev), fn) end
+    end
+    return ax
+end
+
+-- CyclicTracker.on_record: record/param events in capture order
+function on_record(ev, fn)
+    local dev = ev.device_mac or ""
+    if ev.kind == "record" and (ev.index == 0xBF00 or ev.index == 0xFFFF) and ev.op == "write" then
+        local old = bf00_last[dev]
+        if old ~= nil and old.ar ~= ev.ar_uuid then prev_bf00[dev] = old.decoded end
+        bf00_last[dev] = {ar = ev.ar_uuid, decoded = ev.decoded or {}}
+    end
+    local lst = dev_records[dev]
+    if lst == nil then lst = {}; dev_records[dev] = lst end
+    if #lst < 256 then lst[#lst + 1] = ev end
+    for _, ax in ipairs(axis_list) do
+        if (ax.info.device_mac or "") == dev and (ev.ar_uuid == nil or ax.fm.ar == nil or ev.ar_uuid == ax.fm.ar) then
+            note(ax.checker:on_record(ev), fn)
+        end
+    end
+end
+
+-- cyclic.py _relabel: the session learnt the telegram (P922) after the first frame
+local function relabel(o, fr, fn)
+    local t = o.d.telegram
+    local ax = axes[o.key]
+    if not T.telegrams[t] or (ax ~= nil and ax.checker.p922_rejected == t) then
+        o.rejected = t   -- P922 contradicts the AR's lengths: the checker reported it, keep the AR's view
+        return
+    end
+    local L = layout(t, fr.dir)
+    o.telegram, o.source, o.rows, o.len = t, o.d.telegram_source, L.rows, L.len
+    o.sig = nil
+    o.length_checked = false
+    if ax == nil then return end
+    ax.telegram, ax.source, ax.ambiguous = t, o.source, false
+    ax.sp = nil   -- decoded with the old layout
+    local chk = ax.checker
+    local c = chk.cfg
+    if c.telegram ~= t or tostring(c.sources.telegram):find("length", 1, true) then
+        c.telegram = t
+        c.sources.telegram = o.source or "session"
+    end
+    refine_profile(ax, fn)
+    chk:apply_cfg()
+    drop_flushed(chk:flush_all())
+    chk:reset_history()
+end
+
+-- cyclic.py _length_check: #64, the data object's length fits its telegram
+local function length_check(o, fr, fn)
+    if o.source == "length (guess)" then return end
+    if tg_len(o.telegram, fr.dir) ~= o.d.length then
+        note_violation(fn, "TELEGRAM-LENGTH-MISMATCH", fn)
+    end
+end
+
+-- cyclic.py _startup: #66, 0xBF00 (PS/PSM 0xFFFF) is written before cyclic data exchange starts
+local function startup(ax, fn)
+    ax.startup_checked = true
+    if ax.fm.source == "connect" and is_std(ax.checker.cfg.telegram) and not ax.checker.bf00_seen then
+        note_violation(ax.sp_frame or fn, "STARTUP-NO-PARAM-RECORD", fn)
+    end
+end
+
+-- signal values for the checker: numbers (8-byte ones above 2^53 as {hi, lo})
+local function decode_sig(tvb, base, rows)
+    local sig = {}
+    for _, row in ipairs(rows) do
+        local r = tvb(base + row.off, row.size)
+        if row.size == 8 then sig[row.name] = int64_at(tvb, base + row.off, row.signed, true)
+        else sig[row.name] = row.signed and r:int() or r:uint() end
+    end
+    return sig
+end
+
+-- CyclicTracker.on_cyclic for one mapped frame (first pass); returns what the tree shows
+local function on_cyclic(pinfo, tvb, fr, ds_ok)
+    local fn, ts = pinfo.number, ts_ns(pinfo)
+    local out = {objs = {}}
+    local csdu = tvb:raw()
+    local same = csdu == fr.last_csdu
+    fr.last_csdu = csdu
+    local n_csdu = tvb:len()
+    local dir = fr.dir
+    for _, o in ipairs(fr.objs) do
+        local d = o.d
+        local t = d.telegram
+        if t ~= nil and t ~= o.telegram and t ~= o.rejected then relabel(o, fr, fn) end
+        local skip = false
+        if not same or o.sig == nil then
+            if o.stop > n_csdu then   -- Python raises Malformed: the rest of the frame is not looked at
+                out.malformed = string.format("data object %s/%s ends at byte %d of a %d-byte C_SDU",
+                    tostring(d.slot), tostring(d.subslot), o.stop, n_csdu)
+                break
+            end
+            if not o.length_checked then
+                o.length_checked = true
+                length_check(o, fr, fn)
+            end
+            if d.length < o.len then
+                skip = true
+            else
+                o.sig = decode_sig(tvb, d.offset, o.rows)   -- a new table only when the bytes changed
+            end
+        end
+        if not skip then
+            local iops = (o.stop < n_csdu) and tvb(o.stop, 1):uint() or nil
+            local ok = ds_ok and iops ~= nil and bit.band(iops, 0x80) ~= 0
+            local ax = o.ax
+            if ax == nil then
+                ax = axes[o.key]
+                if ax == nil then
+                    ax = new_axis(o, fr, fn)
+                elseif ax.telegram ~= o.telegram then
+                    ax.telegram, ax.source = o.telegram, o.source   -- layouts rebuilt after a P922 relabel
+                end
+                o.ax = ax
+            end
+            local chk = ax.checker
+            if chk.io_len[dir] == nil then
+                chk.io_len[dir] = d.length
+                refine_profile(ax, fn)
+            end
+            out.objs[#out.objs + 1] = {telegram = o.telegram, source = o.source, rows = o.rows, len = o.len, d = d,
+                                       dir = dir, iops = iops, ok = ok, profile = ax.profile}
+            if dir == "setpoint" then
+                ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, ok
+            else
+                if ax.ambiguous == nil then ax.ambiguous = ambiguous(ax, o) end
+                if ax.sp ~= nil then
+                    if not (ok and ax.sp_ok) or ax.ambiguous then
+                        note(chk:gap(fn, ts, "not valid"), fn)
+                    else
+                        if not ax.startup_checked then startup(ax, fn) end
+                        note(chk:cycle(fn, ts, ax.sp, o.sig, ax.sp_frame), fn)
+                    end
+                end
+            end
+        end
+    end
+    return out
+end
+
+-- CyclicTracker.finish: the end of the capture for every checker (deadlines, P971, open runs)
+local function finish_all()
+    finished = true
+    for _, ax in ipairs(axis_list) do note(ax.checker:finish(), 0) end
+end
+
+-- 8. tree, heuristic, postdissector, init -----------------------------------------------------------
 
 local function sig_value(tvb, base, row)
     local r = tvb(base + row.off, row.size)
@@ -708,317 +1295,29 @@ local function bits_of(sig, v, profile)
     return out
 end
 
--- reserved masks per (signal, profile): bits no bitmap entry names (telegrams.reserved_mask)
-local reserved_cache = {}
-local function reserved_mask(sig, profile)
-    local k = sig .. "|" .. profile
-    local m = reserved_cache[k]
-    if m then return m end
-    local used = 0
-    for _, b in ipairs(T.bitmaps[sig] or {}) do
-        local ok = b.profiles == nil
-        if not ok then for _, p in ipairs(b.profiles) do if p == profile then ok = true break end end end
-        if ok then used = bit.bor(used, bit.lshift(bit.lshift(1, b.width) - 1, b.bit)) end
-    end
-    m = bit.band(bit.lshift(1, 8 * T.signals[sig].size) - 1, bit.bnot(used))
-    reserved_cache[k] = m
-    return m
-end
-
--- rules.  Mirrors pndiss/encoder/_state.py (Checker._cycle_std, Checker._hit): one judged cycle per
--- input frame paired with the latest setpoint (pndiss/cyclic.py); a condition that holds over
--- consecutive judged cycles is ONE violation at its first frame; a gated cycle (DataValid 0,
--- provider STOP, IOPS bad) ends every run and forgets the history (Checker.gap).
--- Controller-side rules name the setpoint frame; tshark shows a frame only once, so the plugin
--- implements those that depend on the setpoint alone and decides them on the setpoint frame.
-local L_MAX = 2          -- settings.l_max default (behaviour.md §0.1)
-
-local function bitv(v, n) return bit.band(bit.rshift(v, n), 1) end
-
--- a new run starts unless the rule held in judged cycle `prev` (Checker._hit: o["n"] == n - 1)
-local function run(ax, rule, prev, found)
-    if ax.open[rule] ~= prev then found[#found + 1] = rule end
-end
-
--- EncoderConfig.std: telegrams with STW2_ENC/ZSW2_ENC (81-84; PS/PSM 89)
-local function is_std(t) return T.telegrams[t] ~= nil and (T.telegrams[t].standard or t == 89) end
-
--- compat in force: captured 0xBF00 > profile default (EncoderConfig.from_settings / acyclic.py)
-local function compat_of(ax)
-    local d = devices[ax.device]
-    local w = d and d.bf00
-    if ax.bf00 and (w == nil or ax.bf00.seq > w.seq) then w = ax.bf00 end
-    if w and w.d.compat ~= nil then return w.d.compat end
-    local pd = T.profile_defaults[ax.profile] or T.profile_defaults.generic
-    return pd.compat
-end
-
--- setpoint-only conditions (#60, #61), decided on the setpoint frame; cycle n+1 will judge them
-local function sp_conditions(ax, sp)
-    local p = ax.profile
-    local c = {}
-    c["RESERVED-BIT-SET-STW2"] = bit.band(sp.stw2_enc or 0, reserved_mask("stw2_enc", p)) ~= 0
-    c["RESERVED-BIT-SET-G1STW"] = sp.g1_stw ~= nil and bit.band(sp.g1_stw, reserved_mask("g1_stw", p)) ~= 0
-    return c
-end
-
--- every cycle of the window W(n, -L_max, 0) has h[k] == v (no closures: this runs every cycle)
-local function all_is(H, k, v)
-    for i = 1, #H do if H[i][k] ~= v then return false end end
-    return true
-end
-
--- actual-side conditions of one judged cycle (frame = the input frame)
-local function ac_conditions(ax, sp, ac)
-    local p = ax.profile
-    local c = {}
-    local stw2, g1stw = sp.stw2_enc or 0, sp.g1_stw or 0
-    local zsw2, g1zsw = ac.zsw2_enc or 0, ac.g1_zsw or 0
-    local has_g1 = sp.g1_stw ~= nil and ac.g1_zsw ~= nil
-    local CTRL = bitv(stw2, 10)
-    local PREQ, AREQ, PARK, SACK = bitv(g1stw, 12), bitv(g1stw, 13), bitv(g1stw, 14), bitv(g1stw, 15)
-    local CREQ = bitv(zsw2, p == "psm" and 10 or 9)   -- telegrams.bit_position control_requested
-    local ACKIP, PDONE, ATX, PKA, SERR = bitv(g1zsw, 11), bitv(g1zsw, 12), bitv(g1zsw, 13), bitv(g1zsw, 14), bitv(g1zsw, 15)
-    local compat = compat_of(ax)
-    local VALID = compat == 0 or CTRL == 1
-    local H = ax.hist
-    H[#H + 1] = {CTRL = CTRL, PREQ = PREQ, AREQ = AREQ, PARK = PARK, SACK = SACK, VALID = VALID, PKA = PKA, SERR = SERR}
-    if #H > L_MAX + 1 then table.remove(H, 1) end
-    local full = #H == L_MAX + 1
-    local pa = ax.prev_ac
-    local first = pa == nil
-    local pz = pa and (pa.g1_zsw or 0) or 0
-    local pACKIP, pPDONE, pATX, pPKA, pSERR = bitv(pz, 11), bitv(pz, 12), bitv(pz, 13), bitv(pz, 14), bitv(pz, 15)
-    -- 9.2 control by PLC (#13, #14, #16)
-    if compat == 1 then
-        c["CTRLREQ-MISMATCH"] = full and all_is(H, "CTRL", CTRL) and CREQ ~= CTRL
-        c["CMD-EXECUTED-WITHOUT-CONTROL"] = full and all_is(H, "CTRL", 0) and not first
-            and has_g1 and ((PDONE == 1 and pPDONE == 0) or (ATX == 1 and pATX == 0) or (PKA == 1 and pPKA == 0))
-    else
-        c["CTRLREQ-SET-IN-COMPAT"] = CREQ == 1
-    end
-    -- 9.8 reserved bits (#62, #63)
-    c["RESERVED-BIT-SET-ZSW2"] = bit.band(zsw2, reserved_mask("zsw2_enc", p)) ~= 0
-    if not has_g1 then return c end
-    c["RESERVED-BIT-SET-G1ZSW"] = bit.band(g1zsw, reserved_mask("g1_zsw", p)) ~= 0
-    local X1, X2 = ac.g1_xist1, ac.g1_xist2
-    -- 9.3 preset handshake edges (#20, #21)
-    c["PRESET-ACK-SPURIOUS"] = not first and PDONE == 1 and pPDONE == 0 and all_is(H, "PREQ", 0)
-    c["PRESET-ACK-DROPPED"] = not first and PDONE == 0 and pPDONE == 1 and full and all_is(H, "PREQ", 1)
-    -- 9.5 absolute value request (#36-39)
-    c["ABSVAL-ACK-MISSING"] = full and ATX == 0 and all_is(H, "AREQ", 1) and all_is(H, "VALID", true) and all_is(H, "PKA", 0) and all_is(H, "SERR", 0)
-    c["ABSVAL-ACK-STUCK"] = full and ATX == 1 and all_is(H, "AREQ", 0) and all_is(H, "VALID", true)
-    c["ZSW-ATX-AND-SERR"] = ATX == 1 and SERR == 1
-    c["XIST2-NOT-ZERO"] = p == "lika" and X2 ~= nil and ATX == 0 and SERR == 0 and PKA == 0 and X2 ~= 0
-    -- 9.6 parking (#45-48)
-    c["PARK-ACK-MISSING"] = full and PKA == 0 and all_is(H, "PARK", 1) and all_is(H, "VALID", true)
-    c["PARK-ACK-NOT-CLEARED"] = full and PKA == 1 and all_is(H, "PARK", 0) and all_is(H, "VALID", true)
-    c["PARK-OUTPUTS-NOT-CLEARED"] = p == "lika" and PKA == 1 and
-        ((X1 or 0) ~= 0 or (X2 or 0) ~= 0 or PDONE == 1 or ATX == 1)
-    c["PARK-ERROR-REPORTED"] = PKA == 1 and not first and pPKA == 1 and SERR == 1 and pSERR == 0
-    -- 9.7 sensor error and acknowledgement (#51, #53, #54, #59)
-    c["SERR-CODE-INVALID"] = SERR == 1 and X2 ~= nil and (X2 == 0 or (p == "lika" and T.xist2_errors[X2] == nil))
-    c["ACKIP-SPURIOUS"] = not first and ACKIP == 1 and pACKIP == 0 and all_is(H, "SACK", 0)
-    c["ACKIP-STUCK"] = full and ACKIP == 1 and all_is(H, "SACK", 0)
-    c["FAULT-PRESENT-INCONSISTENT"] = p == "psm" and SERR == 1 and bitv(zsw2, 3) == 0
-    return c
-end
-
--- ax.telegram/ax.source: the cyclic view (pndiss/cyclic.py _Axis); ax.cfg_telegram/ax.cfg_source:
--- the checker's configuration (EncoderConfig.telegram and its source), which P922 may change first
-local function new_axis(key, c, profile, device)
-    return {key = key, telegram = c.telegram, source = c.source, cfg_telegram = c.telegram, cfg_source = c.source,
-            profile = profile, device = device, n = 0, open = {}, hist = {}, sp = nil, sp_ok = false,
-            sp_cond = nil, prev_ac = nil, io_len = {}, ambiguous = nil, p922_rejected = nil}
-end
-
--- acyclic.py _read: P922 names the telegram when it was only guessed from the lengths and fits
--- the AR's data lengths; otherwise a guessed telegram keeps the AR's view (p922_rejected)
-function checker_p922(ax, v)
-    local guessed = tostring(ax.cfg_source):find("length", 1, true) ~= nil
-    local fits = T.telegrams[v] ~= nil
-    if fits then
-        for dir, n in pairs(ax.io_len) do if tg_len(v, dir) ~= n then fits = false end end
-    end
-    if guessed and fits then
-        ax.cfg_telegram, ax.cfg_source = v, "P922 read"
-    elseif v ~= ax.cfg_telegram and guessed then
-        ax.p922_rejected = v
-    end
-end
-
--- cyclic.py _ambiguous: a length guess is judged when both data lengths leave one candidate among
--- the profile's telegrams, or when the guess is a standard telegram (81 is mandatory in every class)
-local function ambiguous(ax)
-    if not tostring(ax.source):find("length", 1, true) then return false end
-    local ia, is = ax.io_len.actual, ax.io_len.setpoint
-    local n = 0
-    for t, d in pairs(T.telegrams) do
-        if (ia == nil or tg_len(t, "actual") == ia) and (is == nil or tg_len(t, "setpoint") == is) then
-            local ok = ax.profile == "generic" and d.standard
-            for _, p in ipairs(d.profiles) do if p == ax.profile then ok = true end end
-            if ok then n = n + 1 end
-        end
-    end
-    return n > 1 and not T.telegrams[ax.telegram].standard
-end
-
--- cyclic.py _refine_profile: telegrams that exist only in PS/PSM make a 'generic' device PS/PSM
--- (a length guess proves it only when no other telegram fits both lengths); PS/PSM keeps its
--- parameters at 0xFFFF, so the last 0xFFFF written is applied again, decoded as PS/PSM
-local function refine_profile(ax)
-    local t = ax.telegram
-    if tostring(ax.source):find("length", 1, true) then
-        local ia, is = ax.io_len.actual, ax.io_len.setpoint
-        local fits = {}
-        for u in pairs(T.telegrams) do
-            if (ia == nil or tg_len(u, "actual") == ia) and (is == nil or tg_len(u, "setpoint") == is) then
-                fits[#fits + 1] = u
-            end
-        end
-        if #fits ~= 1 or fits[1] ~= t then return end
-    end
-    local d = T.telegrams[t]
-    if ax.profile == "generic" and d and #d.profiles == 1 and d.profiles[1] == "psm" then
-        ax.profile = "psm"
-        local dev = devices[ax.device]
-        if dev and dev.ffff then
-            apply_seq = apply_seq + 1
-            ax.bf00 = {seq = apply_seq, d = decode_bf00(dev.ffff:tvb("0xFFFF record"), dev.ffff:len(), "psm")}
-        end
-    end
-end
-
-local function gap(ax)
-    ax.open, ax.hist, ax.prev_ac, ax.prev_sp, ax.same = {}, {}, nil, nil, 0   -- Checker.gap: end runs, forget history
-end
-
-local function judge(ax, ac, found)
-    -- Checker.cycle fast path: the same decoded words again (sig tables are reused while the bytes
-    -- repeat), no run open and a saturated history cannot give a new result
-    local same = ax.sp == ax.prev_sp and ac == ax.prev_ac
-    ax.same = same and (ax.same or 0) + 1 or 0
-    if same and ax.same > L_MAX + 1 and ax.last_hit ~= ax.n then
-        ax.n = ax.n + 1
-        return
-    end
-    ax.n = ax.n + 1
-    ax.prev_sp = ax.sp
-    if not is_std(ax.cfg_telegram) then return end
-    for rule, cond in pairs(ax.sp_cond or {}) do
-        if cond then ax.open[rule], ax.last_hit = ax.n, ax.n end   -- already reported on the setpoint frame
-    end
-    for rule, cond in pairs(ac_conditions(ax, ax.sp, ac)) do
-        if cond and E[rule] then
-            run(ax, rule, ax.n - 1, found)
-            ax.open[rule] = ax.n
-            ax.last_hit = ax.n
-        end
-    end
-    ax.prev_ac = ac
-end
-
--- cyclic frame: decode each mapped object, feed the axis state (first pass), cache the result
-local function first_pass(pinfo, tvb, entry, ok_ds, fid)
-    local out = {objs = {}, rules = {}}
-    local fm = entry.fm
-    for i, c in ipairs(entry.objs) do
-        local o = c.o
-        local key = c.key
-        if key == nil then
-            key = table.concat({fm.ar or (fm.controller .. "/" .. fm.device), o.api or 0, o.slot or 0, o.subslot or 0}, "|")
-            c.key = key
-        end
-        if o.telegram ~= nil and o.telegram ~= c.telegram and o.telegram ~= c.rejected then
-            -- cyclic.py _relabel: the session learnt the telegram (P922) after the first frame
-            local ax = axes[key]
-            local nc = T.telegrams[o.telegram] and not (ax and ax.p922_rejected == o.telegram) and compile_obj(o, fm.direction)
-            if not nc then
-                c.rejected = o.telegram
-            else
-                entry.objs[i], c = nc, nc   -- a new object: frames shown before keep the old layout
-                if ax then
-                    ax.telegram, ax.source, ax.ambiguous, ax.sp, ax.sp_cond = nc.telegram, nc.source, false, nil, nil
-                    if ax.cfg_telegram ~= nc.telegram or tostring(ax.cfg_source):find("length", 1, true) then
-                        ax.cfg_telegram, ax.cfg_source = nc.telegram, nc.source
-                    end
-                    refine_profile(ax)
-                    gap(ax)
-                end
-            end
-        end
-        if o.offset + c.len > tvb:len() then
-            out.malformed = string.format("data object %s/%s ends at byte %d of a %d-byte C_SDU",
-                tostring(o.slot), tostring(o.subslot), o.offset + c.len, tvb:len())
-            break
-        end
-        local iops = (o.offset + o.length < tvb:len()) and tvb(o.offset + o.length, 1):uint() or nil
-        local ok = ok_ds and iops ~= nil and bit.band(iops, 0x80) ~= 0
-        local ax = axes[key]
-        if ax == nil then
-            ax = new_axis(key, c, profile_for(fm.device), fm.device)
-            refine_profile(ax)
-            axes[key] = ax
-            local d = devices[fm.device]
-            for _, v in ipairs(d and d.p922s or {}) do checker_p922(ax, v) end   -- records seen before
-        end
-        if ax.io_len[c.dir] == nil then
-            ax.io_len[c.dir] = o.length
-            refine_profile(ax)
-        end
-        local raw = tvb:raw(o.offset, c.len)
-        local sig = c.last_sig
-        if raw ~= c.last_raw or sig == nil then   -- cyclic.py: an unchanged C_SDU reuses the decode
-            sig = {}
-            for _, row in ipairs(c.rows) do
-                sig[row.name] = sig_value(tvb, o.offset, row)
-            end
-            c.last_raw, c.last_sig = raw, sig
-        end
-        out.objs[#out.objs + 1] = {c = c, iops = iops, ok = ok, profile = ax.profile}
-        local found = {}
-        if c.dir == "setpoint" then
-            ax.sp, ax.sp_ok = sig, ok
-            ax.sp_cond = nil
-            if ok and is_std(ax.cfg_telegram) then
-                ax.sp_cond = sp_conditions(ax, sig)
-                for rule, cond in pairs(ax.sp_cond) do
-                    if cond then run(ax, rule, ax.n, found) end   -- judged next as cycle n + 1
-                end
-            end
-        else
-            if ax.ambiguous == nil then ax.ambiguous = ambiguous(ax) end
-            if ax.sp ~= nil then
-                if not (ok and ax.sp_ok) or ax.ambiguous then gap(ax) else judge(ax, sig, found) end
-            end
-        end
-        for _, r in ipairs(found) do out.rules[#out.rules + 1] = r end
-    end
-    return out
-end
-
-local function add_object(tree, tvb, c, cached, fm)
-    local o = c.o
-    local st = tree:add(pndiss, tvb(o.offset, c.len),
-        string.format("PROFINET encoder: telegram %d %s, slot %s/%s", c.telegram, c.dir, tostring(o.slot), tostring(o.subslot)))
+-- one decoded data object (a 'telegram' event): values read again from the frame's bytes
+local function add_object(tree, tvb, c)
+    local d = c.d
+    local st = tree:add(pndiss, tvb(d.offset, c.len),
+        string.format("PROFINET encoder: telegram %d %s, slot %s/%s", c.telegram, c.dir, tostring(d.slot), tostring(d.subslot)))
     st:add(F["pndiss.telegram"], c.telegram)
-    st:add(F["pndiss.slot"], o.slot or 0)
-    st:add(F["pndiss.subslot"], o.subslot or 0)
+    st:add(F["pndiss.slot"], d.slot or 0)
+    st:add(F["pndiss.subslot"], d.subslot or 0)
     if tree.visible then   -- shown, not needed for filtering: skipped in plain tshark runs (hot path)
         st:add(F["pndiss.direction"], c.dir)
         st:add(F["pndiss.telegram_source"], c.source or "")
-        st:add(F["pndiss.api"], o.api or 0)
-        if cached.iops then st:add(F["pndiss.iops"], tvb(o.offset + o.length, 1), cached.iops) end
-        st:add(F["pndiss.judged"], cached.ok and true or false)
-        st:add(F["pndiss.profile"], cached.profile)
+        st:add(F["pndiss.api"], d.api or 0)
+        if c.iops then st:add(F["pndiss.iops"], tvb(d.offset + d.length, 1), c.iops) end
+        st:add(F["pndiss.judged"], c.ok and true or false)
+        st:add(F["pndiss.profile"], c.profile)
     end
     local serr, x2
     for _, row in ipairs(c.rows) do
-        local r = tvb(o.offset + row.off, row.size)
-        local v = sig_value(tvb, o.offset, row)
+        local r = tvb(d.offset + row.off, row.size)
+        local v = sig_value(tvb, d.offset, row)
         local it = st:add(F["pndiss." .. row.name], r, v)
         if T.bitmaps[row.name] then
-            for _, b in ipairs(bits_of(row.name, v, cached.profile)) do
+            for _, b in ipairs(bits_of(row.name, v, c.profile)) do
                 it:add(F["pndiss." .. row.name .. "." .. b[1]], r, b[2])
                 if row.name == "g1_zsw" and b[1] == "sensor_error" and b[2] ~= 0 then serr = true end
             end
@@ -1033,40 +1332,42 @@ local function add_object(tree, tvb, c, cached, fm)
     end
 end
 
-local function add_rules(tree, tvb, rules)
-    if #rules == 0 then return end
+-- the violations cached for this frame: pndiss.rule + expert info pndiss.rule.<ID> each
+local function add_rules(tree, tvb, pinfo)
+    local l = viol[pinfo.number]
+    if l == nil or #l == 0 then return end
     local st = tree:add(pndiss, tvb(0, 0), "pndiss violations")
-    for _, rule in ipairs(rules) do
-        local it = st:add(F["pndiss.rule"], rule)
-        it:add_proto_expert_info(E[rule], rule .. ": " .. (T.rules[rule] and T.rules[rule].section or ""))
+    for _, v in ipairs(l) do
+        local r = T.rules[v.rule]
+        local it = st:add(F["pndiss.rule"], v.rule)
+        it:add_proto_expert_info(E[v.rule], v.rule .. ": " .. (r and (r.section .. ", " .. r.side .. " side") or ""))
+        it:add(F["pndiss.rule.decided_at"], v.decided):set_generated()
     end
 end
 
-local cyc_cache = {}   -- frame number -> first-pass result (entry + decoded flags + rules)
-
-local cyclic_frame = nil   -- number of the frame the heuristic saw last: the postdissector skips it
+local cyc_cache        -- frame number -> first-pass result of a mapped cyclic frame
+local cyclic_frame     -- number of the frame the heuristic saw last: the postdissector skips it
+local blind            -- a frame had no fields on the first pass (tshark -2 without -Y or -R)
 
 local function heuristic(tvb, pinfo, tree)
     cyclic_frame = pinfo.number
-    local fi = X["pn_rt.frame_id"]()
-    if fi == nil then return false end
-    local fid = fi.value
+    if pinfo.visited and not finished then finish_all() end
     local cached = cyc_cache[pinfo.number]
     if cached == nil then
         if pinfo.visited then return false end
-        local entry = lookup(fid, tostring(pinfo.dl_src), tostring(pinfo.dl_dst))
-        if entry == nil or #entry.objs == 0 then return false end
+        local fi = X["pn_rt.frame_id"]()
+        if fi == nil then blind = true; return false end   -- no protocol tree: nothing extracted
+        local fr = lookup(fi.value, tostring(pinfo.dl_src), tostring(pinfo.dl_dst))
+        if fr == nil or #fr.objs == 0 then return false end
         -- DataStatus: DataValid (bit 2) and ProviderState RUN (bit 4), wire.md §2.3
         local ds = X["pn_rt.ds"]()
         local ok_ds = ds ~= nil and bit.band(ds.value, 0x14) == 0x14
-        local res = first_pass(pinfo, tvb, entry, ok_ds, fid)
-        cached = {entry = entry, res = res}
+        cached = on_cyclic(pinfo, tvb, fr, ok_ds)
         cyc_cache[pinfo.number] = cached
     end
     if tree then
-        for i, c in ipairs(cached.res.objs) do add_object(tree, tvb, c.c, c, cached.entry.fm) end
-        add_rules(tree, tvb, cached.res.rules)
-        if cached.res.malformed then tree:add_proto_expert_info(E.malformed, cached.res.malformed) end
+        for _, c in ipairs(cached.objs) do add_object(tree, tvb, c) end
+        if cached.malformed then tree:add_proto_expert_info(E.malformed, cached.malformed) end
     end
     return false   -- let pn_io go on with its own IODataObject dissection
 end
@@ -1091,53 +1392,11 @@ function select_profile(vendor, order)
     end
     return "generic"
 end
-local im0_seen = {}
+local im0_seen
 
--- postdissector: Connect learning, DCP/I&M0 identity, records
-local rec_cache = {}
-function pndiss.dissector(tvb, pinfo, tree)
-    if cyclic_frame == pinfo.number then return end   -- cyclic data: nothing for the postdissector
-    local op = X["pn_io.opnum"]()
-    if op == nil then
-        if not pinfo.visited then
-            local v = X["pn_dcp.suboption_vendor_id"]()
-            if v and not im0_seen[tostring(pinfo.dl_src)] then
-                local dv = X["pn_dcp.suboption_device_devicevendorvalue"]()
-                local f = facts[tostring(pinfo.dl_src)] or {}
-                facts[tostring(pinfo.dl_src)] = f
-                f.dcp = {v.value, dv and dv.value}
-            end
-        end
-        return
-    end
-    local items = rec_cache[pinfo.number]
-    if items == nil then
-        if pinfo.visited then return end
-        local pt = X["dcerpc.pkt_type"]()
-        local act, seq = X["dcerpc.dg_act_id"](), X["dcerpc.dg_seqnum"]()
-        local key = act and seq and (tostring(act) .. "|" .. tostring(seq.value))
-        local ok, err = pcall(function()
-            if op.value == 0 and pt and key then
-                if pt.value == 0 then connect_request(key) elseif pt.value == 2 then connect_response(key, pinfo) end
-            end
-            items = record_items(pinfo, records_of_frame(pinfo))
-        end)
-        if not ok then items = {{error = tostring(err)}} end
-        -- I&M0 read response: vendor ID + order ID name the profile (session.profile_for)
-        local im = X["pn_io.im_profile_id"]()
-        local vh, vl, oid = X["pn_io.vendor_id_high"](), X["pn_io.vendor_id_low"](), X["pn_io.order_id"]()
-        if im and vh and vl then
-            local dev = tostring(pinfo.dl_src)
-            local f = facts[dev] or {}
-            facts[dev] = f
-            f.im0 = {vh.value * 256 + vl.value, oid and oid.value}
-            profiles[dev] = nil   -- decided again at the next use
-            im0_seen[dev] = true
-            items[#items + 1] = {im0 = im.value}
-        end
-        rec_cache[pinfo.number] = items
-    end
-    if not tree or #items == 0 then return end
+local function show_records(tree, tvb, items)
+    -- the first pass's Tvbs have expired: find the record bytes again in this dissection (same order)
+    local cur, k = records_of_frame(), 0
     for _, it in ipairs(items) do
         if it.error then
             tree:add_proto_expert_info(E.malformed, "pndiss: " .. it.error)
@@ -1147,19 +1406,21 @@ function pndiss.dissector(tvb, pinfo, tree)
             st:add(F["pndiss.im0.profile_name"], T.im_profile_ids[it.im0] or string.format("profile 0x%04X", it.im0))
         else
             local r = it.rec
-            local t, ds, len = r.at[1], r.at[2], r.at[3]
-            local st = tree:add(pndiss, t(ds, len), string.format("PROFINET encoder: record %s 0x%04X %s",
+            k = k + 1
+            local len = r.len
+            local at = cur[k] and cur[k].index == r.index and cur[k].len == len and cur[k].at
+            local st = tree:add(pndiss, at and at[1](at[2], len) or tvb(0, 0), string.format("PROFINET encoder: record %s 0x%04X %s",
                 r.op, r.index, it.index_name))
             st:add(F["pndiss.record.op"], r.op)
             st:add(F["pndiss.record.index"], r.index)
             st:add(F["pndiss.record.index_name"], it.index_name)
             st:add(F["pndiss.record.length"], len)
             if it.malformed then st:add_proto_expert_info(E.malformed, "record data do not decode") end
-            if it.request then
-                local q = it.request
+            local q = r.op == "write" and it.decoded
+            if q and q.kind == "parameter request" then
                 st:add(F["pndiss.param.kind"], "parameter request")
-                st:add(F["pndiss.param.request_ref"], q.ref)
-                st:add(F["pndiss.param.request_id"], request_id_name(q.id))
+                st:add(F["pndiss.param.request_ref"], q.request_ref)
+                st:add(F["pndiss.param.request_id"], q.request_id_name)
                 st:add(F["pndiss.param.axis"], q.axis)
                 for _, a in ipairs(q.params) do
                     local pt2 = st:add(F["pndiss.param.pnu"], a.pnu)
@@ -1170,13 +1431,13 @@ function pndiss.dissector(tvb, pinfo, tree)
                 local ev = it.param
                 st:add(F["pndiss.param.kind"], "parameter response")
                 if ev.request_frame then st:add(F["pndiss.param.request_frame"], ev.request_frame) end
-                if ev.req then
-                    st:add(F["pndiss.param.request_ref"], ev.req.ref)
-                    st:add(F["pndiss.param.request_id"], request_id_name(ev.req.id))
-                    st:add(F["pndiss.param.axis"], ev.req.axis)
+                if ev.request_ref ~= nil then
+                    st:add(F["pndiss.param.request_ref"], ev.request_ref)
+                    st:add(F["pndiss.param.request_id"], ev.request_id)
+                    st:add(F["pndiss.param.axis"], ev.axis)
                 end
-                st:add(F["pndiss.param.response_id"], ev.rsp.id)
-                st:add(F["pndiss.param.ok"], ev.rsp.ok)
+                st:add(F["pndiss.param.response_id"], ev.response_id)
+                st:add(F["pndiss.param.ok"], ev.ok)
                 for _, w in ipairs(ev.pairing) do st:add(F["pndiss.param.pairing"], w) end
                 for _, p in ipairs(ev.params) do
                     local pt2 = st:add(F["pndiss.param.pnu"], p.pnu or 0)
@@ -1186,9 +1447,9 @@ function pndiss.dissector(tvb, pinfo, tree)
                     if p.error then
                         pt2:add(F["pndiss.param.error_code"], p.error.code)
                         pt2:add(F["pndiss.param.error"], p.error.text)
-                    else
-                        local vf = p.int and F["pndiss.param.value"] or F["pndiss.param.value_text"]
-                        for _, v in ipairs(p.values) do pt2:add(vf, v) end
+                    elseif p.block then
+                        local vf = p.block.int and F["pndiss.param.value"] or F["pndiss.param.value_text"]
+                        for _, v in ipairs(p.block.shown) do pt2:add(vf, v) end
                     end
                 end
             elseif it.bf00 then
@@ -1196,12 +1457,90 @@ function pndiss.dissector(tvb, pinfo, tree)
                 for _, n in ipairs(BF00_INT) do
                     if d[n] ~= nil then st:add(F["pndiss.bf00." .. n], d[n]) end
                 end
-                if d.mupr then st:add(F["pndiss.bf00.mupr"], d.mupr); st:add(F["pndiss.bf00.tmr"], d.tmr) end
+                if d.mupr64 then st:add(F["pndiss.bf00.mupr"], d.mupr64); st:add(F["pndiss.bf00.tmr"], d.tmr64) end
                 if d.velocity_unit_name then st:add(F["pndiss.bf00.velocity_unit_name"], d.velocity_unit_name) end
-                for _, pr in ipairs(d.problems) do st:add(F["pndiss.bf00.problem"], pr) end
+                for _, pr in ipairs(d.problems) do st:add(F["pndiss.bf00.problem"], pr.rule) end
             end
         end
     end
 end
+
+-- first pass of a non-cyclic frame: DCP identity and rules, Connects, records
+local function first_pass(pinfo)
+    local op = X["pn_io.opnum"]()
+    if op == nil then
+        local dev = tostring(pinfo.dl_src)
+        local v = X["pn_dcp.suboption_vendor_id"]()
+        if v and not im0_seen[dev] then
+            local dv = X["pn_dcp.suboption_device_devicevendorvalue"]()
+            local f = facts[dev] or {}
+            facts[dev] = f
+            f.dcp = {v.value, dv and dv.value}
+        end
+        on_dcp(pinfo)
+        return nil
+    end
+    local items
+    local pt = X["dcerpc.pkt_type"]()
+    local act, seq = X["dcerpc.dg_act_id"](), X["dcerpc.dg_seqnum"]()
+    local key = act and seq and (tostring(act) .. "|" .. tostring(seq.value))
+    local ok, err = pcall(function()
+        if op.value == 0 and pt and key then
+            if pt.value == 0 then connect_request(key) elseif pt.value == 2 then connect_response(key, pinfo) end
+        end
+        items = record_items(pinfo, records_of_frame())
+    end)
+    if not ok then items = {{error = tostring(err)}} end
+    -- I&M0 read response: vendor ID + order ID name the profile (session.profile_for)
+    local im = X["pn_io.im_profile_id"]()
+    local vh, vl, oid = X["pn_io.vendor_id_high"](), X["pn_io.vendor_id_low"](), X["pn_io.order_id"]()
+    if im and vh and vl then
+        local dev = tostring(pinfo.dl_src)
+        local f = facts[dev] or {}
+        facts[dev] = f
+        f.im0 = {vh.value * 256 + vl.value, oid and oid.value}
+        profiles[dev] = nil   -- decided again at the next use
+        im0_seen[dev] = true
+        items[#items + 1] = {im0 = im.value}
+    end
+    return items
+end
+
+-- postdissector: every frame; the violations of the frame are added last
+local rec_cache
+function pndiss.dissector(tvb, pinfo, tree)
+    if pinfo.visited and not finished then finish_all() end
+    if cyclic_frame ~= pinfo.number then   -- the heuristic handled cyclic data
+        local items = rec_cache[pinfo.number]
+        if items == nil and not pinfo.visited then
+            items = first_pass(pinfo) or false
+            rec_cache[pinfo.number] = items
+        end
+        if tree and items and #items > 0 then show_records(tree, tvb, items) end
+    end
+    if tree then
+        add_rules(tree, tvb, pinfo)
+        if blind and pinfo.visited then
+            tree:add_proto_expert_info(E.blind, "pndiss: the first pass had no protocol tree, so nothing was learnt "
+                .. "(tshark -2 needs a display filter: add -Y frame or -Y pndiss)")
+        end
+    end
+end
 register_postdissector(pndiss)
+
+-- all per-capture state, new: Wireshark calls init before every (re)dissection of a file
+local function reset_state()
+    maps, map_cache, misses = {}, {}, {}
+    map_generation, cache_generation = 0, 0
+    profiles, facts, ar_devs, p922_of, im0_seen = {}, {}, {}, {}, {}
+    pending_connects, pairer, superseded = {}, {}, {}
+    axes, axis_list, dev_records, bf00_last, prev_bf00 = {}, {}, {}, {}, {}
+    viol, viol_seen, finished = {}, {}, false
+    dcp_state = {name_at = {}, ip_at = {}, mac_name = {}, mac_ip = {}, reported = {}}
+    cyc_cache, rec_cache, cyclic_frame, blind = {}, {}, nil, false
+end
+function pndiss.init() reset_state() end
+
+reset_state()
 parse_usermap(pndiss.prefs.map)
+parse_settings(pndiss.prefs.settings)

@@ -34,9 +34,13 @@ def test_every_rule_implemented_or_explained():
 
 
 def test_plugin_rules_have_lua_conditions():
-    src = open(os.path.join(ROOT, "lua", "pndiss.lua"), encoding="utf-8").read()
+    # the driver and DCP rules live in pndiss.lua, the reference encoder's in its port pndiss_checker.lua
+    src = "".join(open(os.path.join(ROOT, "lua", f), encoding="utf-8").read()
+                  for f in ("pndiss.lua", "pndiss_checker.lua"))
+    # the pairing problems' rules come from a generated table (acyclic.PAIRING_RULES), which the checker reads
+    src += "".join(f'"{rule}"' for _, rule in gen_lua.tables()["checker"]["pairing_rules"])
     for r in gen_lua.PLUGIN_RULES:
-        assert f'"{r}"' in src, f"{r} is declared implemented but lua/pndiss.lua never names it"
+        assert f'"{r}"' in src, f"{r} is declared implemented but the Lua plugin never names it"
 
 
 def test_tables_carry_every_signal_and_bit():
@@ -49,7 +53,7 @@ def test_tables_carry_every_signal_and_bit():
 @pytest.mark.skipif(shutil.which("luac") is None and shutil.which("luac5.2") is None, reason="no luac")
 def test_lua_syntax():
     luac = shutil.which("luac5.2") or shutil.which("luac")
-    for f in ("pndiss.lua", "pndiss_tables.lua"):
+    for f in ("pndiss.lua", "pndiss_tables.lua", "pndiss_checker.lua"):
         p = subprocess.run([luac, "-p", os.path.join(ROOT, "lua", f)], capture_output=True, text=True)
         assert p.returncode == 0, p.stderr
 
@@ -84,13 +88,13 @@ if given is not None:
 
 
 def test_wireshark_command_install_and_path(tmp_path):
-    """`pndiss wireshark install --dir D` copies both files unchanged and prints D; `path` names both folders."""
+    """`pndiss wireshark install --dir D` copies the three files unchanged and prints D; `path` names both folders."""
     dest = tmp_path / "plugins"
     p = subprocess.run([sys.executable, "-m", "pndiss", "wireshark", "install", "--dir", str(dest)],
                        capture_output=True, text=True, cwd=ROOT)
     assert p.returncode == 0, p.stderr
     assert str(dest) in p.stdout
-    for f in ("pndiss.lua", "pndiss_tables.lua"):
+    for f in ("pndiss.lua", "pndiss_tables.lua", "pndiss_checker.lua"):
         assert (dest / f).read_bytes() == open(os.path.join(ROOT, "lua", f), "rb").read()
     p = subprocess.run([sys.executable, "-m", "pndiss", "wireshark", "path"], capture_output=True, text=True,
                        cwd=ROOT, env=dict(os.environ, HOME=str(tmp_path)))

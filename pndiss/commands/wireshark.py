@@ -1,12 +1,13 @@
-"""``pndiss wireshark install [--dir D]`` / ``pndiss wireshark path``: the Lua plugin (lua/pndiss.lua
-+ its generated tables) in Wireshark's personal Lua plugin folder (docs/wireshark.md)."""
+"""``pndiss wireshark install [--dir D]`` / ``pndiss wireshark path``: the Lua plugin (lua/pndiss.lua,
+its generated tables and the reference encoder's Lua port) in Wireshark's personal Lua plugin folder
+(docs/wireshark.md)."""
 from __future__ import annotations
 
 import os
 import shutil
 import sys
 
-PLUGIN_FILES = ("pndiss.lua", "pndiss_tables.lua")
+PLUGIN_FILES = ("pndiss.lua", "pndiss_tables.lua", "pndiss_checker.lua")   # pndiss.lua loads the other two
 
 
 def plugin_source() -> str:
@@ -16,7 +17,7 @@ def plugin_source() -> str:
         if all(os.path.isfile(os.path.join(cand, f)) for f in PLUGIN_FILES):
             return cand
     from ..errors import UsageError
-    raise UsageError("the Lua plugin files (lua/pndiss.lua, lua/pndiss_tables.lua) are not installed with this pndiss")
+    raise UsageError("the Lua plugin files (lua/" + ", lua/".join(PLUGIN_FILES) + ") are not installed with this pndiss")
 
 
 def personal_plugin_dir() -> str:
