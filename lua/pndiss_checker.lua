@@ -77,7 +77,7 @@ end
 -- (m may be 2^64, which a double holds exactly but not 2^64 - 5).
 local function delta(a, b, m)
   local r = fmod(b - a, m)         -- in (-m, m), the sign of b - a
-  local half = floor(m / 2)
+  local half = (m - m % 2) / 2      -- m // 2 (m is an integer, or 2^64)
   if r < 0 then
     -- Python: d = r + m, then d - m (= r) when d > m // 2, else d
     if r > half - m then return r end
@@ -495,8 +495,8 @@ function Checker:cycle(frame, ts, sp, ac, sp_frame)
   self.same = same_in and self.same + 1 or 0
   self.n = self.n + 1
   if self.std then
-    local k1, k2 = band(sp.stw2_enc or 0, 0x0FFF), sp.g1_stw or 0
-    local k3, k4 = band(ac.zsw2_enc or 0, 0x0FFF), ac.g1_zsw or 0
+    local k1, k2 = (sp.stw2_enc or 0) % 4096, sp.g1_stw or 0
+    local k3, k4 = (ac.zsw2_enc or 0) % 4096, ac.g1_zsw or 0
     local same_key = self.key_ok and k1 == self.k1 and k2 == self.k2 and k3 == self.k3 and k4 == self.k4
     if same_key and self.steady_n > self.L + 1 and self.open_order[1] == nil and not self:pending_steady() then
       self:cycle_steady(sp, ac)
@@ -522,7 +522,16 @@ end
 
 local function rise(cur, prev) return cur == 1 and prev == 0 end
 local function fall(cur, prev) return cur == 0 and prev == 1 end
-local function bitof(w, b) return band(rshift(w, b), 1) end
+-- bit b of a non-negative integer word, and its top nibble: plain arithmetic (VM operations,
+-- no library calls: these run several times per frame)
+local P2 = {}
+for b = 0, 31 do P2[b] = 2 ^ b end
+local function bitof(w, b)
+  local p = P2[b]
+  if w % (p + p) >= p then return 1 end
+  return 0
+end
+local function nib12(w) return (w - w % 4096) / 4096 end   -- w >> 12 of a 16-bit word
 
 function Checker:cycle_std(sp, ac)
   local c, n, L = self.cfg, self.n, self.L
@@ -531,10 +540,10 @@ function Checker:cycle_std(sp, ac)
   local zsw2 = ac.zsw2_enc or 0
   local g1zsw = ac.g1_zsw or 0
   local has_g1 = sp.g1_stw ~= nil and ac.g1_zsw ~= nil
-  local CLS, CTRL = rshift(stw2, 12), bitof(stw2, 10)
+  local CLS, CTRL = nib12(stw2), bitof(stw2, 10)
   local HMODE, PREQ, AREQ, PARK, SACK = bitof(g1stw, 11), bitof(g1stw, 12), bitof(g1stw, 13), bitof(g1stw, 14), bitof(g1stw, 15)
   local FACK = self.psm and bitof(stw2, 7) or 0
-  local DLS, CREQ = rshift(zsw2, 12), bitof(zsw2, self.creq_bit)
+  local DLS, CREQ = nib12(zsw2), bitof(zsw2, self.creq_bit)
   local ACKIP, PDONE, ATX, PKA, SERR = bitof(g1zsw, 11), bitof(g1zsw, 12), bitof(g1zsw, 13), bitof(g1zsw, 14), bitof(g1zsw, 15)
   local X1, X2, X3 = ac.g1_xist1, ac.g1_xist2, num(ac.g1_xist3)
   local NIST = ac.nist_b
@@ -546,10 +555,10 @@ function Checker:cycle_std(sp, ac)
   local pDLS, pACKIP, pPDONE, pATX, pPKA, pSERR, pX1, pX2
   if not first then
     local s2, g = ps.stw2_enc or 0, ps.g1_stw or 0
-    pCLS, pCTRL = rshift(s2, 12), bitof(s2, 10)
+    pCLS, pCTRL = nib12(s2), bitof(s2, 10)
     pHMODE, pPREQ, pAREQ, pPARK, pSACK = bitof(g, 11), bitof(g, 12), bitof(g, 13), bitof(g, 14), bitof(g, 15)
     local z2, gz = pa.zsw2_enc or 0, pa.g1_zsw or 0
-    pDLS = rshift(z2, 12)
+    pDLS = nib12(z2)
     pACKIP, pPDONE, pATX, pPKA, pSERR = bitof(gz, 11), bitof(gz, 12), bitof(gz, 13), bitof(gz, 14), bitof(gz, 15)
     pX1, pX2 = pa.g1_xist1, pa.g1_xist2
   end
@@ -917,6 +926,15 @@ function Checker:cycle_std(sp, ac)
   end
 end
 
+local function xist2_inconsistent(self, X1, X2, shift)
+  local exp1 = lshift(X2, shift)
+  if X1 ~= exp1 then
+    -- #40: X1 == X2 << P979.3 (001_9461bb7bc8c2767b.txt:2223-2224)
+    local o = self:hit("XIST2-INCONSISTENT")
+    if o then o.msg = fmt("G1_XIST1=0x%08X, expected G1_XIST2 << %d = 0x%08X", X1, shift, exp1) end
+  end
+end
+
 -- Rules on the counters and position values: they must run every cycle, also in steady state.
 function Checker:value_rules(CLS, pCLS, DLS, pDLS, SERR, ATX, PKA, PDONE, X1, X2, X3, NIST, pos2, ppos2, pre,
                              motion_ref, pmotion, zsw2, g1zsw, first, has_g1)
@@ -942,12 +960,14 @@ function Checker:value_rules(CLS, pCLS, DLS, pDLS, SERR, ATX, PKA, PDONE, X1, X2
   elseif DLS ~= 0 then
     self.started_D = true
   end
-  if not truthy(c.iso) and DLS == 0 and self.started_D then
+  local iso = c.iso
+  iso = iso ~= nil and iso ~= false and iso ~= 0   -- truthy(c.iso), inline: this runs every cycle
+  if not iso and DLS == 0 and self.started_D then
     -- #8: RT mode, DLS back to 0 once running (RT examples show DLS != 0, 001_9461bb7bc8c2767b.txt:2221)
     o = self:hit("SOL-DEVICE-ZERO-RT")
     if o then o.msg = fmt("encoder sign-of-life 0 in RT data exchange (ZSW2_ENC=0x%04X); expected 1..15", zsw2) end
   end
-  if truthy(c.iso) and SERR == 1 and X2 == K.e_sync and DLS ~= 0 then
+  if iso and SERR == 1 and X2 == K.e_sync and DLS ~= 0 then
     -- #12: sync fault 0x0F04 must come with DLS = 0 (001_9461bb7bc8c2767b.txt:1802-1804)
     o = self:hit("SYNC-FAULT-DLS-NONZERO")
     if o then o.msg = fmt("G1_XIST2=0x0F04 with encoder sign-of-life %d; expected 0", DLS) end
@@ -963,13 +983,14 @@ function Checker:value_rules(CLS, pCLS, DLS, pDLS, SERR, ATX, PKA, PDONE, X1, X2
     o = self:hit("XIST2-NOT-ZERO")
     if o then o.msg = fmt("G1_XIST2=%d with G1_ZSW.13=0 and no error; expected 0", X2) end
   end
-  if ATX == 1 and SERR == 0 and X1 ~= nil and X2 ~= nil and X3 == nil
-      and (not truthy(c.class4) or C.xist1_preset_affected(c)) and not C.xist1_counter(c) then
-    local exp1 = lshift(X2, shift)
-    if X1 ~= exp1 then
-      -- #40: X1 == X2 << P979.3 (001_9461bb7bc8c2767b.txt:2223-2224)
-      o = self:hit("XIST2-INCONSISTENT")
-      if o then o.msg = fmt("G1_XIST1=0x%08X, expected G1_XIST2 << %d = 0x%08X", X1, shift, exp1) end
+  if ATX == 1 and SERR == 0 and X1 ~= nil and X2 ~= nil and X3 == nil then
+    -- (not class4 or xist1_preset_affected) and not xist1_counter, inline (config.py properties)
+    local c4, d, sh = c.class4, T.profile_defaults[c.profile] or T.profile_defaults.generic, c.shift
+    local pc = c.preset_control
+    if pc == nil then pc = d.preset_control end
+    local on = c4 ~= nil and c4 ~= 0 and c4 ~= false
+    if (not on or pc == d.preset_control_affects_xist1) and not (d.xist1_counter and (sh == nil or sh == 0)) then
+      xist2_inconsistent(self, X1, X2, shift)
     end
   end
   local R = self.R
@@ -1002,16 +1023,19 @@ end
 -- Control and status words (sign-of-life aside) as in the last L_max+1 cycles, nothing pending and
 -- no rule running: window, edge and deadline rules cannot change, so only the value rules run.
 function Checker:cycle_steady(sp, ac)
+  -- the bit arithmetic is written out (no helper calls): this is the common per-frame path
   local stw2, zsw2, g1zsw = sp.stw2_enc or 0, ac.zsw2_enc or 0, ac.g1_zsw or 0
   local ps, pa = self.prev_sp, self.prev_ac
-  local X1, X2, X3 = ac.g1_xist1, ac.g1_xist2, num(ac.g1_xist3)
-  local SERR, ATX = rshift(g1zsw, 15), bitof(g1zsw, 13)
+  local X1, X2, X3 = ac.g1_xist1, ac.g1_xist2, ac.g1_xist3
+  if type(X3) == "table" then X3 = num(X3) end
+  local SERR = g1zsw >= 32768 and 1 or 0                    -- g1zsw >> 15
+  local ATX = g1zsw % 16384 >= 8192 and 1 or 0              -- bit 13
   local pos2
   if X3 ~= nil then pos2 = X3 elseif ATX == 1 and SERR == 0 then pos2 = X2 end
   local pz = pa.g1_zsw or 0
   local ppos2
   if X3 ~= nil then ppos2 = num(pa.g1_xist3)
-  elseif bitof(pz, 13) == 1 and rshift(pz, 15) == 0 then ppos2 = pa.g1_xist2 end
+  elseif pz % 16384 >= 8192 and pz < 32768 then ppos2 = pa.g1_xist2 end
   local motion_ref = X1
   if motion_ref == nil then motion_ref = X3 end
   pos_push(self, motion_ref)
@@ -1019,8 +1043,10 @@ function Checker:cycle_steady(sp, ac)
   if NIST == nil then NIST = ac.nist_a end
   local pmotion
   if X1 ~= nil then pmotion = pa.g1_xist1 else pmotion = num(pa.g1_xist3) end
-  self:value_rules(rshift(stw2, 12), rshift(ps.stw2_enc or 0, 12), rshift(zsw2, 12), rshift(pa.zsw2_enc or 0, 12), SERR, ATX,
-                   bitof(g1zsw, 14), bitof(g1zsw, 12), X1, X2, X3, NIST, pos2, ppos2,
+  local ps2, pz2 = ps.stw2_enc or 0, pa.zsw2_enc or 0
+  self:value_rules((stw2 - stw2 % 4096) / 4096, (ps2 - ps2 % 4096) / 4096, (zsw2 - zsw2 % 4096) / 4096,
+                   (pz2 - pz2 % 4096) / 4096, SERR, ATX,
+                   g1zsw % 32768 >= 16384 and 1 or 0, g1zsw % 8192 >= 4096 and 1 or 0, X1, X2, X3, NIST, pos2, ppos2,
                    nil, motion_ref, pmotion, zsw2, g1zsw, false, ac.g1_zsw ~= nil)
 end
 
@@ -1187,7 +1213,7 @@ function Checker:continuity(pos, ppos, pre, PKA)
 end
 
 function Checker:nist_sign(pos, ppos, nist)
-  if pos == nil or ppos == nil or not truthy(nist) then
+  if pos == nil or ppos == nil or nist == nil or nist == 0 then
     self.nist_bad = 0
     return
   end
