@@ -1485,26 +1485,28 @@ local function datatype(chk, ev, p, pnu, frame)
   end
 end
 
-local function telegram_fits(chk, v)
-  if not isint(v) or K.telegram_length[v] == nil then return false end
+local function telegram_fits(chk, v, vfloat)
+  if vfloat or not isint(v) or K.telegram_length[v] == nil then return false end
   for d, n in pairs(chk.io_len) do
     if K.telegram_length[v][d] ~= n then return false end
   end
   return true
 end
 
-local function read(chk, ev, p, pnu, sub, vals, frame)
+-- vfloat: the values are floats in Python (Float32/Float64 format), never isinstance(v, int)
+local function read(chk, ev, p, pnu, sub, vals, frame, vfloat)
   local c = chk.cfg
   local v = vals[1]
   datatype(chk, ev, p, pnu, frame)
   local guessed = find(tostring(c.sources.telegram or ""), "length", 1, true) ~= nil
-  local fits = telegram_fits(chk, v)
+  local fits = telegram_fits(chk, v, vfloat)
+  local vint = not vfloat and isint(v)
   if pnu == 922 and guessed and fits then
     -- the AR's telegram was only guessed from the lengths: P922 names it (the session relabels the map)
     c.telegram = v
     c.sources.telegram = "P922 read (frame " .. tostring(frame) .. ")"
     chk:apply_cfg()
-  elseif pnu == 922 and isint(v) and truthy(c.telegram) and v ~= c.telegram then
+  elseif pnu == 922 and vint and truthy(c.telegram) and v ~= c.telegram then
     if guessed then
       chk.p922_rejected = v  -- the AR's data lengths are the configuration; keep them
     end
@@ -1514,7 +1516,7 @@ local function read(chk, ev, p, pnu, sub, vals, frame)
     -- #65: P922 names the configured telegram (000_37bf2397999f1108.txt:1953-1956)
     v_(chk, "TELEGRAM-SELECTION-MISMATCH", ev, fmt("P922 reads %d; the AR runs telegram %d", v, c.telegram)
        .. (#lens > 0 and (" (data lengths {" .. table.concat(lens, ", ") .. "})") or ""), frame)
-  elseif pnu == 965 and sub == 1 and c.profile ~= "psm" and as_int(v) ~= nil then
+  elseif pnu == 965 and sub == 1 and c.profile ~= "psm" and not vfloat and as_int(v) ~= nil then
     v = as_int(v)
     local exp = c.compat == 0 and 31 or 41
     if v ~= exp then
@@ -1522,7 +1524,7 @@ local function read(chk, ev, p, pnu, sub, vals, frame)
       v_(chk, "P965-VERSION-MISMATCH", ev, fmt("P965.1 = %d with compatibility mode %s; expected %d", v,
          tostring(c.compat), exp), frame)
     end
-  elseif pnu == 979 and sub == 3 and isint(v) and 0 <= v and v < 32 then
+  elseif pnu == 979 and sub == 3 and vint and 0 <= v and v < 32 then
     c.shift = v
     c.sources.shift = "P979.3 read (frame " .. tostring(frame) .. ")"
     chk.shift_known = true
@@ -1530,7 +1532,7 @@ local function read(chk, ev, p, pnu, sub, vals, frame)
     chk.p980 = chk.p980 or {}
     for i = 1, #vals do
       local x = vals[i]
-      if isint(x) and x ~= 0 then chk.p980[x] = true end
+      if not vfloat and isint(x) and x ~= 0 then chk.p980[x] = true end
     end
   elseif pnu == 971 and chk.p971_pending ~= nil then
     if v == 1 then
@@ -1538,17 +1540,21 @@ local function read(chk, ev, p, pnu, sub, vals, frame)
     else
       chk.p971_pending = nil
     end
-  elseif pnu == 65000 and isint(v) then
+  elseif pnu == 65000 and vint then
     chk.p65000 = v
   end
 end
 
-local function change(chk, ev, p, pnu, sub, err, vals, frame)
+local function change(chk, ev, p, pnu, sub, err, vals, frame, vfloat)
   local c = chk.cfg
   local w = p.written
-  if w ~= nil and w.values ~= nil and #w.values > 0 then vals = w.values end  -- a positive change answer has no values
+  if w ~= nil and w.values ~= nil and #w.values > 0 then  -- a positive change answer has no values
+    vals = w.values
+    vfloat = K.float_formats[w.format] == true
+  end
   if pnu == 65000 then
     local v = vals[1]
+    local vint = not vfloat and isint(v)
     if not truthy(c.class4) then
       -- #17: P65000 needs class 4 functionality (001_9461bb7bc8c2767b.txt:846)
       v_(chk, "PRESET-CLASS4-DISABLED", ev, "P65000 change request while class 4 functionality is off",
@@ -1559,11 +1565,11 @@ local function change(chk, ev, p, pnu, sub, err, vals, frame)
       end
     end
     local R = C.modulus(c)
-    if err == nil and isint(v) and R ~= nil and v >= R then
+    if err == nil and vint and R ~= nil and v >= R then
       -- #87: P65000 beyond the range -> error 0x02 (001_9461bb7bc8c2767b.txt:847)
       v_(chk, "BMP-PRESET-LIMIT-ACCEPTED", ev, fmt("P65000=%s >= R=%s accepted; expected error 0x02", tostring(v), tostring(R)), frame)
     end
-    if err == nil and isint(v) then
+    if err == nil and vint then
       chk.p65000 = v  -- R-PAR-1: stored only, no preset (001_9461bb7bc8c2767b.txt:845)
     end
   end
@@ -1648,10 +1654,11 @@ local function param(chk, ev)
       v_(chk, "BMP-UNKNOWN-PNU", ev, fmt("PNU %s is not in P980 but was answered ", tostring(pnu))
          .. (err == nil and "positively" or ("with error " .. tostring(code))), frame)
     end
+    local vfloat = K.float_formats[p.format] == true
     if is_change then
-      change(chk, ev, p, pnu, sub, err, vals, frame)
+      change(chk, ev, p, pnu, sub, err, vals, frame, vfloat)
     elseif err == nil and #vals > 0 then
-      read(chk, ev, p, pnu, sub, vals, frame)
+      read(chk, ev, p, pnu, sub, vals, frame, vfloat)
     elseif code == 0x11 and pnu ~= nil and K.profile_pnus[pnu] then
       -- #92: profile parameters readable in every state (001_9461bb7bc8c2767b.txt:1830)
       v_(chk, "BMP-PROFILE-PARAM-UNREADABLE", ev, fmt("read of P%s refused with 0x11 after run-up", tostring(pnu)), frame)

@@ -1577,6 +1577,10 @@ T.checker = {
   e_master_sol = 3842,
   e_param = 4098,
   e_sync = 3844,
+  float_formats = {
+    [8] = true,
+    [15] = true,
+  },
   format_names = {
     ["Binary Date"] = true,
     Boolean = true,

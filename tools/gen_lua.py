@@ -181,6 +181,8 @@ def checker_tables() -> dict:
         "record_rules": {r: True for r in acyclic.RECORD_RULES},
         "param_types": ptypes,
         "format_names": {v[0]: True for v in profidrive.FORMATS.values()},
+        # formats whose values the Python decoder gives as floats (isinstance(v, int) is False there)
+        "float_formats": {c: True for c, v in profidrive.FORMATS.items() if v[2] in ("f", "d")},
     }
 
 

@@ -108,6 +108,13 @@ def record_event(rnd, frame: int, ts: int, profile: str) -> dict:
                 if rnd.random() < 0.5:
                     vals = []
             p["values"] = vals
+            p["format"] = 6
+            if rnd.random() < 0.15:  # a device answering in Float32: Python then has floats, not ints
+                p["format"], p["format_name"] = 8, "Float32"
+                p["values"] = [float(x) for x in vals if isinstance(x, int)]
+                if "written" in p and rnd.random() < 0.5:
+                    p["written"] = {"format": 8, "values": [float(x) for x in p["written"]["values"]
+                                                            if isinstance(x, int)]}
         params.append(p)
     ok_rid = (0x02 if change else 0x01) | (0x80 if any("error" in p for p in params) else 0)
     ev = {"frame": frame, "ts_ns": ts, "kind": "param", "response_frame": frame, "request_frame": frame - 1,
