@@ -200,14 +200,17 @@ class _TgFast:
     """Fast path, one data object: its telegram channel and message text. ``inner`` is the signals
     and bits text of ``sig`` (the tracker keeps the same dict while the C_SDU does not change);
     ``bits`` maps the values of the words with bit maps to their bits text."""
-    __slots__ = ("ch", "layout", "source", "profile", "fmt", "sig_fmt", "words", "bits", "sig", "inner", "n")
+    __slots__ = ("ch", "layout", "source", "profile", "fmt", "sig_fmt", "fmt_all", "words", "bits", "sig", "inner",
+                 "n")
 
     def __init__(self, ch: _Chan, layout, source, profile: str):
         self.ch, self.layout, self.source, self.profile = ch, layout, source, profile
-        self.fmt = (b'{"frame":%d,"telegram_source":' + _dumps(source).encode()
+        self.fmt = (b'{"frame":%d,"telegram_source":' + _dumps(source).encode().replace(b"%", b"%%")
                     + b',"iops":%d,"judged":%s,"signals":%s}')
         # struct.unpack gives ints only, and json writes an int as %d does
         self.sig_fmt = b"{" + b",".join(_dumps(n).encode() + b":%d" for n in layout.names) + b"}"
+        # the whole message at once (mcap_batch.py): frame, iops, judged, every signal, bits text
+        self.fmt_all = self.fmt.replace(b'"signals":%s}', b'"signals":' + self.sig_fmt + b',"bits":%s}')
         keys = [n for n in layout.names if n in tg.BITMAPS]
         self.words = itemgetter(*keys) if keys else (lambda sig: None)
         self.bits: dict = {}
@@ -496,11 +499,17 @@ class McapExporter:
             return analyze_file(path, settings, self.on_event, progress)
         a = Analyzer(settings)
         self.attach(a)
+        streams: dict = {}
+        engine = None
+        if a.settings.fast_path and os.environ.get("PNDISS_FAST_PATH", "1") != "0" \
+                and os.environ.get("PNDISS_BATCH", "1") != "0":
+            from .mcap_batch import export_engine
+            engine = export_engine(a, self, streams, progress)
         try:
-            frames = open_capture(path)
+            frames = open_capture(path, batch=engine)
             if progress is not None:
                 frames = _with_progress(frames, progress)
-            _run(a, self, frames)
+            _run(a, self, frames, streams, engine)
         except CaptureError as e:
             a.finish()
             e.analyzer = a
@@ -536,7 +545,6 @@ class McapExporter:
         d_cycle = (cc - ch.prev_cc) & 0xFFFF
         dt = ts - ch.prev_t
         ch.prev_cc, ch.prev_t = cc, ts
-        r.n += 1
         if self._thin and not self._keep(ch, (data[-2], data[-1], d_cycle, None, None), ts):
             return
         k = len(data) << 16 | data[-2] << 8 | data[-1]
@@ -648,7 +656,7 @@ class McapExporter:
         self._f.close()
 
 
-def _run(a, exp: McapExporter, frames) -> None:
+def _run(a, exp: McapExporter, frames, streams: dict, engine=None) -> None:
     """Feed ``frames`` into analyzer ``a`` (sink: ``exp``). As fast.py does for the report: cyclic
     PN-RT frames of a stream already seen (same first 16 bytes, or 20 with one 802.1Q tag) skip the
     generic dispatch and its ``rt`` event; ``exp`` writes their APDU message from the frame bytes and
@@ -657,7 +665,8 @@ def _run(a, exp: McapExporter, frames) -> None:
     from .proto import rt
     from .proto.common import Malformed, mac
 
-    streams: dict = {}   # data[:16] or data[:20] -> _RtFast, None (not a fast stream) or absent
+    # streams: data[:16] or data[:20] -> _RtFast, None (not a fast stream) or absent; shared with
+    # the batch engine, which takes steady runs of these streams straight from the reader's buffer
     get = streams.get
     feed = a.feed
     on_cyclic = a.cyclic.on_cyclic
@@ -670,6 +679,7 @@ def _run(a, exp: McapExporter, frames) -> None:
                 key = data[:off + 2]
                 r = get(key, False)
                 if r and ts >= 0:
+                    r.n += 1
                     apdu(r, fn, ts, data)
                     try:
                         # DataStatus: DataValid (0x04) and ProviderState RUN (0x10), wire.md §2.3
@@ -693,6 +703,8 @@ def _run(a, exp: McapExporter, frames) -> None:
                 feed(fn, ts, lt, data)
     finally:
         exp._settle(a, [r for r in streams.values() if r])
+        if engine is not None and engine.last_fn > (fn or 0):
+            fn, ts = engine.last_fn, engine.last_ts   # the capture ended in a batched run
         if fn is not None:  # as if the last frame had gone through Analyzer.feed
             a.cur_frame, a.cur_ts = fn, ts
             a.last_ts = ts

@@ -34,6 +34,14 @@ _Q = struct.Struct("<Q")
 _I = struct.Struct("<I")
 _H = struct.Struct("<H")
 _LITTLE = sys.byteorder == "little"
+# the message record header as a packed NumPy record (add_batch); same layout as MSG_HEADER
+_HDR = [("op", "u1"), ("len", "<u8"), ("cid", "<u2"), ("seq", "<u4"), ("lt", "<u8"), ("pub", "<u8")]
+
+
+def _np():
+    """NumPy, imported when a chunk is large enough to be worth it (it is a dependency since #8)."""
+    import numpy
+    return numpy
 
 
 def _str(s: str) -> bytes:
@@ -143,6 +151,70 @@ class McapWriter:
         if size > self.chunk_size:
             self._finish_chunk()
 
+    def add_messages(self, msgs) -> None:
+        """add_message for each (channel_id, log_time, data, publish_time, sequence) of ``msgs``."""
+        parts, index, size, limit = self.parts, self.index, self.size, self.chunk_size
+        pack = MSG_HEADER.pack
+        for cid, t, data, pub, seq in msgs:
+            ix = index.get(cid)
+            if ix is None:
+                ix = index[cid] = array("Q")
+            ix.append(t)
+            ix.append(size)
+            parts.append(pack(MESSAGE, 22 + len(data), cid, seq, t, pub))
+            parts.append(data)
+            size += MSG_HEADER_LEN + len(data)
+            if size > limit:
+                self.size = size
+                self._finish_chunk()
+                parts, index, size = self.parts, self.index, 0
+        self.size = size
+
+    def add_batch(self, channel_ids, log_times, datas: list, publish_times, sequences) -> None:
+        """add_message for each message of parallel columns (NumPy arrays, ``datas`` a list of bytes),
+        with the records of a chunk's share laid out by NumPy instead of one pack per message."""
+        import numpy as np
+
+        n = len(datas)
+        lens = np.fromiter(map(len, datas), np.int64, n)
+        rec = lens + MSG_HEADER_LEN
+        start = 0
+        while start < n:
+            ends = self.size + np.cumsum(rec[start:])     # offsets in the chunk after each record
+            over = np.flatnonzero(ends > self.chunk_size)
+            m = int(over[0]) + 1 if over.size else n - start   # the record that overflows closes the chunk
+            stop = start + m
+            ends = ends[:m]
+            offs = ends - rec[start:stop]
+            hdr = np.empty(m, _HDR)
+            hdr["op"] = MESSAGE
+            hdr["len"] = lens[start:stop] + 22
+            hdr["cid"] = channel_ids[start:stop]
+            hdr["seq"] = sequences[start:stop]
+            hdr["lt"] = log_times[start:stop]
+            hdr["pub"] = publish_times[start:stop]
+            hb = hdr.tobytes()
+            recs = [None] * (2 * m)
+            recs[0::2] = [hb[i:i + MSG_HEADER_LEN] for i in range(0, m * MSG_HEADER_LEN, MSG_HEADER_LEN)]
+            recs[1::2] = datas[start:stop]
+            self.parts.append(b"".join(recs))
+            cids = channel_ids[start:stop]
+            lts = log_times[start:stop]
+            ids, first = np.unique(cids, return_index=True)
+            for cid in ids[np.argsort(first)].tolist():   # index order: each channel's first message
+                sel = cids == cid
+                pairs = np.empty((int(sel.sum()), 2), np.uint64)
+                pairs[:, 0] = lts[sel]
+                pairs[:, 1] = offs[sel]
+                ix = self.index.get(cid)
+                if ix is None:
+                    ix = self.index[cid] = array("Q")
+                ix.frombytes(pairs.tobytes())
+            self.size = int(ends[-1])
+            if over.size:
+                self._finish_chunk()
+            start = stop
+
     def _finish_chunk(self) -> None:
         index = self.index
         if not index:
@@ -155,8 +227,12 @@ class McapWriter:
             k = len(ix) >> 1
             n += k
             counts[cid] = counts.get(cid, 0) + k
-            times = ix[0::2]
-            lo, hi = min(times), max(times)
+            if len(ix) > 64:
+                times = _np().frombuffer(ix, _np().uint64)[0::2]
+                lo, hi = int(times.min()), int(times.max())
+            else:
+                times = ix[0::2]
+                lo, hi = min(times), max(times)
             if start is None or lo < start:
                 start = lo
             if end is None or hi > end:

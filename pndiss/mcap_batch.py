@@ -1,0 +1,281 @@
+"""MCAP export over the batch engine's steady runs (pndiss/batch.py, issue #8).
+
+The engine hands stretches of steady rows (one cycle of every stream of a run per row) to the
+checkers at once; nothing is emitted for them. The export still needs one APDU message per frame
+and one telegram message per data object and frame, in frame order. Here a bulk stretch is turned
+into messages column by column with NumPy (timestamps, cycle counters, DataStatus, IOPS, every
+signal as a strided view of the reader's buffer) and the JSON text comes from the same per-channel
+templates as mcap_export's per-frame fast path (_RtFast / _TgFast): '%d' of Python ints and cached
+text made by the reference encoder. Single rows (anything not steady) go frame by frame: the APDU
+message, then the tracker (whose telegram_sink writes the telegram message), as the export loop
+does for frames outside runs.
+
+Whatever the vectorised form does not cover (volume control, a channel shared by two columns, an
+object without IOPS or without its templates yet, a word combination whose bits text is not cached
+and carries a G1_XIST2 error code, a timestamp resolution that is not a power of ten) goes through
+the per-frame functions for that stretch; tests/test_mcap.py checks the files against the reference
+path on every capture.
+"""
+from __future__ import annotations
+
+import struct
+from operator import itemgetter
+
+import numpy as np
+
+from . import batch
+from . import telegrams as tg
+from .cyclic import IOPS_GOOD
+from .proto.common import Malformed
+
+SEQ_MASK = 0xFFFFFFFF
+_I64_MAX = (1 << 63) - 1
+
+
+def export_engine(a, exp, streams: dict, progress=None):
+    return _Engine(a, streams, progress, exp)
+
+
+class _Engine(batch.Engine):
+    def __init__(self, a, streams, progress, exp):
+        super().__init__(a, streams, progress)
+        self.exp = exp
+        self.ts_info = None   # how the reader's records hold their timestamps (for whole columns)
+
+    def pcapng(self, bo: str, ifaces: list):
+        self.ts_info = ("pcapng", bo, ifaces)
+        return super().pcapng(bo, ifaces)
+
+    def pcap(self, bo: str, linktype: int, mult: int):
+        self.ts_info = ("pcap", bo, mult)
+        return super().pcap(bo, linktype, mult)
+
+    def _take(self, *args):
+        # Engine._take builds a batch._Run: let it build an _ExportRun for the time of the call
+        # (single-threaded; batch.py has no run factory to pass)
+        batch._Run = _ExportRun
+        try:
+            return super()._take(*args)
+        finally:
+            batch._Run = _BaseRun
+
+
+_BaseRun = batch._Run
+
+
+class _ExportRun(batch._Run):
+    def _row(self, r: int) -> None:
+        """Row r frame by frame: the APDU message, then the tracker (as batch._Run._row feeds it)."""
+        a = self.e.a
+        exp = self.e.exp
+        on_cyclic = self.e.t.on_cyclic
+        buf = self.buf
+        P = len(self.cols)
+        for j, c in enumerate(self.cols):
+            p = self._frame_pos(r, j)
+            fn = self.n + r * P + j + 1
+            ts = self.ts_of(buf, p)
+            d = p + c.data - c.boff
+            data = buf[d:d + c.cap]
+            s = c.s
+            s.n += 1
+            exp._apdu_direct(s, fn, ts, data)
+            try:
+                on_cyclic(s.key, fn, ts, data[-2] & 0x14 == 0x14, data, len(c.key))
+            except Malformed as e:
+                s.bad += 1
+                a._malformed(fn, ts, e.layer, e.reason)
+
+    def _bulk(self, r: int, e: int) -> None:
+        super()._bulk(r, e)
+        # the tracker now holds the last row's decodes; the messages come from the frame bytes
+        objs = [[o for o in c.fr.objs if o.do.length >= o.layout.length] if c.kind == "mapped" else []
+                for c in self.cols]
+        kept = [(o, o.sig) for lst in objs for o in lst]
+        if not self._bulk_columns(r, e, objs):
+            self._bulk_frames(r, e, objs)
+        for o, sig in kept:
+            o.sig = sig
+            o.bits = None
+
+    # -- frame by frame (the general form) ----------------------------------------------------------
+    def _bulk_frames(self, r: int, e: int, objs) -> None:
+        exp = self.e.exp
+        buf, ts_of = self.buf, self.ts_of
+        apdu, telegram = exp._apdu_direct, exp._telegram_direct
+        P = len(self.cols)
+        for row in range(r, e):
+            for j, c in enumerate(self.cols):
+                p = self._frame_pos(row, j)
+                fn = self.n + row * P + j + 1
+                ts = ts_of(buf, p)
+                d = p + c.data - c.boff
+                data = buf[d:d + c.cap]
+                apdu(c.s, fn, ts, data)
+                if objs[j]:
+                    coff = len(c.key)
+                    csdu = data[coff:c.cap - 4]
+                    n_csdu = c.cap - 4 - coff
+                    ds_ok = data[-2] & 0x14 == 0x14
+                    fid = c.s.key[0]
+                    for o in objs[j]:
+                        o.sig = o.layout.decode(csdu, o.start)
+                        iops = csdu[o.iops_at] if o.iops_at < n_csdu else None
+                        telegram(o, c.fr, fid, fn, ts, iops, bool(ds_ok and iops is not None and iops & IOPS_GOOD))
+
+    # -- whole columns ------------------------------------------------------------------------------
+    def _col(self, r: int, rows: int, c, k: int, dtype: str = "u1"):
+        """Byte k of column c's frame data (as ``dtype``) in rows r.. r+rows-1, as a strided view."""
+        return np.ndarray((rows,), dtype=dtype, buffer=self.buf,
+                          offset=self.pos + r * self.S + c.data + k, strides=(self.S,))
+
+    def _times(self, r: int, rows: int, c) -> list | None:
+        """Timestamps (ns) of column c's records in the rows, as the reader computes them."""
+        info = self.e.ts_info
+        rec = self.pos + r * self.S + c.boff     # the record header of the first row
+        if info is None:
+            return None
+
+        def field(at, dt):
+            return np.ndarray((rows,), dtype=dt, buffer=self.buf, offset=rec + at, strides=(self.S,))
+        if info[0] == "pcapng":
+            bo, ifaces = info[1], info[2]
+            ifid = struct.unpack_from(bo + "I", self.buf, rec + 8)[0]   # one interface per column (batch.py checks)
+            _lt, _conv, off, mult = ifaces[ifid]
+            if not mult:
+                return None
+            t = (field(12, bo + "u4").astype(np.uint64) << np.uint64(32)) | field(16, bo + "u4").astype(np.uint64)
+            if int(t.max()) > (_I64_MAX - abs(off)) // mult:
+                return None
+            ts = t.astype(np.int64) * mult + off
+        else:
+            bo, mult = info[1], info[2]
+            ts = field(0, bo + "u4").astype(np.int64) * 1_000_000_000 + field(4, bo + "u4").astype(np.int64) * mult
+        out = ts.tolist()
+        if out[0] != self.ts_of(self.buf, rec) or out[-1] != self.ts_of(self.buf, rec + (rows - 1) * self.S):
+            return None   # not the reader's arithmetic after all: frame by frame
+        return out
+
+    def _bulk_columns(self, r: int, e: int, objs) -> bool:
+        """Rows [r, e) as whole columns; False (nothing written) when the stretch needs _bulk_frames."""
+        exp = self.e.exp
+        if exp._thin:
+            return False
+        rows = e - r
+        P = len(self.cols)
+        first_fn = self.n + r * P + 1
+        chans = set()
+        per_col = []    # per column: list of message lists (the APDU one, then one per data object)
+        for j, c in enumerate(self.cols):
+            s = c.s
+            ch = s.ch
+            if ch in chans or ch.prev_cc is None:
+                return False
+            chans.add(ch)
+            ts = self._times(r, rows, c)
+            if ts is None:
+                return False
+            fns = range(first_fn + j, first_fn + j + rows * P, P)
+            cap = c.cap
+            cc = (self._col(r, rows, c, cap - 4).astype(np.int64) << 8) | self._col(r, rows, c, cap - 3)
+            ds = self._col(r, rows, c, cap - 2)
+            key = (cap << 16) | (ds.astype(np.int64) << 8) | self._col(r, rows, c, cap - 1)
+            tails = s.tails
+            for k in set(key.tolist()):
+                if k not in tails:
+                    i = int(np.argmax(key == k))
+                    d = self.pos + (r + i) * self.S + c.data
+                    exp._apdu_tail(s, self.buf[d:d + cap], k)
+            tail = [tails[k] for k in key.tolist()]
+            prev_cc = np.empty(rows, dtype=np.int64)
+            prev_cc[0] = ch.prev_cc
+            prev_cc[1:] = cc[:-1]
+            tsa = np.array(ts, dtype=np.int64)
+            prev_t = np.empty(rows, dtype=np.int64)
+            prev_t[0] = ch.prev_t
+            prev_t[1:] = tsa[:-1]
+            d_cycle = ((cc - prev_cc) & 0xFFFF).tolist()
+            dt = (tsa - prev_t).tolist()
+            if tsa.min() < 0:
+                return False   # the reference writes time 0 for those: frame by frame
+            lt = np.maximum.accumulate(np.maximum(tsa, ch.last_t))   # log time held per channel
+            fmt = s.fmt
+            # per message list: (channel id, log times, texts); publish time and sequence are the column's
+            msgs = [(ch.id, lt, list(map(fmt.__mod__, zip(fns, cc.tolist(), tail, d_cycle, dt))))]
+            updates = [(ch, int(lt[-1]), ts[-1])]
+            ch_cc, ch_t = int(cc[-1]), ts[-1]
+            if objs[j]:
+                got = self._tg_columns(r, rows, c, objs[j], fns, tsa, ds, chans, msgs, updates)
+                if not got:
+                    return False
+            per_col.append((msgs, updates, (ch, ch_cc, ch_t), objs[j], tsa, fns))
+        # every column is ready: interleave row by row, write, then move the channels' state on
+        k = sum(len(m) for m, _, _, _, _, _ in per_col)
+        n = rows * k
+        datas = [None] * n
+        cids = np.empty(n, np.uint16)
+        lts = np.empty(n, np.int64)
+        pubs = np.empty(n, np.int64)
+        seqs = np.empty(n, np.int64)
+        at = 0
+        for msgs, _, _, _, tsa, fns in per_col:
+            seq = np.arange(fns.start, fns.stop, fns.step, dtype=np.int64) & SEQ_MASK
+            for cid, lt, texts in msgs:
+                datas[at::k] = texts
+                cids[at::k] = cid
+                lts[at::k] = lt
+                pubs[at::k] = tsa
+                seqs[at::k] = seq
+                at += 1
+        exp.w.add_batch(cids, lts, datas, pubs, seqs)
+        for msgs, updates, (ch, ch_cc, ch_t), lst, _, _ in per_col:
+            ch.prev_cc, ch.prev_t = ch_cc, ch_t
+            for c_, last_t, last_ts in updates:
+                c_.last_t = last_t
+                c_.written += rows
+                c_.last_written_t = last_ts
+            for o in lst:
+                st = exp._tgs[o]
+                st.n += rows
+                st.sig = st.inner = None
+        return True
+
+    def _tg_columns(self, r, rows, c, lst, fns, tsa, ds, chans, msgs, updates) -> bool:
+        exp = self.e.exp
+        coff = len(c.key)
+        n_csdu = c.cap - 4 - coff
+        ds_ok = (ds & 0x14) == 0x14
+        for o in lst:
+            st = exp._tgs.get(o)
+            if (st is None or st.ch is None or st.ch in chans or st.layout is not o.layout
+                    or st.source != o.source or st.profile != o.ax.profile or o.iops_at >= n_csdu):
+                return False
+            ch = st.ch
+            chans.add(ch)
+            lay = o.layout
+            bo = "<" if lay.byte_order == "little" else ">"
+            cols, at = [], coff + o.start
+            for nm in lay.names:
+                sig = tg.SIGNALS[nm]
+                cols.append(self._col(r, rows, c, at, f"{bo}{'i' if sig['signed'] else 'u'}{sig['size']}").tolist())
+                at += sig["size"]
+            vals = list(zip(*cols))
+            iops = self._col(r, rows, c, coff + o.iops_at)
+            judged = [b"true" if x else b"false" for x in (ds_ok & ((iops & IOPS_GOOD) != 0)).tolist()]
+            keys = [n for n in lay.names if n in tg.BITMAPS]
+            if keys:
+                words = itemgetter(*[lay.names.index(n) for n in keys])
+                wk = [words(v) for v in vals]
+            else:
+                wk = [None] * rows
+            texts = {}
+            for w in set(wk):
+                b = st.bits.get(w) or exp._tg_bits(st, dict(zip(lay.names, vals[wk.index(w)])))
+                if b is None:
+                    return False   # a G1_XIST2 error code: the event has one more field
+                texts[w] = b
+            bits = [texts[w] for w in wk]
+            lt = np.maximum.accumulate(np.maximum(tsa, ch.last_t))
+            msgs.append((ch.id, lt, list(map(st.fmt_all.__mod__, zip(fns, iops.tolist(), judged, *cols, bits)))))
+            updates.append((ch, int(lt[-1]), int(tsa[-1])))
+        return True
