@@ -6,14 +6,38 @@
 -- Loading this file has no side effect: it only builds and returns the module table (Wireshark
 -- runs every .lua of its plugin folder; that run defines nothing global).
 --
---   local C = dofile(dir .. "pndiss_checker.lua"); C.init(T)      -- T = pndiss_tables.lua
---   local cfg = C.config_from_settings(settings, {profile=, telegram=, bf00=, cycle_ns=, iso=, ...})
---   local chk = C.new(cfg, info)
---   chk:cycle(frame, ts, sp, ac, sp_frame) / chk:gap(frame, ts, reason) / chk:on_record(ev) / chk:finish()
+-- API (the names of pndiss/encoder; Python attributes are plain fields here):
+--   local C = dofile(dir .. "pndiss_checker.lua"); C.init(T)      -- T = pndiss_tables.lua (needs T.checker)
+--   local cfg = C.config_from_settings(settings, {profile=, telegram=, bf00=, cycle_ns=, iso=,
+--                                                 profile_reason=, telegram_source=})
+--       EncoderConfig.from_settings; settings = a table of the Settings fields it reads (l_max,
+--       preset_deadline_ms, sol_threshold_ge, sol_monitor_rt, master_cycle_ratio, st_phys, mt_phys,
+--       xist1_shift, max_position_step, compat, class4, iso; nil = unset). cfg is a plain table with
+--       the EncoderConfig fields (cfg.profile, cfg.telegram, cfg.sources, ...); C.new_config(profile,
+--       telegram) gives the dataclass defaults. Properties are functions of cfg: C.std (= C.is_std),
+--       C.xist1_preset_affected, C.xist1_counter, C.solmon, C.modulus, C.n_sol, C.d_preset,
+--       C.store_cycles, C.defaults.
+--   local chk = C.new(cfg, info)                  -- info = {station=, device_mac=, api=, slot=, subslot=}
+--   chk:cycle(frame, ts, sp, ac, sp_frame)        -- sp / ac: signal name -> number (signed signals negative)
+--   chk:gap(frame, ts, reason)
+--   chk:on_record(ev)                             -- ev shaped like the Python record/param event dict:
+--                                                    same keys, lists 1-based, None = nil, record data
+--                                                    as a hex string (as in the Python event)
+--   chk:finish()
+--   chk:apply_cfg(), chk:flush_all(), chk:reset_history()   (also as _apply_cfg, _flush_all, _reset_history)
+--   fields: chk.cfg, chk.io_len (direction -> length), chk.prev_bf00, chk.p922_rejected, chk.bf00_seen,
+--           chk.counts (rule -> {events=, cycles=, first_frame=, severity=, side=, message=}), chk.n
 --
--- Every call returns a list of events {rule=, frame=, last_frame=, cycles=, message=, side=, ...}
--- (treat it as read-only: calls without events share one empty list). When a per-cycle rule OPENS
--- a run, {rule=, frame=, open=true} is pushed at once; the run's normal event follows when it ends.
+-- Every call returns a list of events {rule=, frame=, last_frame=, cycles=, message=, side=,
+-- severity=, ts_ns=, + the info fields}, like pndiss.rules.violation. Treat it as read-only: calls
+-- without events share one empty list. When a per-cycle rule OPENS a run, {rule=, frame=, open=true}
+-- is pushed at once (the run's first frame is final then); the run's normal event follows when it
+-- ends, with the same frame. flush_all() returns the events of the runs it closes; Python's
+-- _flush_all appends them to the previous call's list, which nobody reads, so a caller that must
+-- report exactly what Python reports drops them (their counts stay, as in Python).
+-- The identical-input fast path (_state.py Checker.cycle: same sp and ac objects as the last cycle) needs the
+-- caller to pass the same tables when the data did not change; fresh tables are always correct.
+-- Timeline 'state' events of the Python checker are not produced (no rule reads them).
 --
 -- Numbers: Lua 5.2 has doubles only. Every value below 2^53 is exact, as in Python. 64-bit signals
 -- (g1_xist3, g1_xist_preset_c) above 2^53 arrive as {hi=, lo=}: the preset trigger bit 63 is read
@@ -1245,6 +1269,8 @@ local function preset_word(word, top)
   local lo = word - hi * U32
   return rshift(lo, 31), band(lo, 0x7FFFFFFF) + hi * U32
 end
+
+C.preset_word = preset_word
 
 function Checker:cycle_preset_telegram(sp, ac)
   local sig = K.preset_telegrams[self.cfg.telegram]

@@ -140,3 +140,45 @@ if given is not None:
         with Recorder() as rec:
             scenarios.run(random.Random(seed))
         _check(replay(rec), f"random session, seed {seed}")
+
+
+def _lua(code: str) -> str:
+    import subprocess
+    p = subprocess.run([LUA, "-e", code], capture_output=True, text=True, cwd=os.path.join(ROOT, "lua"))
+    assert p.returncode == 0, p.stderr
+    return p.stdout
+
+
+def test_loading_defines_nothing_global():
+    """Wireshark runs every .lua of the plugin folder: the module alone must define nothing."""
+    out = _lua('local before = {} for k in pairs(_G) do before[k] = true end '
+               'local C = dofile("pndiss_checker.lua") '
+               'for k in pairs(_G) do if not before[k] then io.write(k, " ") end end '
+               'io.write(type(C), " ", type(C.init), " ", type(C.new))')
+    assert out == "table function function"
+
+
+def test_delta_and_preset_words_match_python():
+    """position.delta for moduli up to 2^64 (where m + d is not a double), and the preset word's
+    trigger bit / value in both the number and the {hi=, lo=} form."""
+    from pndiss.encoder import position as P
+    from luachk.record import lua as L
+
+    rnd = random.Random(5)
+    cases = []
+    for m in (7, 360, 8192 * 4096, 1 << 32, 1 << 40, 1 << 64):
+        for _ in range(40):
+            lim = min(m, 1 << 53)
+            cases.append((rnd.randrange(lim), rnd.randrange(lim), m))
+        cases += [(0, m // 2, m), (m // 2, 0, m), (0, (m + 1) // 2, m), (5, 3, m)]
+    words = [(w, 63) for w in (0, 5, (1 << 53) - 1, (1 << 63) | 77, (1 << 63) | ((1 << 53) - 5), (1 << 62))]
+    words += [(w, 31) for w in (0, 1 << 31, (1 << 31) | 12345, 99)]
+    words = [(w, t) for w, t in words if t == 31 or w < (1 << 53) or w >> 63]  # what the decoder can deliver
+    code = ('local C = dofile("pndiss_checker.lua") '
+            f'for _, c in ipairs({L(cases)}) do io.write(string.format("%.17g\\n", C.delta(c[1], c[2], c[3]))) end '
+            f'for _, w in ipairs({L([[w, t] for w, t in words], hilo=True)}) do '
+            'local t, v = C.preset_word(w[1], w[2]) io.write(string.format("%d %.17g\\n", t, v)) end')
+    got = _lua(code).split("\n")
+    want = ["%.17g" % P.delta(a, b, m) for a, b, m in cases]
+    want += ["%d %.17g" % ((w >> t) & 1, w & ((1 << t) - 1)) for w, t in words]
+    assert got[:len(want)] == want
