@@ -120,6 +120,7 @@ class _ExportRun(batch._Run):
                     fid = c.s.key[0]
                     for o in objs[j]:
                         o.sig = o.layout.decode(csdu, o.start)
+                        o.bits = None   # the tracker's bits cache follows its decode (the slow way reads it)
                         iops = csdu[o.iops_at] if o.iops_at < n_csdu else None
                         telegram(o, c.fr, fid, fn, ts, iops, bool(ds_ok and iops is not None and iops & IOPS_GOOD))
 

@@ -549,6 +549,8 @@ class McapExporter:
             return
         k = len(data) << 16 | data[-2] << 8 | data[-1]
         tail = r.tails.get(k) or self._apdu_tail(r, data, k)
+        if ts < 0:
+            ts = 0   # as _write: the deltas keep the capture's time, the record gets 0
         t = ch.last_t
         if ts > t:
             ch.last_t = t = ts

@@ -538,6 +538,46 @@ def test_fast_path_changes_midstream(tmp_path):
     assert any(t.endswith("/actual") for t in topics) and any("/apdu/" in t for t in topics)
 
 
+def _write_pcapng(path, frames, resol=9, tsoffset_s=0):
+    """frames ((ts_ns, data)) as a pcapng with one Ethernet interface; if_tsresol ``resol`` (a power
+    of ten, or 0x80 | n for 2^-n), if_tsoffset ``tsoffset_s`` seconds (subtracted from every time)."""
+    import struct
+
+    def block(btype, body):
+        body += b"\0" * (-len(body) % 4)
+        n = len(body) + 12
+        return struct.pack("<II", btype, n) + body + struct.pack("<I", n)
+    per_s = 10 ** resol if resol < 0x80 else 1 << (resol & 0x7F)
+    opts = struct.pack("<HHB3x", 9, 1, resol) + struct.pack("<HHq", 14, 8, tsoffset_s) + b"\0\0\0\0"
+    with open(path, "wb") as f:
+        f.write(block(0x0A0D0D0A, struct.pack("<IHHq", 0x1A2B3C4D, 1, 0, -1)))
+        f.write(block(1, struct.pack("<HHI", 1, 0, 65535) + opts))
+        for ts, data in frames:
+            t = (ts - tsoffset_s * 1_000_000_000) * per_s // 1_000_000_000
+            f.write(block(6, struct.pack("<IIIII", 0, t >> 32, t & 0xFFFFFFFF, len(data), len(data)) + data))
+
+
+@pytest.mark.parametrize("resol,shift", [(9, 0), (9, 1), (0x94, 0)], ids=["ns", "negative-times", "binary-resolution"])
+def test_fast_path_timestamps(tmp_path, resol, shift):
+    """Capture times the batch path cannot take as whole columns (a binary if_tsresol) or that the
+    reference writes as 0 (before the epoch, through a negative if_tsoffset): still the reference file."""
+    from pndiss.capture import open_capture
+    sim = str(tmp_path / "s.pcapng")
+    assert cli_main(["simulate", "--scenario", "startup", "--cycles", "600", "--no-expected", "-o", sim]) == 0
+    frames = list((ts, data) for _, ts, _, data in open_capture(sim))
+    if shift:  # the epoch falls half-way through the cyclic run
+        mid = frames[len(frames) // 2][0]
+        frames = [(ts - mid, data) for ts, data in frames]
+    if resol >= 0x80:  # times the file can hold exactly
+        per = 1 << (resol & 0x7F)
+        frames = [(ts * per // 1_000_000_000 * 1_000_000_000 // per, data) for ts, data in frames]
+    cap = str(tmp_path / "t.pcapng")
+    _write_pcapng(cap, frames, resol, tsoffset_s=-10**6 if shift else 0)
+    ref, new, want, got = _fast_and_reference(cap, tmp_path)
+    _assert_same_export(ref, new)
+    assert json.dumps(got, default=str, sort_keys=True) == json.dumps(want, default=str, sort_keys=True)
+
+
 def test_writer_same_bytes_as_mcap_python():
     """pndiss.mcap_writer lays out a file record for record as mcap-python does (chunks, message
     indexes, summary, CRCs) for an arbitrary sequence of calls."""
