@@ -43,6 +43,22 @@ ETH_PNRT = b"\x88\x92"
 _DT = {1: "u1", 2: "u2", 4: "u4", 8: "u8"}
 
 
+def _view(buf, off: int, m: int, S: int, dt: str):
+    """The field of type dt at buf[off] of each of m rows S bytes apart: a strided view, no copy."""
+    return np.ndarray((m,), dtype=dt, buffer=buf, offset=off, strides=(S,))
+
+
+def _chunks(off: int, ln: int):
+    """A byte range as (offset, dtype) pieces of 8, 4, 2 and 1 bytes (compared without a gather)."""
+    out = []
+    for size, dt in ((8, "u8"), (4, "u4"), (2, "u2"), (1, "u1")):
+        while ln >= size:
+            out.append((off, dt))
+            off += size
+            ln -= size
+    return out
+
+
 class _Col:
     """One record of the period: its stream and where its fields lie in a row."""
 
@@ -135,31 +151,28 @@ class Engine:
     def _take(self, buf, pos, end, n, block, ts_of):
         """Consume a steady run at buf[pos:end] and return (new pos, new frame count), or the number
         of frames the reader should yield itself before offering the buffer again."""
-        cols, S = self._period(buf, pos, end, block)
-        if cols is None:
+        cols_checks, S = self._period(buf, pos, end, block)
+        if cols_checks is None:
             return self._miss()
         m = (end - pos) // S
         if m < MIN_ROWS:
             return self._miss()
-        A = np.frombuffer(buf, np.uint8, count=m * S, offset=pos).reshape(m, S)
+        cols = [c for c, _ in cols_checks]
+        run = _Run(self, buf, pos, n, cols, S, ts_of)
+        if not run.prepare():
+            return 1 if run.skip == 2 else self._miss()
         # every record of the run repeats its column's header fields and frame prefix
-        idx = []
-        for c, checks in cols:
-            for p, ln in checks:
-                idx.extend(range(p - pos, p - pos + ln))
-            idx.extend(range(c.data, c.data + len(c.key)))
-        idx = np.array(idx, dtype=np.intp)
-        sub = A[:, idx]
-        good = (sub == sub[0]).all(axis=1)
+        good = np.ones(m, dtype=bool)
+        for c, checks in cols_checks:
+            for p, ln in tuple(checks) + ((pos + c.data, len(c.key)),):
+                for q, dt in _chunks(p, ln):
+                    V = _view(buf, q, m, S, dt)
+                    good &= V == V[0]
         if not good.all():
             m = int(np.argmin(good))
             if m < MIN_ROWS:
                 return self._miss()
-            A = A[:m]
-        cols = [c for c, _ in cols]
-        run = _Run(self, buf, pos, n, A, cols, S, ts_of)
-        if not run.prepare():
-            return 1 if run.skip == 2 else self._miss()
+        run.arrays(m)
         self.misses = 0
         m = run.process()
         P = len(cols)
@@ -205,13 +218,13 @@ class Engine:
 class _Run:
     """One run: m rows of P records; the per-row arrays and the walk over the rows."""
 
-    def __init__(self, eng: Engine, buf, pos, n, A, cols, S, ts_of):
+    def __init__(self, eng: Engine, buf, pos, n, cols, S, ts_of):
         self.e = eng
         self.buf = buf
         self.pos = pos
         self.n = n
-        self.A = A
-        self.m = A.shape[0]
+        self.A = None
+        self.m = 0
         self.cols = cols
         self.S = S
         self.ts_of = ts_of
@@ -219,12 +232,14 @@ class _Run:
         self.skip = 0
         self.relookup = None     # first row at which an unmapped stream asks the session again
 
+    def f(self, col: int, dt: str):
+        """The rows' field of type dt at byte ``col`` of a row (strided view)."""
+        return _view(self.buf, self.pos + col, self.m, self.S, dt)
+
     def u(self, col: int, size: int, big: bool, signed: bool = False):
         """Column of the rows' unsigned (or signed) integers at byte ``col`` (int64, uint64 for 8 bytes)."""
-        raw = np.ascontiguousarray(self.A[:, col:col + size]).view((">" if big else "<") + _DT[size]).ravel()
-        if signed:
-            return raw.view(raw.dtype.str.replace("u", "i")).astype(np.int64)
-        return raw if size == 8 else raw.astype(np.int64)
+        raw = self.f(col, (">" if big else "<") + ("i" if signed else "u") + str(size))
+        return raw.astype(np.uint64) if size == 8 and not signed else raw.astype(np.int64)
 
     # -- set-up ---------------------------------------------------------------------------------
     def prepare(self) -> bool:
@@ -232,7 +247,6 @@ class _Run:
         a = self.e.a
         if t.map_generation != a.session.map_generation:
             return False
-        A = self.A
         by_axis: dict = {}
         for j, c in enumerate(self.cols):
             fr = t.frames.get(c.s.key, False)
@@ -249,7 +263,6 @@ class _Run:
                 c.kind = "empty"
                 continue
             c.kind = "mapped"
-            c.ds = (A[:, c.data + c.cap - 2] & 0x14) == 0x14   # DataValid and provider RUN (wire.md §2.3)
             for o in fr.objs:
                 do = o.do
                 dt = do.telegram
@@ -287,16 +300,27 @@ class _Run:
                 chk = x.ax.checker
                 if not chk.std or chk.solmon:
                     return False   # preset telegrams / sign-of-life monitoring: frame by frame
-                self._arrays(x)
         return True
+
+    def arrays(self, m: int) -> None:
+        """The m verified rows: per-row arrays of every stream and axis."""
+        self.m = m
+        for c in self.cols:
+            if c.kind == "mapped":
+                c.ds = (self.f(c.data + c.cap - 2, "u1") & 0x14) == 0x14   # DataValid and provider RUN (wire.md §2.3)
+        for x in self.axes:
+            if x.ac is not None:
+                self._arrays(x)
 
     def _csdu_same(self, c: _Col):
         """Per row: the C_SDU equals the previous frame's of that stream (cyclic.py reuses the decode)."""
         if c.last is None:
-            C = self.A[:, c.csdu:c.csdu + c.n_csdu]
-            same = np.empty(self.m, dtype=bool)
-            same[1:] = (C[1:] == C[:-1]).all(axis=1)
-            same[0] = c.fr.last_csdu is not None and bytes(C[0]) == c.fr.last_csdu
+            same = np.ones(self.m, dtype=bool)
+            for q, dt in _chunks(c.csdu, c.n_csdu):
+                V = self.f(q, dt)
+                same[1:] &= V[1:] == V[:-1]
+            d = self.pos + c.csdu
+            same[0] = c.fr.last_csdu is not None and self.buf[d:d + c.n_csdu] == c.fr.last_csdu
             c.last = same
         return c.last
 
@@ -316,7 +340,7 @@ class _Run:
     def _ok(self, c: _Col, o):
         if o.iops_at >= c.n_csdu:
             return np.zeros(self.m, dtype=bool)
-        return c.ds & ((self.A[:, c.csdu + o.iops_at] & IOPS_GOOD) != 0)
+        return c.ds & ((self.f(c.csdu + o.iops_at, "u1") & IOPS_GOOD) != 0)
 
     def _arrays(self, x: _Ax) -> None:
         ax = x.ax

@@ -40,13 +40,17 @@ class CaptureError(Exception):
 class _Buffer:
     """A window over the file: ``need(n)`` guarantees n bytes at ``pos`` or reports EOF."""
 
-    __slots__ = ("f", "buf", "pos", "eof")
+    __slots__ = ("f", "buf", "pos", "eof", "base")
 
     def __init__(self, f: BinaryIO):
         self.f = f
         self.buf = b""
         self.pos = 0
         self.eof = False
+        try:
+            self.base = f.tell() if f.seekable() else None   # file offset of buf[0]
+        except OSError:
+            self.base = None
 
     def need(self, n: int) -> bool:
         avail = len(self.buf) - self.pos
@@ -54,6 +58,17 @@ class _Buffer:
             return True
         if self.eof:
             return False
+        if self.base is not None:
+            # a regular file: read the window afresh from the first unused byte (re-reading the
+            # unused tail is cheaper than joining it to the next chunk: one copy of 4 MiB less)
+            self.base += self.pos
+            self.f.seek(self.base)
+            want = max(CHUNK, n)
+            self.buf = self.f.read(want)
+            self.pos = 0
+            if len(self.buf) < want:
+                self.eof = True
+            return len(self.buf) >= n
         parts = [self.buf[self.pos:]]
         while avail < n and not self.eof:
             chunk = self.f.read(max(CHUNK, n - avail))

@@ -134,3 +134,209 @@ def test_mutated_frames_same_both_ways(muts):
     assert s_fast == s_ref
     assert ev_fast == ev_ref
     assert sum(s_fast["accounting"].values()) == len(frames)
+
+
+# -- the batch path (pndiss/batch.py): steady runs handled per run -----------------------------------
+
+import struct
+import subprocess
+import sys
+
+from pndiss import batch
+from pndiss.capture import CaptureError
+
+
+def _run_file(path: str, batched: bool):
+    """(summary without settings, events other than rt, capture error, engine) of one pass over the file:
+    the batch path (fast.run_file) or the reference path (Analyzer.feed on every frame)."""
+    a = Analyzer(Settings(fast_path=batched))
+    seen = []
+    emit = a.emit
+
+    def record(ev):
+        if ev["kind"] != "rt":
+            seen.append(json.dumps(ev, sort_keys=True, default=str))
+        emit(ev)
+
+    a.emit = record
+    err = eng = None
+    try:
+        if batched:
+            streams: dict = {}
+            eng = batch.Engine(a, streams)
+            fast.run(a, open_capture(path, batch=eng), streams, eng)
+        else:
+            for f in open_capture(path):
+                a.feed(*f)
+    except CaptureError as e:
+        err = (str(e), e.frames)
+    a.finish()
+    s = a.summary()
+    s.pop("settings")
+    return json.loads(json.dumps(s, sort_keys=True, default=str)), seen, err, eng
+
+
+def _same_both_ways(path: str):
+    s_b, ev_b, err_b, eng = _run_file(path, True)
+    s_r, ev_r, err_r, _ = _run_file(path, False)
+    assert err_b == err_r
+    assert s_b == s_r
+    assert ev_b == ev_r
+    return eng
+
+
+@pytest.mark.parametrize("path", CAPTURES, ids=os.path.basename)
+def test_batch_same_results(path):
+    _same_both_ways(path)
+
+
+def test_analyze_file_takes_the_batch_path(monkeypatch):
+    """analyze_file without a sink goes through the engine; PNDISS_BATCH=0 keeps the frame-by-frame path."""
+    path = next(p for p in CAPTURES if os.path.basename(p).startswith("fault-sol-device-zero-rt"))
+    made = []
+    real = batch.Engine
+
+    def spy(*args, **kw):
+        made.append(real(*args, **kw))
+        return made[-1]
+
+    monkeypatch.setattr(batch, "Engine", spy)
+    a = analyze_file(path)
+    assert made and made[0].rows_bulk > 0
+    assert a.summary()["accounting"]["decoded"] == a.frames
+    monkeypatch.setenv("PNDISS_BATCH", "0")
+    analyze_file(path)
+    assert len(made) == 1
+
+
+# Long simulated sessions: the steady stretches the batch path is for, with faults placed anywhere.
+
+def _simulate(tmpdir, name, *args) -> list:
+    out = os.path.join(tmpdir, name + ".pcapng")
+    subprocess.run([sys.executable, "-m", "pndiss", "simulate", *args, "--no-expected", "-o", out],
+                   check=True, capture_output=True, cwd=ROOT)
+    return list(open_capture(out))
+
+
+@pytest.fixture(scope="module")
+def sessions(tmp_path_factory):
+    d = str(tmp_path_factory.mktemp("batch"))
+    return {
+        # T83: NIST present (rule 44 on arrays), motion both ways
+        "motion83": _simulate(d, "m", "--scenario", "motion", "--telegram", "83", "--cycles", "1500",
+                              "--inject", "NIST-SIGN@900"),
+        # two encoders: four streams per period; a preset handshake and an injected out-of-range position
+        "two81": _simulate(d, "t", "--scenario", "preset", "--telegram", "81", "--encoders", "2", "--cycles", "1200",
+                           "--inject", "POSITION-OUT-OF-RANGE@700"),
+        # SCANCON: position continuity (rule 42) on arrays, reserved bit injected
+        "scancon84": _simulate(d, "s", "--scenario", "startup", "--profile", "scancon", "--telegram", "84",
+                               "--cycles", "1200", "--inject", "RESERVED-BIT-SET-G1ZSW@600",
+                               "--inject", "SOL-DEVICE-ZERO-RT@300"),
+    }
+
+
+def _write(path: str, frames, fmt: str, snaplen: int | None = None) -> None:
+    """frames as pcapng (le/be) or pcap (le/be, us/ns); snaplen cuts the captured bytes, not the length."""
+    with open(path, "wb") as f:
+        if fmt.startswith("pcapng"):
+            bo = "<" if fmt.endswith("le") else ">"
+            f.write(struct.pack(bo + "IIIHHqI", 0x0A0D0D0A, 28, 0x1A2B3C4D, 1, 0, -1, 28))
+            f.write(struct.pack(bo + "IIHHI" "HHB3x" "HH" "I", 1, 32, 1, 0, 0, 9, 1, 9, 0, 0, 32))
+            for _fn, ts, _lt, data in frames:
+                cap = data[:snaplen] if snaplen else data
+                pad = -len(cap) & 3
+                total = 32 + len(cap) + pad
+                f.write(struct.pack(bo + "IIIIIII", 6, total, 0, ts >> 32, ts & 0xFFFFFFFF, len(cap), len(data))
+                        + cap + b"\0" * pad + struct.pack(bo + "I", total))
+        else:
+            bo = "<" if fmt.endswith("le") else ">"
+            ns = "-ns" in fmt
+            f.write(struct.pack(bo + "IHHiIII", 0xA1B23C4D if ns else 0xA1B2C3D4, 2, 4, 0, 0, snaplen or 65535, 1))
+            for _fn, ts, _lt, data in frames:
+                cap = data[:snaplen] if snaplen else data
+                sec, frac = divmod(ts, 1_000_000_000)
+                f.write(struct.pack(bo + "IIII", sec, frac if ns else frac // 1000, len(cap), len(data)) + cap)
+
+
+FORMATS = ("pcapng-le", "pcapng-be", "pcap-le", "pcap-be", "pcap-ns-le", "pcap-ns-be")
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+@pytest.mark.parametrize("name", ("motion83", "two81", "scancon84"))
+def test_batch_long_sessions(sessions, tmp_path, name, fmt):
+    """Every format, both byte orders: same results, and most cycles really went through in runs."""
+    path = str(tmp_path / ("s." + fmt.split("-")[0]))
+    _write(path, sessions[name], fmt)
+    eng = _same_both_ways(path)
+    assert eng.rows_bulk > 10 * eng.rows_single
+
+
+def test_batch_snaplen_truncated(sessions, tmp_path):
+    """A snaplen shorter than the frames: every cyclic frame is cut (malformed or undecodable)."""
+    for snap in (20, 30, 40):
+        path = str(tmp_path / f"snap{snap}.pcap")
+        _write(path, sessions["motion83"], "pcap-le", snaplen=snap)
+        _same_both_ways(path)
+
+
+_OTHER = bytes.fromhex("ffffffffffff020000000099" "0806") + bytes(46)   # an ARP-typed frame: not PROFINET
+
+
+@hsettings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow,
+                                                                   HealthCheck.function_scoped_fixture])
+@given(name=st.sampled_from(("motion83", "two81", "scancon84")), fmt=st.sampled_from(FORMATS),
+       muts=st.lists(st.tuples(st.sampled_from(("byte", "bit", "zero2", "burst", "freeze", "cut", "drop", "insert",
+                                                "dup")),
+                               st.floats(0, 1, exclude_max=True), st.integers(0, 10_000), st.integers(0, 255)),
+                     max_size=8))
+def test_batch_mutated_sessions(sessions, tmp_path, name, fmt, muts):
+    """Single-frame faults at random places in long steady stretches: a byte or a telegram bit changed
+    (control/status words, sign-of-life, positions, DataStatus, IOPS, FrameID, MACs), a frame cut, dropped,
+    doubled, or a non-PROFINET frame in the middle of a run; a burst repeats one change in the next
+    frames of the stream (conditions over several cycles); a freeze repeats every stream's C_SDU for a few
+    cycles (identical inputs: the checker's own shortcut). Both paths agree on everything."""
+    frames = list(sessions[name])
+    for kind, where, off, val in muts:
+        i = int(where * len(frames))
+        fn, ts, lt, data = frames[i]
+        b = bytearray(data)
+        lo = 20 if len(b) > 24 else 0
+        p = lo + off % max(1, len(b) - 4 - lo)   # inside the C_SDU: telegram words, IOPS
+        if kind == "byte":
+            b[off % len(b)] = val
+        elif kind == "bit":
+            b[p] ^= 1 << (val & 7)
+        elif kind == "zero2":   # a whole word (or sign-of-life nibble) 0
+            b[p:p + 2] = bytes(len(b[p:p + 2]))
+        elif kind == "freeze":
+            first: dict = {}
+            for k in range(i, min(len(frames), i + 2 + off % 40)):
+                fk = frames[k]
+                head, csdu = fk[3][:20], fk[3][20:-4]
+                first.setdefault(head, csdu)
+                if len(first[head]) == len(csdu):
+                    frames[k] = (fk[0], fk[1], fk[2], head + first[head] + fk[3][-4:])
+            continue
+        elif kind == "burst":
+            same = [k for k in range(i, len(frames)) if frames[k][3][:20] == data[:20]][:2 + val % 6]
+            for k in same:
+                fk = frames[k]
+                bk = bytearray(fk[3])
+                bk[p % len(bk)] ^= 1 << (val & 7)
+                frames[k] = (fk[0], fk[1], fk[2], bytes(bk))
+            continue
+        elif kind == "cut":
+            del b[off % (len(b) + 1):]
+        elif kind == "drop":
+            del frames[i]
+            continue
+        elif kind == "insert":
+            frames.insert(i, (fn, ts, 1, _OTHER))
+            continue
+        elif kind == "dup":
+            frames.insert(i, frames[i])
+            continue
+        frames[i] = (fn, ts, lt, bytes(b))
+    path = str(tmp_path / ("m." + fmt.split("-")[0]))
+    _write(path, frames, fmt)
+    _same_both_ways(path)
