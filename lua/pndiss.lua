@@ -1367,7 +1367,9 @@ local function heuristic(tvb, pinfo, tree)
     end
     if tree then
         for _, c in ipairs(cached.objs) do add_object(tree, tvb, c) end
-        if cached.malformed then tree:add_proto_expert_info(E.malformed, cached.malformed) end
+        if cached.malformed then
+            tree:add(pndiss, tvb(0, 0), "PROFINET encoder: malformed"):add_proto_expert_info(E.malformed, cached.malformed)
+        end
     end
     return false   -- let pn_io go on with its own IODataObject dissection
 end
@@ -1399,7 +1401,8 @@ local function show_records(tree, tvb, items)
     local cur, k = records_of_frame(), 0
     for _, it in ipairs(items) do
         if it.error then
-            tree:add_proto_expert_info(E.malformed, "pndiss: " .. it.error)
+            tree:add(pndiss, tvb(0, 0), "PROFINET encoder: record error"):add_proto_expert_info(E.malformed,
+                "pndiss: " .. it.error)
         elseif it.im0 then
             local st = tree:add(pndiss, tvb(0, 0), "PROFINET encoder: I&M0")
             st:add(F["pndiss.im0.profile_id"], it.im0)
@@ -1520,9 +1523,10 @@ function pndiss.dissector(tvb, pinfo, tree)
     end
     if tree then
         add_rules(tree, tvb, pinfo)
-        if blind and pinfo.visited then
-            tree:add_proto_expert_info(E.blind, "pndiss: the first pass had no protocol tree, so nothing was learnt "
-                .. "(tshark -2 needs a display filter: add -Y frame or -Y pndiss)")
+        if blind and pinfo.visited then   -- an expert info needs an item to hang on
+            tree:add(pndiss, tvb(0, 0), "PROFINET encoder: nothing decoded"):add_proto_expert_info(E.blind,
+                "pndiss: the first pass had no protocol tree, so nothing was learnt "
+                .. "(tshark -2 needs a display filter or field output: add -Y frame)")
         end
     end
 end

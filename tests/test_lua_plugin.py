@@ -412,6 +412,17 @@ def test_fuzzed_captures_no_lua_error(tmp_path, seed):
     assert "Lua Error" not in out
 
 
+def test_two_pass_without_filter_says_why():
+    """tshark -2 builds no protocol tree on its first pass unless a display filter (or field output)
+    asks for one; the plugin's field extractors then see nothing, and the second pass says so."""
+    path = fault_captures()[0][0]
+    rc, out, err = tshark(path, "-V")
+    assert rc == 0 and "Lua" not in err, err
+    assert "first pass had no protocol tree" in out
+    rc, out, err = tshark(path, "-Y", "frame", "-V")
+    assert "first pass had no protocol tree" not in out
+
+
 def test_heuristic_on_pn_io_list():
     """The cyclic heuristic sits on the pn_io list (a Lua heuristic on pn_rt stops being called once
     pn_io claims a frame), enabled by default; the protocol and its fields are registered."""
