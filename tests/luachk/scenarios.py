@@ -148,13 +148,24 @@ class Encoder:
         self.p65000 = rnd.choice((0, 10, 5000))
         self.sp = self.ac = None
         self.x1_hold = None      # (value, cycles): a device whose XIST1 ignores the preset for a while
+        self.nist_neg = False
+        self.drill = rnd.random() < 0.15
+        if self.drill:
+            self.speed = 0
 
     def step(self):
         rnd, n = self.rnd, self.n
         self.n += 1
-        changed = rnd.random() < 0.5 or self.sp is None
+        changed = rnd.random() < 0.5 or self.sp is None or self.drill
         # controller
-        if rnd.random() < 0.06:
+        if self.drill:  # preset drill: absolute value requested, PREQ held until PDONE, then released
+            self.g1stw |= 1 << 13
+            if not (self.g1stw >> 12) & 1 and n % 12 == 0:
+                self.g1stw |= 1 << 12
+                self.g1stw = (self.g1stw & ~(1 << 11)) | (rnd.choice((0, 1)) << 11)
+            elif (self.g1stw >> 12) & 1 and (self.g1zsw >> 12) & 1 and rnd.random() < 0.25:
+                self.g1stw &= ~(1 << 12)
+        elif rnd.random() < 0.06:
             b = rnd.choice((11, 12, 12, 13, 13, 14, 15))
             self.g1stw ^= 1 << b
         if rnd.random() < 0.01:
@@ -180,22 +191,25 @@ class Encoder:
             self.queue.append((n + rnd.choice((1, 2, 3, 5)), 15, 0))
         if not (self.g1stw >> 15) & 1 and (self.g1zsw >> 11) & 1 and rnd.random() < 0.7:
             self.queue.append((n + rnd.choice((0, 1, 3)), 11, 0))
+        if self.drill and (self.g1stw >> 12) & 1 and (self.g1zsw >> 12) & 1 and (self.g1stw >> 11) & 1 \
+                and rnd.random() < 0.2:
+            self.pos += self.p65000  # a faulty device: the held relative preset runs again
         due = [q for q in self.queue if q[0] <= n]
         self.queue = [q for q in self.queue if q[0] > n]
         for _, b, v in due:
             if b == 12 and v == 1 and rnd.random() < 0.7:  # the preset moves the position
                 mode = (self.g1stw >> 11) & 1
-                if rnd.random() < 0.3:
+                if rnd.random() < 0.4:
                     self.x1_hold = ((self.pos << self.shift) % (1 << 32), rnd.choice((1, 3, 10)))
                 self.pos = self.pos + self.p65000 if mode else self.p65000
             self.g1zsw = (self.g1zsw & ~(1 << b)) | (v << b)
             if b == 15:
                 self.serr = v
-        if rnd.random() < 0.02:
+        if rnd.random() < 0.02 and not self.drill:
             self.serr = 1
             self.code = rnd.choice(ERROR_CODES)
             self.g1zsw |= 1 << 15
-        if rnd.random() < 0.01:
+        if rnd.random() < 0.01 and not self.drill:
             self.g1zsw ^= 1 << rnd.choice((11, 12, 13, 14, 15, 0, 3))
             self.serr = (self.g1zsw >> 15) & 1
         if rnd.random() < 0.01:
@@ -206,9 +220,11 @@ class Encoder:
         elif r < 0.85:
             self.dls = rnd.randrange(16)
         # motion
-        if rnd.random() < 0.05:
+        if rnd.random() < 0.05 and not self.drill:
             self.speed = rnd.choice((0, 0, 0, 2, -7, 300, 70000))
         self.pos = (self.pos + self.speed) % (1 << 32)
+        if rnd.random() < 0.03:
+            self.nist_neg = not self.nist_neg   # a device reporting the velocity with the wrong sign
         if rnd.random() < 0.01:
             self.pos = rnd.randrange(1 << 32)
         if not changed:
@@ -234,7 +250,7 @@ class Encoder:
                 if rnd.random() < 0.05:
                     sp["stw2_enc"] ^= 1
                 ac["g1_xist1"] = x1
-                ac["nist_b"] = self.speed
+                ac["nist_b"] = -self.speed if self.nist_neg else self.speed
                 if rnd.random() < 0.5:
                     ac["zsw2_enc"] |= sp["stw2_enc"] & 1
             else:
@@ -248,7 +264,7 @@ class Encoder:
                 if t == 82:
                     ac["nist_a"] = max(-32768, min(32767, self.speed if rnd.random() < 0.95 else -self.speed))
                 elif t in (83, 84):
-                    ac["nist_b"] = self.speed if rnd.random() < 0.95 else -self.speed
+                    ac["nist_b"] = -self.speed if self.nist_neg else self.speed
         else:
             c = t in (88, 101)
             top = 63 if c else 31
@@ -267,6 +283,17 @@ class Encoder:
         return sp, ac
 
 
+def _p971(frame: int, ts: int, rid: str, value: int) -> dict:
+    change = rid.startswith("change")
+    p = {"pnu": 971, "subindex": 0, "attribute": 0x10, "format": 6, "format_name": "Unsigned16", "error": None,
+         "values": [] if change else [value]}
+    if change:
+        p["written"] = {"format": 6, "values": [value]}
+    return {"frame": frame, "ts_ns": ts, "kind": "param", "response_frame": frame, "request_frame": frame - 1,
+            "request_id": rid, "request_id_code": 2 if change else 1, "response_id": 2 if change else 1,
+            "request_ref": frame % 200 + 1, "ok": True, "pairing": [], "params": [p]}
+
+
 def run(rnd) -> Checker:
     """One random session through a Checker (the Recorder around it logs everything)."""
     profile = rnd.choice(tg.PROFILES)
@@ -278,6 +305,9 @@ def run(rnd) -> Checker:
         s, profile=profile, telegram=telegram, bf00=bf00(rnd) if rnd.random() < 0.5 else None,
         cycle_ns=rnd.choice((None, 1_000_000, 500_000, 2_000_000, 3_000_000)), iso=rnd.choice((None, True, False)),
         profile_reason="random", telegram_source=rnd.choice(("given", "length", "connect")))
+    if rnd.random() < 0.1:  # a configuration changed after from_settings: the replay rebuilds it field by field
+        cfg.max_master_sol_failures = rnd.choice((1, 2, 3))
+        cfg.shift = rnd.choice((None, 0, 2))
     info = {"station": "enc", "device_mac": "02:00:00:00:00:01", "api": 0x3D00, "slot": 1, "subslot": 2}
     chk = Checker(cfg, info)
     chk.io_len["setpoint"] = tg.length(telegram, "setpoint")
@@ -287,6 +317,17 @@ def run(rnd) -> Checker:
         chk.prev_bf00 = bf00(rnd)
     enc = Encoder(rnd, telegram, profile, lag=rnd.choice((1, 3, 12)))
     frame, ts = 10, 1_000_000_000
+    if enc.drill:  # a preset drill: class 4 on and a P65000 written first
+        chk.cfg.class4 = 1
+        chk._apply_cfg()
+        chk.on_record({"frame": 5, "ts_ns": ts, "kind": "param", "response_frame": 5, "request_frame": 4,
+                       "request_id": "change parameter", "request_id_code": 2, "response_id": 2, "request_ref": 9,
+                       "ok": True, "pairing": [], "params": [{"pnu": 65000, "subindex": 0, "attribute": 0x10,
+                                                               "written": {"format": 7, "values": [rnd.choice((77, 5000, 123456))]},
+                                                               "values": [], "error": None}]})
+    p971 = profile == "lika" and rnd.random() < 0.4
+    if p971:
+        chk.on_record(_p971(6, ts, "change parameter", 1))
     for _ in range(rnd.randrange(20, 260)):
         frame += rnd.choice((2, 2, 3))
         ts += 1_000_000
@@ -308,7 +349,10 @@ def run(rnd) -> Checker:
                 chk._reset_history()
                 enc.t = chk.cfg.telegram
                 enc.sp = enc.ac = None
+        elif r < 0.075 and p971:  # LIKA: P971 read back after the store request
+            chk.on_record(_p971(frame, ts, "request parameter", rnd.choice((1, 1, 0))))
         else:
+            enc.p65000 = chk.p65000  # the device presets to what the controller wrote (P65000)
             sp, ac = enc.step()
             sp_frame = frame - 1 if rnd.random() < 0.9 else None
             chk.cycle(frame, ts, sp, ac, sp_frame)
