@@ -48,8 +48,8 @@ def settings(rnd) -> Settings:
 def bf00(rnd) -> dict:
     d = {}
     for key, values in (("compat", (0, 1)), ("class4", (0, 1)), ("preset_control", (0, 1)), ("scaling", (0, 1)),
-                        ("direction", (0, 1)), ("mupr", (0, 1, 360, 8192, 100000)),
-                        ("tmr", (1, 2, 1000, 33554432, 1 << 40)), ("max_master_sol_failures", (0, 1, 2, 5)),
+                        ("direction", (0, 1)), ("mupr", (0, 1, 360, 8192, 8193, 100000)),
+                        ("tmr", (1, 2, 1000, 33554432, 33554433, 1 << 40)), ("max_master_sol_failures", (0, 1, 2, 5)),
                         ("velocity_unit", (0, 1, 3, 4, 5))):
         if rnd.random() < 0.7:
             d[key] = rnd.choice(values)
@@ -76,18 +76,20 @@ def record_event(rnd, frame: int, ts: int, profile: str) -> dict:
         if rnd.random() < 0.1:
             ev["decoded"] = {}
         return ev
-    if r < 0.55:  # a parameter request written to the PAP
-        rid = rnd.choice((1, 2, 0, 3, 0x41, 0x90))
+    if r < 0.55:  # a parameter request written to the PAP: valid values, now and then one off (or at a limit)
+        def pick(good, bad):
+            return rnd.choice(bad) if rnd.random() < 0.12 else rnd.choice(good)
+        rid = pick((1, 2, 0x40, 0x7F), (0, 3, 0x3F, 0x80, 0x90))
         params = []
         for _ in range(rnd.choice((1, 1, 2))):
-            cnt = rnd.choice((0, 1, 2, 300))
-            params.append({"attribute": rnd.choice((0x10, 0x20, 0x30, 0x11, 0x40)), "count": cnt,
-                           "pnu": rnd.choice((922, 0, 65000)), "subindex": rnd.choice((0, 1, 0xFFFF)),
-                           "no_of_values": rnd.choice((None, cnt, cnt + 1))})
+            cnt = pick((0, 1, 2, 234), (235, 300))
+            params.append({"attribute": pick((0x10, 0x20, 0x30), (0x11, 0x40, 0x00)), "count": cnt,
+                           "pnu": pick((922, 65000), (0,)), "subindex": pick((0, 1, 0xFFFE), (0xFFFF,)),
+                           "no_of_values": pick((None, cnt), (cnt + 1,))})
         return {"frame": frame, "ts_ns": ts, "kind": "record", "op": "write", "index": rnd.choice((0xB02E, 0xB02F)),
-                "decoded": {"kind": rnd.choice(("parameter request", "parameter request", "parameter response")),
-                            "request_id": rid, "no_of_parameters": rnd.choice((len(params), 0, 40)),
-                            "length": rnd.choice((10, 250)), "params": params}}
+                "decoded": {"kind": pick(("parameter request",), ("parameter response",)),
+                            "request_id": rid, "no_of_parameters": pick((len(params), 1, 39), (0, 40)),
+                            "length": pick((10, 240), (241, 250)), "params": params}}
     # a paired parameter access (records.ParamPairer shape)
     change = rnd.random() < 0.4
     qid = rnd.choice((2,) if change else (1, 1, 1, 5, 0x41))
@@ -101,7 +103,7 @@ def record_event(rnd, frame: int, ts: int, profile: str) -> dict:
         else:
             v = {922: rnd.choice((81, 83, 84, 86, 100, 5)), 965: rnd.choice((31, 41, "29", "1F", 7)),
                  979: rnd.choice((0, 2, 40)), 980: rnd.choice((922, 0, 65000)), 971: rnd.choice((0, 1, 1)),
-                 65000: rnd.choice((0, 10, 5000, 1 << 30, -5))}.get(pnu, rnd.choice((0, 1, 7)))
+                 65000: rnd.choice((0, 10, 5000, 999, 1000, 1 << 30, -5))}.get(pnu, rnd.choice((0, 1, 7)))
             vals = [v] + ([rnd.choice((922, 965, 979, 0))] if pnu == 980 and rnd.random() < 0.5 else [])
             if change and rnd.random() < 0.6:
                 p["written"] = {"format": 7, "values": vals}
