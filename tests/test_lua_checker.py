@@ -99,6 +99,7 @@ def test_every_rule_emitted_by_the_lua_port():
     with Recorder() as rec:
         for seed in range(400):
             scenarios.run(random.Random(seed))
+        scenarios.held_xist1_session()
     res = replay(rec)
     _check(res, "seeded corpus")
     seen = set(res["lua_rules"])
@@ -114,6 +115,15 @@ def test_every_rule_emitted_by_the_lua_port():
     print(f"rules the Python checker names: {len(want)}; emitted by the Lua port: {len(want & seen)}; "
           f"never exercised: {never or 'none'}")
     assert not never
+
+
+def test_hand_made_session():
+    """The one branch random sessions seldom reach: #29 with no position before the preset."""
+    with Recorder() as rec:
+        scenarios.held_xist1_session()
+    res = replay(rec)
+    _check(res, "held XIST1")
+    assert "PRESET-XIST1-NOT-AFFECTED-WHEN-ENABLED" in res["lua_rules"]
 
 
 def test_open_events_announce_runs():

@@ -152,6 +152,8 @@ class Encoder:
         self.x1_hold = None      # (value, cycles): a device whose XIST1 ignores the preset for a while
         self.nist_neg = False
         self.drill = rnd.random() < 0.15
+        self.areq_late = rnd.random() < 0.4
+        self.zero_for = 0
         if self.drill:
             self.speed = 0
 
@@ -161,12 +163,17 @@ class Encoder:
         changed = rnd.random() < 0.5 or self.sp is None or self.drill
         # controller
         if self.drill:  # preset drill: absolute value requested, PREQ held until PDONE, then released
-            self.g1stw |= 1 << 13
+            if not self.areq_late:
+                self.g1stw |= 1 << 13
             if not (self.g1stw >> 12) & 1 and n % 12 == 0:
-                self.g1stw |= 1 << 12
+                self.g1stw |= (1 << 12) | (1 << 13)   # late: XIST2 shows no position before the request
+                if rnd.random() < 0.3:  # a device that shows 0 while it stores the preset (#43)
+                    self.zero_for = rnd.randrange(3, 13)
                 self.g1stw = (self.g1stw & ~(1 << 11)) | (rnd.choice((0, 1)) << 11)
             elif (self.g1stw >> 12) & 1 and (self.g1zsw >> 12) & 1 and rnd.random() < 0.25:
                 self.g1stw &= ~(1 << 12)
+                if self.areq_late:
+                    self.g1stw &= ~(1 << 13)
         elif rnd.random() < 0.06:
             b = rnd.choice((11, 12, 12, 13, 13, 14, 15))
             self.g1stw ^= 1 << b
@@ -247,6 +254,10 @@ class Encoder:
             if self.x1_hold is not None:
                 x1, left = self.x1_hold
                 self.x1_hold = (x1, left - 1) if left > 1 else None
+            if self.zero_for:
+                self.zero_for -= 1
+                x1 = 0
+                x2 = 0 if atx and not serr else x2
             if t == 89:
                 sp["g1_xist_preset_b1"] = rnd.randrange(1 << 31)
                 if rnd.random() < 0.05:
@@ -358,5 +369,26 @@ def run(rnd) -> Checker:
             sp, ac = enc.step()
             sp_frame = frame - 1 if rnd.random() < 0.9 else None
             chk.cycle(frame, ts, sp, ac, sp_frame)
+    chk.finish()
+    return chk
+
+
+def held_xist1_session() -> Checker:
+    """Hand-made: an absolute preset requested while XIST2 shows no position yet (so the position
+    before the preset is unknown) on a device whose XIST1 ignores it: #29, decided by the
+    'no position before' branch of _check_preset_value."""
+    cfg = EncoderConfig.from_settings(Settings(), profile="generic", telegram=81, cycle_ns=1_000_000)
+    chk = Checker(cfg, {"station": "enc"})
+    chk.on_record({"frame": 2, "ts_ns": 0, "kind": "param", "response_frame": 2, "request_frame": 1,
+                   "request_id": "change parameter", "request_id_code": 2, "response_id": 2, "request_ref": 1,
+                   "ok": True, "pairing": [], "params": [{"pnu": 65000, "subindex": 0, "attribute": 0x10,
+                                                           "written": {"format": 7, "values": [5000]},
+                                                           "values": [], "error": None}]})
+    zsw2 = 1 << 9  # control requested, as STW2_ENC.10 asks
+    rows = [(0x0000, 0x0000, 100, 0)] * 5 + [(0x3000, 0x0000, 100, 0), (0x3000, 0x3000, 100, 5000),
+                                             (0x0000, 0x2000, 100, 5000), (0x0000, 0x0000, 100, 0)]
+    for i, (g1stw, g1zsw, x1, x2) in enumerate(rows):
+        chk.cycle(10 + 2 * i, i, {"stw2_enc": 0x0400, "g1_stw": g1stw},
+                  {"zsw2_enc": zsw2, "g1_zsw": g1zsw, "g1_xist1": x1, "g1_xist2": x2}, 9 + 2 * i)
     chk.finish()
     return chk
