@@ -1245,8 +1245,15 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok)
                 chk.io_len[dir] = d.length
                 refine_profile(ax, fn)
             end
-            out.objs[#out.objs + 1] = {telegram = o.telegram, source = o.source, rows = o.rows, len = o.len, d = d,
-                                       dir = dir, iops = iops, ok = ok, profile = ax.profile}
+            -- what the tree shows of this object; the same table while nothing changes (memory per frame)
+            local v = o.view
+            if v == nil or v.iops ~= iops or v.ok ~= ok or v.profile ~= ax.profile or v.telegram ~= o.telegram
+                    or v.rows ~= o.rows or v.source ~= o.source then
+                v = {telegram = o.telegram, source = o.source, rows = o.rows, len = o.len, d = d, dir = dir,
+                     iops = iops, ok = ok, profile = ax.profile}
+                o.view = v
+            end
+            out.objs[#out.objs + 1] = v
             if dir == "setpoint" then
                 ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, ok
             else
@@ -1262,6 +1269,14 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok)
             end
         end
     end
+    -- frames that show the same objects share one cached result
+    local last = fr.last_out
+    if last ~= nil and out.malformed == nil and last.malformed == nil and #last.objs == #out.objs then
+        local same_view = true
+        for i, v in ipairs(out.objs) do if last.objs[i] ~= v then same_view = false break end end
+        if same_view then return last end
+    end
+    fr.last_out = out
     return out
 end
 
