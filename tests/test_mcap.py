@@ -538,6 +538,65 @@ def test_fast_path_changes_midstream(tmp_path):
     assert any(t.endswith("/actual") for t in topics) and any("/apdu/" in t for t in topics)
 
 
+_SESSION = {}
+
+
+def _session(scenario, cycles):
+    """(ts, data) of a simulated session, made once per test run."""
+    key = (scenario, cycles)
+    if key not in _SESSION:
+        import tempfile
+        from pndiss.capture import open_capture
+        with tempfile.TemporaryDirectory() as d:
+            sim = os.path.join(d, "s.pcapng")
+            assert cli_main(["simulate", "--scenario", scenario, "--cycles", str(cycles), "--no-expected",
+                             "-o", sim]) == 0
+            _SESSION[key] = [(ts, bytes(data)) for _, ts, _, data in open_capture(sim)]
+    return _SESSION[key]
+
+
+_mutation = st.tuples(st.integers(0, 10**6), st.sampled_from(["ds", "transfer", "csdu", "cc", "repeat", "drop",
+                                                                 "back"]),
+                      st.integers(0, 255), st.integers(0, 63))
+
+
+@hsettings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.sampled_from(["motion", "preset", "parking"]), st.lists(_mutation, max_size=12))
+def test_fast_path_mutated_sessions(tmp_path, scenario, muts):
+    """Random damage in the steady runs (DataStatus, TransferStatus, any C_SDU byte: words, IOPS;
+    cycle counter; a frame repeated or dropped; the clock stepping back): whatever the batch
+    engine and the fast path make of it, the file is the reference path's."""
+    frames = list(_session(scenario, 700))
+    cyc = [i for i, (_, d) in enumerate(frames) if d[12:14] in (b"\x81\x00", b"\x88\x92") and len(d) > 40
+           and d[16 if d[12] == 0x81 else 12:(16 if d[12] == 0x81 else 12) + 2] == b"\x88\x92"]
+    for where, kind, val, at in sorted(muts, key=lambda m: -m[0]):
+        i = cyc[where % len(cyc)]
+        ts, d = frames[i]
+        d = bytearray(d)
+        off = 18 if d[12] == 0x81 else 14
+        if kind == "ds":
+            d[-2] = val
+        elif kind == "transfer":
+            d[-1] = val
+        elif kind == "csdu":
+            d[off + 2 + at % (len(d) - off - 6)] = val
+        elif kind == "cc":
+            d[-4] = val
+        elif kind == "repeat":
+            frames.insert(i + 1, (ts, bytes(d)))
+        elif kind == "drop":
+            del frames[i]
+            continue
+        elif kind == "back":
+            ts -= val * 20_000   # up to 5 ms: behind earlier frames of its channel
+        frames[i] = (ts, bytes(d))
+    cap = str(tmp_path / "m.pcap")
+    _write_pcap(cap, frames)
+    ref, new, want, got = _fast_and_reference(cap, tmp_path)
+    _assert_same_export(ref, new)
+    assert json.dumps(got, default=str, sort_keys=True) == json.dumps(want, default=str, sort_keys=True)
+
+
 def _write_pcapng(path, frames, resol=9, tsoffset_s=0):
     """frames ((ts_ns, data)) as a pcapng with one Ethernet interface; if_tsresol ``resol`` (a power
     of ten, or 0x80 | n for 2^-n), if_tsoffset ``tsoffset_s`` seconds (subtracted from every time)."""
