@@ -16,6 +16,11 @@ Streaming: per channel a few scalars, never a list of messages; the mcap writer 
 index entry per chunk. Volume control applies to the cyclic topics (telegram + apdu):
 ``on_change`` writes a sample only when its words / status change, plus a keyframe at least
 every ``keyframe_ns``; ``decimate`` N also writes every Nth sample (alone: only every Nth).
+
+Two ways in, one file out: ``on_event`` takes event dicts (the reference path, any sink user);
+``run`` analyses a capture itself and writes the cyclic frames' messages without event dicts
+(per-frame byte templates here, whole steady runs in pndiss/mcap_batch.py), through
+pndiss/mcap_writer.py. tests/test_mcap.py requires both to write the same bytes (docs/mcap.md).
 """
 from __future__ import annotations
 
