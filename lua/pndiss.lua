@@ -966,7 +966,10 @@ local function dcp_claim(what, value, mac, assign, fn)
         local key = rule .. "|" .. value .. "|" .. a .. "|" .. b
         if (what == "name" or assign) and not S_.reported[key] then
             S_.reported[key] = true
-            note_violation(fn, rule, fn)
+            note_violation(fn, rule, fn, false, what == "name"
+                and string.format("NameOfStation '%s' %s for %s, but %s holds it (frame %d)", value,
+                    assign and "assigned" or "reported", mac, holder[1], holder[2])
+                or string.format("Set assigns IP %s to %s, but %s uses it (frame %d)", value, mac, holder[1], holder[2]))
         end
     end
     local old = by_mac[mac]
@@ -987,7 +990,7 @@ local function on_dcp(pinfo)
         or (not response and (d.sid == HELLO or d.sid == SET))
     for _, b in ipairs(d.blocks) do
         if b.name ~= nil and d.sid == SET and not response and name_bad(b.name) then
-            note_violation(fn, "DCP-NAME-INVALID", fn)
+            note_violation(fn, "DCP-NAME-INVALID", fn, false, "Set NameOfStation '" .. b.name .. "' breaks the naming rules")
         end
         if facts_ok and not b.erroneous then
             if b.name ~= nil then st_name = b.name end
@@ -1028,24 +1031,25 @@ local function is_std(t) return T.telegrams[t] ~= nil and (T.telegrams[t].standa
 
 -- a violation on `frame`, decided while dissecting frame `decided`; `open` = a per-cycle run just
 -- opened (its first frame is final; the flush later repeats it), so it is shown at once
-function note_violation(frame, rule, decided, open)
+function note_violation(frame, rule, decided, open, message)
     local k = frame .. "|" .. rule
     local v = viol_seen[k]
     if v == nil then
-        v = {rule = rule, decided = decided, open_only = open or false}
+        v = {rule = rule, decided = decided, open_only = open or false, message = message}
         viol_seen[k] = v
         local l = viol[frame]
         if l == nil then l = {}; viol[frame] = l end
         l[#l + 1] = v
     elseif not open then
         v.open_only = false
+        if v.message == nil then v.message = message end
     end
 end
 
 local function note(evs, decided)
     if evs == nil then return end
     for _, ev in ipairs(evs) do
-        if ev.rule ~= nil then note_violation(ev.frame, ev.rule, decided, ev.open) end
+        if ev.rule ~= nil then note_violation(ev.frame, ev.rule, decided, ev.open, ev.message) end
     end
 end
 
@@ -1174,7 +1178,9 @@ end
 local function length_check(o, fr, fn)
     if o.source == "length (guess)" then return end
     if tg_len(o.telegram, fr.dir) ~= o.d.length then
-        note_violation(fn, "TELEGRAM-LENGTH-MISMATCH", fn)
+        note_violation(fn, "TELEGRAM-LENGTH-MISMATCH", fn, false, string.format(
+            "telegram %d %s is %d bytes, the AR maps %d (telegram from %s)", o.telegram, fr.dir,
+            tg_len(o.telegram, fr.dir), o.d.length, tostring(o.source)))
     end
 end
 
@@ -1182,7 +1188,9 @@ end
 local function startup(ax, fn)
     ax.startup_checked = true
     if ax.fm.source == "connect" and is_std(ax.checker.cfg.telegram) and not ax.checker.bf00_seen then
-        note_violation(ax.sp_frame or fn, "STARTUP-NO-PARAM-RECORD", fn)
+        note_violation(ax.sp_frame or fn, "STARTUP-NO-PARAM-RECORD", fn, false,
+            "cyclic data exchange started without a write of 0xBF00" .. (ax.profile == "psm" and " / 0xFFFF" or "")
+            .. " in this AR")
     end
 end
 
@@ -1355,7 +1363,7 @@ local function add_rules(tree, tvb, pinfo)
     for _, v in ipairs(l) do
         local r = T.rules[v.rule]
         local it = st:add(F["pndiss.rule"], v.rule)
-        it:add_proto_expert_info(E[v.rule], v.rule .. ": " .. (r and (r.section .. ", " .. r.side .. " side") or ""))
+        it:add_proto_expert_info(E[v.rule], v.rule .. ": " .. (v.message or (r and r.section) or ""))
         it:add(F["pndiss.rule.decided_at"], v.decided):set_generated()
     end
 end
