@@ -436,3 +436,58 @@ def test_heuristic_on_pn_io_list():
     missing = [n for n in tg.field_names() if n not in names]
     assert not missing, missing
     assert {"pndiss.rule", "pndiss.param.pnu", "pndiss.bf00.compat", "pndiss.xist2_error.code"} <= names
+
+
+# ---- DCP rules: the plugin's port of proto/dcp.py against the Python core on generated frames ---------
+try:
+    from hypothesis import HealthCheck, given, settings as hsettings, strategies as st
+except ImportError:  # pragma: no cover
+    given = None
+
+DCP_RULES = {"DCP-NAME-INVALID", "DCP-NAME-DUPLICATE", "IP-ASSIGN-OCCUPIED"}
+_MACS = [bytes([2, 0, 0, 0, 9, i]) for i in range(4)]
+_CTRL = bytes([2, 0, 0, 0, 0, 1])
+
+
+def _dcp_frame(dst, src, frame_id, service, stype, blocks):
+    body = b""
+    for opt, sub, value in blocks:
+        body += bytes([opt, sub]) + struct.pack(">H", len(value)) + value + (b"\0" if len(value) % 2 else b"")
+    pdu = struct.pack(">HBBIHH", frame_id, service, stype, 0x1234, 0, len(body)) + body
+    fr = dst + src + b"\x88\x92" + pdu
+    return fr + bytes(max(0, 60 - len(fr)))
+
+
+def _dcp_op(op):
+    """One DCP frame: a Set request (name or IP, from the controller) or an Identify response (a device
+    telling its name and IP). Set blocks carry a BlockQualifier, Identify response blocks a BlockInfo."""
+    kind, mac, name, ip = op
+    ipb = bytes(ip) + bytes([255, 255, 255, 0]) + bytes(4)
+    if kind == "set_name":
+        return _dcp_frame(_MACS[mac], _CTRL, 0xFEFD, 4, 0, [(2, 2, b"\0\1" + name)])
+    if kind == "set_ip":
+        return _dcp_frame(_MACS[mac], _CTRL, 0xFEFD, 4, 0, [(1, 2, b"\0\1" + ipb)])
+    return _dcp_frame(_CTRL, _MACS[mac], 0xFEFF, 5, 1, [(2, 2, b"\0\0" + name), (1, 2, b"\0\1" + ipb)])
+
+
+_NAMES = st.one_of(st.sampled_from([b"encoder-1", b"encoder-2", b"plc", b"", b"port-001", b"port-001-00002",
+                                    b"10.0.0.1", b"-bad", b"a..b", b"Enc_1!", b"x" * 64, b"\xe4nc"]),
+                   st.binary(max_size=12))
+_OPS = st.lists(st.tuples(st.sampled_from(["set_name", "set_ip", "identify"]), st.integers(0, 3), _NAMES,
+                          st.sampled_from([(10, 0, 0, 1), (10, 0, 0, 2), (0, 0, 0, 0)])), min_size=5, max_size=80)
+
+if given is not None:
+    @hsettings(max_examples=5, deadline=None, suppress_health_check=list(HealthCheck))
+    @given(_OPS)
+    def test_dcp_rules_equal_python(tmp_path_factory, ops):
+        """DCP-NAME-INVALID, DCP-NAME-DUPLICATE and IP-ASSIGN-OCCUPIED on generated Set requests and
+        Identify responses (names valid, invalid, shared; IPs shared and released): the plugin reports
+        the frames the Python core does, in both tshark modes (these are decided on their own frame)."""
+        path = str(tmp_path_factory.mktemp("dcp") / "dcp.pcap")
+        _write_pcap(path, [_dcp_op(op) for op in ops])
+        evs = []
+        analyze_file(path, Settings(), sink=evs.append)
+        want = {(e["frame"], e["rule"]) for e in evs if e["kind"] == "violation" and e["rule"] in DCP_RULES}
+        for two_pass in (True, False):
+            got = {(f, r) for f, r, _ in rule_rows(path, two_pass=two_pass)}
+            assert got == want, (two_pass, sorted(got ^ want))
