@@ -19,8 +19,6 @@ path on every capture.
 from __future__ import annotations
 
 import struct
-from operator import itemgetter
-
 import numpy as np
 
 from . import batch
@@ -29,6 +27,7 @@ from .cyclic import IOPS_GOOD
 from .proto.common import Malformed
 
 SEQ_MASK = 0xFFFFFFFF
+_JSON_BOOL = (b"false", b"true")
 _I64_MAX = (1 << 63) - 1
 
 
@@ -260,22 +259,21 @@ class _ExportRun(batch._Run):
                 sig = tg.SIGNALS[nm]
                 cols.append(self._col(r, rows, c, at, f"{bo}{'i' if sig['signed'] else 'u'}{sig['size']}").tolist())
                 at += sig["size"]
-            vals = list(zip(*cols))
             iops = self._col(r, rows, c, coff + o.iops_at)
-            judged = [b"true" if x else b"false" for x in (ds_ok & ((iops & IOPS_GOOD) != 0)).tolist()]
-            keys = [n for n in lay.names if n in tg.BITMAPS]
-            if keys:
-                words = itemgetter(*[lay.names.index(n) for n in keys])
-                wk = [words(v) for v in vals]
-            else:
-                wk = [None] * rows
+            judged = list(map(_JSON_BOOL.__getitem__, (ds_ok & ((iops & IOPS_GOOD) != 0)).tolist()))
+            # the bits text per row, keyed as _TgFast.words keys it: the word, or a tuple of words
+            idx = [i for i, n in enumerate(lay.names) if n in tg.BITMAPS]
+            wk = (cols[idx[0]] if len(idx) == 1 else list(zip(*[cols[i] for i in idx]))) if idx else [None] * rows
             texts = {}
             for w in set(wk):
-                b = st.bits.get(w) or exp._tg_bits(st, dict(zip(lay.names, vals[wk.index(w)])))
+                b = st.bits.get(w)
                 if b is None:
-                    return False   # a G1_XIST2 error code: the event has one more field
+                    i = wk.index(w)
+                    b = exp._tg_bits(st, dict(zip(lay.names, [col[i] for col in cols])))
+                    if b is None:
+                        return False   # a G1_XIST2 error code: the event has one more field
                 texts[w] = b
-            bits = [texts[w] for w in wk]
+            bits = list(map(texts.__getitem__, wk))
             lt = np.maximum.accumulate(np.maximum(tsa, ch.last_t))
             msgs.append((ch.id, lt, list(map(st.fmt_all.__mod__, zip(fns, iops.tolist(), judged, *cols, bits)))))
             updates.append((ch, int(lt[-1]), int(tsa[-1])))
