@@ -90,6 +90,7 @@ class Recorder:
         self.expect: dict[int, list] = {}     # op index -> violations Python returned
         self.cfg_expect: dict[int, str] = {}  # op index of a 'new' -> the Python cfg, printed
         self.counts_expect: dict[int, str] = {}
+        self.state_expect: dict[int, str] = {}  # op index of a record / finish -> fields the caller reads
         self._ids: dict[int, int] = {}         # id(checker) -> k
         self._keep: list = []                  # checkers and cfgs stay alive: ids are not reused
         self._snap: dict[int, dict] = {}
@@ -213,6 +214,8 @@ class Recorder:
                     rec.expect[idx] = got
             if opname == "finish":
                 rec.counts_expect[idx] = counts_text(chk.counts)
+            if opname in ("rec", "finish"):
+                rec.state_expect[idx] = state_text(chk)
             rec._after(chk, k)
             return res
 
@@ -239,6 +242,13 @@ def cfg_text(cfg) -> str:
         else:
             parts.append(f"{f}={num(v)}")
     return " ".join(parts)
+
+
+def state_text(chk) -> str:
+    """What cyclic.py (and lua/pndiss.lua) read back from a checker, plus what the records set."""
+    return " ".join(f"{k}={num(v)}" for k, v in (
+        ("p922_rejected", chk.p922_rejected), ("bf00_seen", chk.bf00_seen), ("telegram", chk.cfg.telegram),
+        ("profile", chk.cfg.profile), ("shift", chk.cfg.shift), ("p65000", chk.p65000), ("n", chk.n)))
 
 
 def counts_text(counts) -> str:
@@ -278,6 +288,7 @@ def compare(rec: Recorder, stdout: str) -> dict:
     got: dict[int, list] = {}
     cfg_got: dict[int, str] = {}
     counts_got: dict[int, str] = {}
+    state_got: dict[int, str] = {}
     problems = []
     done = False
     opens = 0
@@ -300,6 +311,8 @@ def compare(rec: Recorder, stdout: str) -> dict:
             cfg_got[idx] = rest
         elif kind == "COUNTS":
             counts_got[idx] = rest
+        elif kind == "ST":
+            state_got[idx] = rest
     if not done:
         problems.append("driver did not finish")
     for idx in sorted(set(got) | set(rec.expect)):
@@ -309,6 +322,9 @@ def compare(rec: Recorder, stdout: str) -> dict:
     for idx, text in rec.cfg_expect.items():
         if cfg_got.get(idx) != text:
             problems.append(f"op {idx} new: python cfg {text}\n   lua cfg {cfg_got.get(idx)}")
+    for idx, text in rec.state_expect.items():
+        if state_got.get(idx) != text:
+            problems.append(f"op {idx} {rec.ops[idx]['op']} state: python {text} lua {state_got.get(idx)}")
     for idx, text in rec.counts_expect.items():
         if counts_got.get(idx) != text:
             problems.append(f"op {idx} finish counts: python {text} lua {counts_got.get(idx)}")

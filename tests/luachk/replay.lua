@@ -43,6 +43,12 @@ local opened = {}     -- k .. rule .. frame -> announced runs not yet reported
 local out = io.stdout
 local n_open = 0
 
+local function state(i, chk)
+  out:write(i, "\tST\t", string.format("p922_rejected=%s bf00_seen=%s telegram=%s profile=%s shift=%s p65000=%s n=%s",
+    num(chk.p922_rejected), tostring(chk.bf00_seen), num(chk.cfg.telegram), tostring(chk.cfg.profile), num(chk.cfg.shift),
+    num(chk.p65000), num(chk.n)), "\n")
+end
+
 local function report(i, k, evs)
   local parts = {}
   for _, e in ipairs(evs) do
@@ -99,8 +105,10 @@ for line in io.lines(path) do
     report(i, k, chk:gap(op.f, op.ts, "not valid"))
   elseif kind == "rec" then
     report(i, k, chk:on_record(op.ev))
+    state(i, chk)
   elseif kind == "finish" then
     report(i, k, chk:finish())
+    state(i, chk)
     local rules = {}
     for r in pairs(chk.counts) do rules[#rules + 1] = r end
     table.sort(rules)

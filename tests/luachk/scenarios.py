@@ -24,8 +24,12 @@ PAIRING = ("request(s) in frame(s) 3 overwritten before their response was read"
 FORMAT_NAMES = ("Unsigned16", "Unsigned32", "Integer32", "OctetString", "VisibleString", "Float32", "Word")
 
 
-def _maybe(rnd, p, value, other=None):
-    return value if rnd.random() < p else other
+def _same_lengths(chk) -> int:
+    """Another telegram with the data lengths the checker knows (81 and 100, 86 and 860 ...), else 81."""
+    for t in sorted(tg.TELEGRAMS):
+        if t != chk.cfg.telegram and all(tg.length(t, d) == n for d, n in chk.io_len.items()):
+            return t
+    return 81
 
 
 def settings(rnd) -> Settings:
@@ -58,7 +62,8 @@ def bf00(rnd) -> dict:
     return d
 
 
-def record_event(rnd, frame: int, ts: int, profile: str) -> dict:
+def record_event(rnd, frame: int, ts: int, chk) -> dict:
+    """A record or param event for ``chk``'s device (P922 answers know its telegram and data lengths)."""
     r = rnd.random()
     if r < 0.45:  # a user parameter write (0xBF00, PS/PSM 0xFFFF)
         idx = rnd.choice((0xBF00, 0xBF00, 0xFFFF))
@@ -96,12 +101,13 @@ def record_event(rnd, frame: int, ts: int, profile: str) -> dict:
     params = []
     for _ in range(rnd.choice((1, 1, 2, 3))):
         pnu = rnd.choice(PNUS)
-        p = {"pnu": pnu, "subindex": rnd.choice((0, 0, 1, 3)), "attribute": rnd.choice((0x10, 0x10, 0x20)),
+        sub = {965: (1, 1, 0), 979: (3, 3, 0)}.get(pnu, (0, 0, 1, 3))
+        p = {"pnu": pnu, "subindex": rnd.choice(sub), "attribute": rnd.choice((0x10, 0x10, 0x20)),
              "format_name": rnd.choice(FORMAT_NAMES)}
         if rnd.random() < 0.3:
-            p["error"] = {"code": rnd.choice((0x00, 0x01, 0x02, 0x05, 0x11, 0x16, 0x21, 0x1FF))}
+            p["error"] = {"code": rnd.choice((0x00, 0x01, 0x02, 0x05, 0x11, 0x16, 0x21, 0xFF, 0x100, 0x1FF))}
         else:
-            v = {922: rnd.choice((81, 83, 84, 86, 100, 5)), 965: rnd.choice((31, 41, "29", "1F", 7)),
+            v = {922: rnd.choice((chk.cfg.telegram, _same_lengths(chk), 81, 83, 84, 86, 100, 5)), 965: rnd.choice((31, 41, "29", "1F", 7)),
                  979: rnd.choice((0, 2, 40)), 980: rnd.choice((922, 0, 65000)), 971: rnd.choice((0, 1, 1)),
                  65000: rnd.choice((0, 10, 5000, 999, 1000, 1 << 30, -5))}.get(pnu, rnd.choice((0, 1, 7)))
             vals = [v] + ([rnd.choice((922, 965, 979, 0))] if pnu == 980 and rnd.random() < 0.5 else [])
@@ -348,7 +354,7 @@ def run(rnd) -> Checker:
         if r < 0.02:
             chk.gap(frame, ts, "not valid")
         elif r < 0.06:
-            chk.on_record(record_event(rnd, frame, ts, chk.cfg.profile))
+            chk.on_record(record_event(rnd, frame, ts, chk))
         elif r < 0.065:  # cyclic.py _refine_profile / _relabel from outside
             if rnd.random() < 0.5:
                 chk.cfg.profile = "psm"
