@@ -41,9 +41,13 @@
 --
 -- Numbers: Lua 5.2 has doubles only. Every value below 2^53 is exact, as in Python. 64-bit signals
 -- (g1_xist3, g1_xist_preset_c) above 2^53 arrive as {hi=, lo=}: the preset trigger bit 63 is read
--- exactly from hi; the position/preset VALUE is then hi * 2^32 + lo rounded to a double, so
--- positions and preset values >= 2^53 (and 0xBF00 MUPR/TMR >= 2^53) compare and subtract only to
--- double precision, where Python is exact. No encoder in the spec or the captures gets near 2^53.
+-- exactly from hi; the position/preset VALUE is then hi * 2^32 + lo rounded to a double (to a
+-- multiple of 2^(e-52)). Modulo arithmetic reduces each operand first (fmod is exact), so results
+-- equal Python's whenever the values themselves are doubles, e.g. positions above 2^53 that are
+-- multiples of their ulp (the tests use 2^60 + k * 256) and any modulus R < 2^53. Inexact, where
+-- Python is exact: positions/preset values >= 2^53 that a double cannot hold (rounded on arrival),
+-- a difference of two such positions modulo 2^64 (#44 NIST sign, #33 with no R), and 0xBF00
+-- MUPR/TMR >= 2^53. No encoder in the spec or the captures gets near 2^53.
 local C = {}
 
 local bit = bit32 or bit
@@ -90,17 +94,18 @@ local function num(v)
   return v
 end
 
--- Python's a % m (result in [0, m)); exact for |a| < 2^53 (fmod is exact).
+-- Python's a % m (result in [0, m)): fmod is exact for every double, so this is exact whenever
+-- a is (any size) and m < 2^53.
 local function mod(a, m)
   local r = fmod(a, m)
   if r < 0 then r = r + m end
   return r
 end
 
--- position.delta: signed shortest difference b - a modulo m, without forming m + small numbers
--- (m may be 2^64, which a double holds exactly but not 2^64 - 5).
+-- position.delta: signed shortest difference b - a modulo m. Each operand is reduced first (exact),
+-- so b - a is never formed from two large numbers, and m + small numbers never from m = 2^64.
 local function delta(a, b, m)
-  local r = fmod(b - a, m)         -- in (-m, m), the sign of b - a
+  local r = fmod(fmod(b, m) - fmod(a, m), m)   -- in (-m, m), congruent to b - a
   local half = (m - m % 2) / 2      -- m // 2 (m is an integer, or 2^64)
   if r < 0 then
     -- Python: d = r + m, then d - m (= r) when d > m // 2, else d
@@ -116,7 +121,7 @@ local function next_ls(v) return (v % 15) + 1 end
 local function expected_after_preset(mode, P, pos_before, R)
   local m = R or U32
   if mode == 0 then return mod(P, m) end
-  return mod(pos_before + P, m)
+  return mod(mod(pos_before, m) + mod(P, m), m)   -- (pos_before + P) % m without a large sum
 end
 
 local function preset_860(PV, R)
@@ -1194,9 +1199,11 @@ function Checker:check_preset_value(pre, pos2, X1, shift)
   local base = counter and x1_before or rshift(x1_before, shift)
   local moved_like_x2 = false
   if x2_ok then
-    local ref = pre.pos2
-    if ref == nil then ref = pos2 + tol + 1 end
-    moved_like_x2 = not near(pos2, ref, m2)
+    if pre.pos2 ~= nil then
+      moved_like_x2 = not near(pos2, pre.pos2, m2)
+    else  -- near(pos2, pos2 + tol + 1, m2), without the sum (inexact for positions >= 2^53)
+      moved_like_x2 = not (abs(delta(tol + 1, 0, m2)) <= tol)
+    end
   end
   local x1_kept = near(rshift(X1, sh), base, m1)
   if C.xist1_preset_affected(c) then

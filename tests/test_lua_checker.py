@@ -169,7 +169,8 @@ def test_loading_defines_nothing_global():
 
 
 def test_delta_and_preset_words_match_python():
-    """position.delta for moduli up to 2^64 (where m + d is not a double), and the preset word's
+    """position.delta for moduli up to 2^64 (where m + d is not a double) and for positions above
+    2^53 that doubles hold, and the preset word's
     trigger bit / value in both the number and the {hi=, lo=} form."""
     from pndiss.encoder import position as P
     from luachk.record import lua as L
@@ -181,6 +182,10 @@ def test_delta_and_preset_words_match_python():
             lim = min(m, 1 << 53)
             cases.append((rnd.randrange(lim), rnd.randrange(lim), m))
         cases += [(0, m // 2, m), (m // 2, 0, m), (0, (m + 1) // 2, m), (5, 3, m)]
+        # above 2^53, values a double holds exactly (multiples of 256 near 2^60): still exact
+        cases += [((1 << 60) + 256 * rnd.randrange(1 << 20), (1 << 60) + 256 * rnd.randrange(1 << 20), m)
+                  for _ in range(10)]
+        cases += [(904, (1 << 60) + 256 * 12345, m), ((1 << 62) + 1024, 3, m)]  # ulp 256 at 2^60, 1024 at 2^62
     words = [(w, 63) for w in (0, 5, (1 << 53) - 1, (1 << 63) | 77, (1 << 63) | ((1 << 53) - 5), (1 << 62))]
     words += [(w, 31) for w in (0, 1 << 31, (1 << 31) | 12345, 99)]
     words = [(w, t) for w, t in words if t == 31 or w < (1 << 53) or w >> 63]  # what the decoder can deliver

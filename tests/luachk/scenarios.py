@@ -157,6 +157,7 @@ class Encoder:
         self.sp = self.ac = None
         self.x1_hold = None      # (value, cycles): a device whose XIST1 ignores the preset for a while
         self.nist_neg = False
+        self.far = telegram == 84 and rnd.random() < 0.3
         self.drill = rnd.random() < 0.15
         self.areq_late = rnd.random() < 0.4
         self.zero_for = 0
@@ -277,6 +278,8 @@ class Encoder:
                 ac["g1_zsw"] = self.g1zsw & 0xFFFF
                 if t == 84:
                     ac["g1_xist3"] = self.pos if rnd.random() < 0.98 else rnd.randrange(1 << 52)
+                    if self.far:  # above 2^53 ({hi=, lo=} in Lua), on multiples of 256: exact as doubles
+                        ac["g1_xist3"] = (1 << 60) + ac["g1_xist3"] * 256
                 else:
                     ac["g1_xist1"] = x1
                 ac["g1_xist2"] = x2 % (1 << 32)
