@@ -293,7 +293,8 @@ class Encoder:
             if rnd.random() < 0.05:
                 self.preset_word ^= 1 << top
             if rnd.random() < 0.05:
-                v = rnd.choice((0, 100, 5000, 1 << 20, (1 << 31) - 1) + (((1 << 53) - 5, 1 << 40) if c else ()))
+                big = ((1 << 53) - 5, 1 << 40, (1 << 60) + 256 * rnd.randrange(1 << 20))  # the last: a double
+                v = rnd.choice((0, 100, 5000, 1 << 20, (1 << 31) - 1) + (big if c else ()))
                 self.preset_word = (self.preset_word & (1 << top)) | v
             sp = {"g1_xist_preset_c" if c else "g1_xist_preset_b": self.preset_word}
             if (self.preset_word >> top) & 1 and rnd.random() < 0.3:
