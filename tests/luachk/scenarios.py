@@ -107,7 +107,8 @@ def record_event(rnd, frame: int, ts: int, chk) -> dict:
         if rnd.random() < 0.3:
             p["error"] = {"code": rnd.choice((0x00, 0x01, 0x02, 0x05, 0x11, 0x16, 0x21, 0xFF, 0x100, 0x1FF))}
         else:
-            v = {922: rnd.choice((chk.cfg.telegram, _same_lengths(chk), 81, 83, 84, 86, 100, 5)), 965: rnd.choice((31, 41, "29", "1F", 7)),
+            v = {922: rnd.choice((chk.cfg.telegram, _same_lengths(chk), 81, 83, 84, 86, 100, 5)),
+                 965: rnd.choice((31, 41, "29", "1F", 7)),
                  979: rnd.choice((0, 2, 40)), 980: rnd.choice((922, 0, 65000)), 971: rnd.choice((0, 1, 1)),
                  65000: rnd.choice((0, 10, 5000, 999, 1000, 1 << 30, -5))}.get(pnu, rnd.choice((0, 1, 7)))
             vals = [v] + ([rnd.choice((922, 965, 979, 0))] if pnu == 980 and rnd.random() < 0.5 else [])
@@ -343,11 +344,11 @@ def run(rnd) -> Checker:
     if enc.drill:  # a preset drill: class 4 on and a P65000 written first
         chk.cfg.class4 = 1
         chk._apply_cfg()
+        p65000 = {"pnu": 65000, "subindex": 0, "attribute": 0x10, "values": [], "error": None,
+                  "written": {"format": 7, "values": [rnd.choice((77, 5000, 123456))]}}
         chk.on_record({"frame": 5, "ts_ns": ts, "kind": "param", "response_frame": 5, "request_frame": 4,
                        "request_id": "change parameter", "request_id_code": 2, "response_id": 2, "request_ref": 9,
-                       "ok": True, "pairing": [], "params": [{"pnu": 65000, "subindex": 0, "attribute": 0x10,
-                                                               "written": {"format": 7, "values": [rnd.choice((77, 5000, 123456))]},
-                                                               "values": [], "error": None}]})
+                       "ok": True, "pairing": [], "params": [p65000]})
     p971 = profile == "lika" and rnd.random() < 0.4
     if p971:
         chk.on_record(_p971(6, ts, "change parameter", 1))
