@@ -19,6 +19,7 @@ path on every capture.
 from __future__ import annotations
 
 import struct
+from itertools import compress
 import numpy as np
 
 from . import batch
@@ -157,15 +158,14 @@ class _ExportRun(batch._Run):
         return out
 
     def _bulk_columns(self, r: int, e: int, objs) -> bool:
-        """Rows [r, e) as whole columns; False (nothing written) when the stretch needs _bulk_frames."""
+        """Rows [r, e) as whole columns; False (nothing written, nothing changed) when the stretch
+        needs _bulk_frames."""
         exp = self.e.exp
-        if exp._thin:
-            return False
         rows = e - r
         P = len(self.cols)
         first_fn = self.n + r * P + 1
         chans = set()
-        per_col = []    # per column: list of message lists (the APDU one, then one per data object)
+        lists = []    # per channel, in message order within a row: see _List
         for j, c in enumerate(self.cols):
             s = c.s
             ch = s.ch
@@ -175,11 +175,16 @@ class _ExportRun(batch._Run):
             ts = self._times(r, rows, c)
             if ts is None:
                 return False
+            tsa = np.array(ts, dtype=np.int64)
+            if tsa.min() < 0:
+                return False   # the reference writes time 0 for those: frame by frame
             fns = range(first_fn + j, first_fn + j + rows * P, P)
+            seq = np.arange(fns.start, fns.stop, fns.step, dtype=np.int64) & SEQ_MASK
             cap = c.cap
             cc = (self._col(r, rows, c, cap - 4).astype(np.int64) << 8) | self._col(r, rows, c, cap - 3)
-            ds = self._col(r, rows, c, cap - 2)
-            key = (cap << 16) | (ds.astype(np.int64) << 8) | self._col(r, rows, c, cap - 1)
+            ds = self._col(r, rows, c, cap - 2).astype(np.int64)
+            tr = self._col(r, rows, c, cap - 1).astype(np.int64)
+            key = (cap << 16) | (ds << 8) | tr
             tails = s.tails
             for k in set(key.tolist()):
                 if k not in tails:
@@ -190,62 +195,58 @@ class _ExportRun(batch._Run):
             prev_cc = np.empty(rows, dtype=np.int64)
             prev_cc[0] = ch.prev_cc
             prev_cc[1:] = cc[:-1]
-            tsa = np.array(ts, dtype=np.int64)
             prev_t = np.empty(rows, dtype=np.int64)
             prev_t[0] = ch.prev_t
             prev_t[1:] = tsa[:-1]
-            d_cycle = ((cc - prev_cc) & 0xFFFF).tolist()
+            d_cycle = (cc - prev_cc) & 0xFFFF
             dt = (tsa - prev_t).tolist()
-            if tsa.min() < 0:
-                return False   # the reference writes time 0 for those: frame by frame
-            lt = np.maximum.accumulate(np.maximum(tsa, ch.last_t))   # log time held per channel
-            fmt = s.fmt
-            # per message list: (channel id, log times, texts); publish time and sequence are the column's
-            msgs = [(ch.id, lt, list(map(fmt.__mod__, zip(fns, cc.tolist(), tail, d_cycle, dt))))]
-            updates = [(ch, int(lt[-1]), ts[-1])]
-            ch_cc, ch_t = int(cc[-1]), ts[-1]
-            if objs[j]:
-                got = self._tg_columns(r, rows, c, objs[j], fns, tsa, ds, chans, msgs, updates)
-                if not got:
-                    return False
-            per_col.append((msgs, updates, (ch, ch_cc, ch_t), objs[j], tsa, fns))
-        # every column is ready: interleave row by row, write, then move the channels' state on
-        k = sum(len(m) for m, _, _, _, _, _ in per_col)
-        n = rows * k
-        datas = [None] * n
-        cids = np.empty(n, np.uint16)
-        lts = np.empty(n, np.int64)
-        pubs = np.empty(n, np.int64)
-        seqs = np.empty(n, np.int64)
-        at = 0
-        for msgs, _, _, _, tsa, fns in per_col:
-            seq = np.arange(fns.start, fns.stop, fns.step, dtype=np.int64) & SEQ_MASK
-            for cid, lt, texts in msgs:
-                datas[at::k] = texts
-                cids[at::k] = cid
-                lts[at::k] = lt
-                pubs[at::k] = tsa
-                seqs[at::k] = seq
-                at += 1
-        exp.w.add_batch(cids, lts, datas, pubs, seqs)
-        for msgs, updates, (ch, ch_cc, ch_t), lst, _, _ in per_col:
-            ch.prev_cc, ch.prev_t = ch_cc, ch_t
-            for c_, last_t, last_ts in updates:
-                c_.last_t = last_t
-                c_.written += rows
-                c_.last_written_t = last_ts
-            for o in lst:
-                st = exp._tgs[o]
-                st.n += rows
-                st.sig = st.inner = None
+            lst = _List(ch, tsa, seq)
+            if exp.on_change:   # _rt's key: DataStatus, TransferStatus, cycle counter step (no IOPS/IOCS)
+                last = (int(ds[-1]), int(tr[-1]), int(d_cycle[-1]), None, None)
+                lst.thin(exp, _changed((int(ds[0]), int(tr[0]), int(d_cycle[0]), None, None) != ch.last_key,
+                                       (ds, tr, d_cycle)), last)
+            elif exp._thin:
+                lst.thin(exp, None, None)
+            lst.texts(s.fmt, zip(fns, cc.tolist(), tail, d_cycle.tolist(), dt))
+            lists.append(lst)
+            lst.apdu = (int(cc[-1]), ts[-1])
+            if objs[j] and not self._tg_columns(r, rows, c, objs[j], fns, tsa, seq, ds, chans, lists):
+                return False
+        # every list is ready: merge row by row, write, then move the channels' state on
+        k = len(lists)
+        if all(lst.keep is None for lst in lists):
+            n = rows * k
+            datas = [None] * n
+            cids = np.empty(n, np.uint16)
+            lts = np.empty(n, np.int64)
+            pubs = np.empty(n, np.int64)
+            seqs = np.empty(n, np.int64)
+            for q, lst in enumerate(lists):
+                datas[q::k] = lst.data
+                cids[q::k] = lst.ch.id
+                lts[q::k] = lst.lt
+                pubs[q::k] = lst.ts
+                seqs[q::k] = lst.seq
+        else:   # volume control kept different rows per channel: order by (row, place in the row)
+            order = np.argsort(np.concatenate([lst.rows * k + q for q, lst in enumerate(lists)]), kind="stable")
+            flat = [d for lst in lists for d in lst.data]
+            datas = [flat[i] for i in order.tolist()]
+            cids = np.concatenate([np.full(len(lst.data), lst.ch.id, np.uint16) for lst in lists])[order]
+            lts = np.concatenate([lst.lt for lst in lists])[order]
+            pubs = np.concatenate([lst.ts for lst in lists])[order]
+            seqs = np.concatenate([lst.seq for lst in lists])[order]
+        if datas:
+            exp.w.add_batch(cids, lts, datas, pubs, seqs)
+        for lst in lists:
+            lst.settle(exp, rows)
         return True
 
-    def _tg_columns(self, r, rows, c, lst, fns, tsa, ds, chans, msgs, updates) -> bool:
+    def _tg_columns(self, r, rows, c, objs, fns, tsa, seq, ds, chans, lists) -> bool:
         exp = self.e.exp
         coff = len(c.key)
         n_csdu = c.cap - 4 - coff
         ds_ok = (ds & 0x14) == 0x14
-        for o in lst:
+        for o in objs:
             st = exp._tgs.get(o)
             if (st is None or st.ch is None or st.ch in chans or st.layout is not o.layout
                     or st.source != o.source or st.profile != o.ax.profile or o.iops_at >= n_csdu):
@@ -254,11 +255,12 @@ class _ExportRun(batch._Run):
             chans.add(ch)
             lay = o.layout
             bo = "<" if lay.byte_order == "little" else ">"
-            cols, at = [], coff + o.start
+            arrs, at = [], coff + o.start
             for nm in lay.names:
                 sig = tg.SIGNALS[nm]
-                cols.append(self._col(r, rows, c, at, f"{bo}{'i' if sig['signed'] else 'u'}{sig['size']}").tolist())
+                arrs.append(self._col(r, rows, c, at, f"{bo}{'i' if sig['signed'] else 'u'}{sig['size']}"))
                 at += sig["size"]
+            cols = [x.tolist() for x in arrs]
             iops = self._col(r, rows, c, coff + o.iops_at)
             judged = list(map(_JSON_BOOL.__getitem__, (ds_ok & ((iops & IOPS_GOOD) != 0)).tolist()))
             # the bits text per row, keyed as _TgFast.words keys it: the word, or a tuple of words
@@ -274,7 +276,77 @@ class _ExportRun(batch._Run):
                         return False   # a G1_XIST2 error code: the event has one more field
                 texts[w] = b
             bits = list(map(texts.__getitem__, wk))
-            lt = np.maximum.accumulate(np.maximum(tsa, ch.last_t))
-            msgs.append((ch.id, lt, list(map(st.fmt_all.__mod__, zip(fns, iops.tolist(), judged, *cols, bits)))))
-            updates.append((ch, int(lt[-1]), int(tsa[-1])))
+            lst = _List(ch, tsa, seq)
+            if exp.on_change:   # _telegram's key: the signals
+                first = dict(zip(lay.names, [col[0] for col in cols]))
+                last = (None, None, dict(zip(lay.names, [col[-1] for col in cols])))
+                lst.thin(exp, _changed((None, None, first) != ch.last_key, arrs), last)
+            elif exp._thin:
+                lst.thin(exp, None, None)
+            lst.texts(st.fmt_all, zip(fns, iops.tolist(), judged, *cols, bits))
+            lst.st = st
+            lists.append(lst)
         return True
+
+
+def _changed(first: bool, arrays) -> list:
+    """Per row: some array differs from the row before (row 0: ``first``)."""
+    ch = np.zeros(len(arrays[0]), dtype=bool)
+    for a in arrays:
+        ch[1:] |= a[1:] != a[:-1]
+    ch[0] = first
+    return ch.tolist()
+
+
+class _List:
+    """The messages of one channel in a bulk stretch: which rows are written (volume control), their
+    texts, log times, publish times and sequences, and what the channel's state becomes."""
+
+    __slots__ = ("ch", "ts", "seq", "lt", "data", "keep", "rows", "n", "lw", "dropped", "key", "apdu", "st")
+
+    def __init__(self, ch, tsa, seq):
+        self.ch, self.ts, self.seq = ch, tsa, seq
+        self.keep = self.rows = self.key = self.apdu = self.st = None
+
+    def thin(self, exp, changed, last_key) -> None:
+        """McapExporter._keep for every row, without touching the channel yet (see settle)."""
+        ch = self.ch
+        N, K, oc = exp.decimate, exp.keyframe_ns, exp.on_change
+        n, lw = ch.n, ch.last_written_t
+        keep = []
+        for i, t in enumerate(self.ts.tolist()):
+            n += 1
+            if oc:
+                k = changed[i] or lw is None or t - lw >= K or (N > 1 and (n - 1) % N == 0)
+            else:
+                k = N == 1 or (n - 1) % N == 0
+            if k:
+                lw = t
+            keep.append(k)
+        self.keep, self.n, self.lw, self.key = keep, n, lw, last_key
+        self.dropped = len(keep) - sum(keep)
+        self.rows = np.flatnonzero(keep)
+        self.ts, self.seq = self.ts[self.rows], self.seq[self.rows]
+
+    def texts(self, fmt: bytes, args) -> None:
+        if self.keep is not None:
+            args = compress(args, self.keep)
+        self.data = list(map(fmt.__mod__, args))
+        self.lt = np.maximum.accumulate(np.maximum(self.ts, self.ch.last_t)) if len(self.ts) else self.ts
+
+    def settle(self, exp, rows: int) -> None:
+        ch = self.ch
+        if self.apdu is not None:
+            ch.prev_cc, ch.prev_t = self.apdu
+        if len(self.data):
+            ch.last_t = int(self.lt[-1])
+            ch.last_written_t = int(self.ts[-1])
+            ch.written += len(self.data)
+        if self.keep is not None:
+            ch.n, ch.last_written_t = self.n, self.lw
+            exp.dropped += self.dropped
+            if exp.on_change:
+                ch.last_key = self.key
+        if self.st is not None:
+            self.st.n += rows
+            self.st.sig = self.st.inner = None
