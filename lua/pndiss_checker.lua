@@ -105,7 +105,12 @@ end
 -- position.delta: signed shortest difference b - a modulo m. Each operand is reduced first (exact),
 -- so b - a is never formed from two large numbers, and m + small numbers never from m = 2^64.
 local function delta(a, b, m)
-  local r = fmod(fmod(b, m) - fmod(a, m), m)   -- in (-m, m), congruent to b - a
+  local r
+  if a >= 0 and b >= 0 and a < m and b < m then
+    r = b - a                                   -- the usual case: both already reduced
+  else
+    r = fmod(fmod(b, m) - fmod(a, m), m)        -- in (-m, m), congruent to b - a
+  end
   local half = (m - m % 2) / 2      -- m // 2 (m is an integer, or 2^64)
   if r < 0 then
     -- Python: d = r + m, then d - m (= r) when d > m // 2, else d
@@ -549,10 +554,10 @@ function Checker:cycle(frame, ts, sp, ac, sp_frame)
   return self.out or EMPTY
 end
 
-local function rise(cur, prev) return cur == 1 and prev == 0 end
-local function fall(cur, prev) return cur == 0 and prev == 1 end
--- bit b of a non-negative integer word, and its top nibble: plain arithmetic (VM operations,
--- no library calls: these run several times per frame)
+-- rise(cur, prev) / fall(cur, prev) of _state.py are written out below as
+-- (cur == 1 and prev == 0) / (cur == 0 and prev == 1): no call per edge test
+-- bit b of a non-negative integer word as plain arithmetic (VM operations, no library calls:
+-- these run several times per frame); w >> 12 of a 16-bit word is written (w - w % 4096) / 4096
 local P2 = {}
 for b = 0, 31 do P2[b] = 2 ^ b end
 local function bitof(w, b)
@@ -560,7 +565,6 @@ local function bitof(w, b)
   if w % (p + p) >= p then return 1 end
   return 0
 end
-local function nib12(w) return (w - w % 4096) / 4096 end   -- w >> 12 of a 16-bit word
 
 function Checker:cycle_std(sp, ac)
   local c, n, L = self.cfg, self.n, self.L
@@ -569,11 +573,16 @@ function Checker:cycle_std(sp, ac)
   local zsw2 = ac.zsw2_enc or 0
   local g1zsw = ac.g1_zsw or 0
   local has_g1 = sp.g1_stw ~= nil and ac.g1_zsw ~= nil
-  local CLS, CTRL = nib12(stw2), bitof(stw2, 10)
-  local HMODE, PREQ, AREQ, PARK, SACK = bitof(g1stw, 11), bitof(g1stw, 12), bitof(g1stw, 13), bitof(g1stw, 14), bitof(g1stw, 15)
+  -- bits 10-15 of the 16-bit words written out as arithmetic (this runs for every non-steady frame)
+  local CLS, CTRL = (stw2 - stw2 % 4096) / 4096, stw2 % 2048 >= 1024 and 1 or 0
+  local HMODE, PREQ = g1stw % 4096 >= 2048 and 1 or 0, g1stw % 8192 >= 4096 and 1 or 0
+  local AREQ, PARK = g1stw % 16384 >= 8192 and 1 or 0, g1stw % 32768 >= 16384 and 1 or 0
+  local SACK = g1stw % 65536 >= 32768 and 1 or 0
   local FACK = self.psm and bitof(stw2, 7) or 0
-  local DLS, CREQ = nib12(zsw2), bitof(zsw2, self.creq_bit)
-  local ACKIP, PDONE, ATX, PKA, SERR = bitof(g1zsw, 11), bitof(g1zsw, 12), bitof(g1zsw, 13), bitof(g1zsw, 14), bitof(g1zsw, 15)
+  local DLS, CREQ = (zsw2 - zsw2 % 4096) / 4096, bitof(zsw2, self.creq_bit)
+  local ACKIP, PDONE = g1zsw % 4096 >= 2048 and 1 or 0, g1zsw % 8192 >= 4096 and 1 or 0
+  local ATX, PKA = g1zsw % 16384 >= 8192 and 1 or 0, g1zsw % 32768 >= 16384 and 1 or 0
+  local SERR = g1zsw % 65536 >= 32768 and 1 or 0
   local X1, X2, X3 = ac.g1_xist1, ac.g1_xist2, num(ac.g1_xist3)
   local NIST = ac.nist_b
   if NIST == nil then NIST = ac.nist_a end
@@ -584,11 +593,13 @@ function Checker:cycle_std(sp, ac)
   local pDLS, pACKIP, pPDONE, pATX, pPKA, pSERR, pX1, pX2
   if not first then
     local s2, g = ps.stw2_enc or 0, ps.g1_stw or 0
-    pCLS, pCTRL = nib12(s2), bitof(s2, 10)
-    pHMODE, pPREQ, pAREQ, pPARK, pSACK = bitof(g, 11), bitof(g, 12), bitof(g, 13), bitof(g, 14), bitof(g, 15)
+    pCLS, pCTRL = (s2 - s2 % 4096) / 4096, s2 % 2048 >= 1024 and 1 or 0
+    pHMODE, pPREQ = g % 4096 >= 2048 and 1 or 0, g % 8192 >= 4096 and 1 or 0
+    pAREQ, pPARK, pSACK = g % 16384 >= 8192 and 1 or 0, g % 32768 >= 16384 and 1 or 0, g % 65536 >= 32768 and 1 or 0
     local z2, gz = pa.zsw2_enc or 0, pa.g1_zsw or 0
-    pDLS = nib12(z2)
-    pACKIP, pPDONE, pATX, pPKA, pSERR = bitof(gz, 11), bitof(gz, 12), bitof(gz, 13), bitof(gz, 14), bitof(gz, 15)
+    pDLS = (z2 - z2 % 4096) / 4096
+    pACKIP, pPDONE = gz % 4096 >= 2048 and 1 or 0, gz % 8192 >= 4096 and 1 or 0
+    pATX, pPKA, pSERR = gz % 16384 >= 8192 and 1 or 0, gz % 32768 >= 16384 and 1 or 0, gz % 65536 >= 32768 and 1 or 0
     pX1, pX2 = pa.g1_xist1, pa.g1_xist2
   end
   hist_push(self, CTRL, PREQ, AREQ, PARK, SACK, VALID, PKA, SERR)
@@ -627,14 +638,14 @@ function Checker:cycle_std(sp, ac)
       if o then o.msg = fmt("control requested (ZSW2_ENC.%d)=%d while control by PLC (STW2_ENC.10)=%d for %d cycles; expected %d",
                             self.creq_bit, CREQ, CTRL, L + 1, CTRL) end
     end
-    if CTRL == 0 and not first and has_g1 and (rise(PREQ, pPREQ) or rise(AREQ, pAREQ) or rise(PARK, pPARK)
-                                               or rise(SACK, pSACK)) then
+    if CTRL == 0 and not first and has_g1 and ((PREQ == 1 and pPREQ == 0) or (AREQ == 1 and pAREQ == 0) or (PARK == 1 and pPARK == 0)
+                                               or (SACK == 1 and pSACK == 0)) then
       -- #15: commands without control are ignored (000_37bf2397999f1108.txt:1689-1691)
       o = self:hit("CMD-WITHOUT-CONTROL", true)
       if o then o.msg = fmt("G1_STW=0x%04X command edge while STW2_ENC.10=0 (V4.1 mode ignores it)", g1stw) end
     end
     if full and h_all(self, self.hCTRL, 0) and not first and has_g1 and (
-        rise(PDONE, pPDONE) or rise(ATX, pATX) or rise(PKA, pPKA)) then
+        (PDONE == 1 and pPDONE == 0) or (ATX == 1 and pATX == 0) or (PKA == 1 and pPKA == 0)) then
       -- #16: nothing may execute without control (000_37bf2397999f1108.txt:3108-3114)
       o = self:hit("CMD-EXECUTED-WITHOUT-CONTROL")
       if o then o.msg = fmt("G1_ZSW=0x%04X acknowledged a command while control by PLC was 0 for %d cycles; expected no reaction",
@@ -671,7 +682,7 @@ function Checker:cycle_std(sp, ac)
   if not has_g1 then return end
 
   -- ---- 9.3 preset (G1_STW.12 / G1_ZSW.12) -------------------------------------------------
-  if not first and rise(PREQ, pPREQ) then
+  if not first and (PREQ == 1 and pPREQ == 0) then
     if not truthy(c.class4) then
       -- #17: preset needs class 4 functionality (001_9461bb7bc8c2767b.txt:846)
       o = self:hit("PRESET-CLASS4-DISABLED", true)
@@ -696,7 +707,7 @@ function Checker:cycle_std(sp, ac)
     o = self:hit("PRESET-MODE-CHANGED", true)
     if o then o.msg = fmt("G1_STW.11 changed %d->%d while the preset request was pending", pHMODE, HMODE) end
   end
-  if not first and rise(PDONE, pPDONE) then
+  if not first and (PDONE == 1 and pPDONE == 0) then
     if not truthy(c.class4) or pPKA ~= 0 then
       -- #18: no preset without class 4 or while parked (000_37bf2397999f1108.txt:2245-2265, 3140-3162)
       o = self:hit("PRESET-EXECUTED-WHEN-NOT-ALLOWED")
@@ -716,7 +727,7 @@ function Checker:cycle_std(sp, ac)
       self:check_preset_value(pre, pos2, X1, shift)
     end
   end
-  if not first and fall(PDONE, pPDONE) then
+  if not first and (PDONE == 0 and pPDONE == 1) then
     self.pdone_since = nil
     if full and h_all(self, self.hPREQ, 1) then
       -- #21: PDONE holds while PREQ = 1 (000_37bf2397999f1108.txt:1806-1812)
@@ -724,7 +735,7 @@ function Checker:cycle_std(sp, ac)
       if o then o.msg = "G1_ZSW.12 fell while G1_STW.12 stayed 1" end
     end
   end
-  if pre ~= nil and not first and fall(PREQ, pPREQ) then
+  if pre ~= nil and not first and (PREQ == 0 and pPREQ == 1) then
     if not pre.done and PDONE == 0 and pre.allowed then
       -- #23: the controller must hold PREQ until PDONE (000_37bf2397999f1108.txt:780-781)
       self:emit("PRESET-REQ-EARLY-RELEASE", self.fc, self.ts,
@@ -829,12 +840,12 @@ function Checker:cycle_std(sp, ac)
       if o then o.msg = fmt("G1_STW.14=0 for %d cycles but G1_ZSW.14=1", L + 1) end
     end
   end
-  if PKA == 1 and not first and pPKA == 1 and rise(SERR, pSERR) then
+  if PKA == 1 and not first and pPKA == 1 and (SERR == 1 and pSERR == 0) then
     -- #48: no new errors while parked (000_37bf2397999f1108.txt:1775-1777)
     o = self:hit("PARK-ERROR-REPORTED")
     if o then o.msg = fmt("sensor error raised while parked (G1_XIST2=0x%X)", X2 or 0) end
   end
-  if not first and rise(PKA, pPKA) and self.lika then
+  if not first and (PKA == 1 and pPKA == 0) and self.lika then
     self.park_rise_due = {n + L, self.f, self.ts}
   end
   local prd = self.park_rise_due
@@ -845,7 +856,7 @@ function Checker:cycle_std(sp, ac)
       self:emit("PARK-ERRORS-NOT-CLEARED", prd[2], prd[3], fmt("sensor error still set %d cycles after parking started", L), self.f)
     end
   end
-  if not first and rise(PARK, pPARK) and not standstill then
+  if not first and (PARK == 1 and pPARK == 0) and not standstill then
     -- #50: parking while running is not allowed (000_37bf2397999f1108.txt:1876-1879)
     o = self:hit("PARK-WHILE-RUNNING", true)
     if o then o.msg = fmt("parking requested while moving (positions %s, NIST=%s)", pos_list(self), tostring(NIST)) end
@@ -861,7 +872,7 @@ function Checker:cycle_std(sp, ac)
     self.sack_since_serr = self.sack_since_serr or SACK == 1
     self.fack_since_serr = self.fack_since_serr or FACK == 1
   end
-  if not first and rise(SACK, pSACK) then
+  if not first and (SACK == 1 and pSACK == 0) then
     if SERR == 0 and pSERR == 0 then
       -- #57: acknowledging nothing (000_37bf2397999f1108.txt:1887-1891)
       o = self:hit("SACK-WITHOUT-ERROR", true)
@@ -888,7 +899,7 @@ function Checker:cycle_std(sp, ac)
       end
     end
   end
-  if not first and rise(ACKIP, pACKIP) and h_all(self, self.hSACK, 0) then
+  if not first and (ACKIP == 1 and pACKIP == 0) and h_all(self, self.hSACK, 0) then
     -- #53: ACKIP only after SACK (000_37bf2397999f1108.txt:3193-3199)
     o = self:hit("ACKIP-SPURIOUS")
     if o then o.msg = fmt("G1_ZSW.11 rose with G1_STW.15=0 in the last %d cycles", self.h_n) end
@@ -908,7 +919,7 @@ function Checker:cycle_std(sp, ac)
   elseif SACK == 0 then
     self.ackip_since = nil
   end
-  if not first and fall(SERR, pSERR) then
+  if not first and (SERR == 0 and pSERR == 1) then
     local code = self.serr_code
     local acked = self.sack_since_serr or (self.psm and self.fack_since_serr)
     if PKA == 0 and not acked then
