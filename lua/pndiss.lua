@@ -117,6 +117,10 @@ field("pndiss.rule", ProtoField.string, "Violated rule")
 -- the frame whose dissection decided the violation (0 = at the end of the capture, finish()): a
 -- violation decided on a later frame than the one it names is shown only in a second pass
 field("pndiss.rule.decided_at", ProtoField.uint32, "Decided at frame (0: end of capture)")
+-- on the deciding frame: a violation this frame decided for an earlier frame (what a single pass,
+-- which has printed that frame already, can still show); not pndiss.rule, so -Y pndiss.rule is unchanged
+field("pndiss.late_rule", ProtoField.string, "Violation decided here for an earlier frame")
+field("pndiss.late_rule.frame", ProtoField.framenum, "Violation in frame")
 
 -- expert infos: one per catalogue rule (filterable: pndiss.rule.<ID>)
 local SEV = {error = expert.severity.ERROR, warning = expert.severity.WARN, info = expert.severity.NOTE}
@@ -1025,6 +1029,7 @@ local bf00_last        -- device -> {ar, decoded} of the latest 0xBF00/0xFFFF wr
 local prev_bf00        -- device -> decoded 0xBF00 of an earlier connection (#31)
 local viol             -- frame -> list of {rule, decided} (decided: frame whose dissection decided it; 0 = finish)
 local viol_seen        -- "frame|rule" -> that entry
+local late             -- deciding frame -> list of entries that name an earlier frame
 local finished         -- every checker's finish() has run (first frame dissected again)
 
 local function is_std(t) return T.telegrams[t] ~= nil and (T.telegrams[t].standard or t == 89) end
@@ -1035,11 +1040,16 @@ function note_violation(frame, rule, decided, open, message)
     local k = frame .. "|" .. rule
     local v = viol_seen[k]
     if v == nil then
-        v = {rule = rule, decided = decided, open_only = open or false, message = message}
+        v = {rule = rule, frame = frame, decided = decided, open_only = open or false, message = message}
         viol_seen[k] = v
         local l = viol[frame]
         if l == nil then l = {}; viol[frame] = l end
         l[#l + 1] = v
+        if decided ~= 0 and decided ~= frame then
+            local d = late[decided]
+            if d == nil then d = {}; late[decided] = d end
+            d[#d + 1] = v
+        end
     elseif not open then
         v.open_only = false
         if v.message == nil then v.message = message end
@@ -1061,8 +1071,9 @@ local function drop_flushed(evs)
         local v = k and viol_seen[k]
         if v and v.open_only then
             viol_seen[k] = nil
-            local l = viol[ev.frame]
-            for i = #l, 1, -1 do if l[i] == v then table.remove(l, i) end end
+            for _, l in ipairs({viol[ev.frame], late[v.decided]}) do
+                for i = #l, 1, -1 do if l[i] == v then table.remove(l, i) end end
+            end
         end
     end
 end
@@ -1357,6 +1368,13 @@ end
 
 -- the violations cached for this frame: pndiss.rule + expert info pndiss.rule.<ID> each
 local function add_rules(tree, tvb, pinfo)
+    local d = late[pinfo.number]
+    if d ~= nil and #d > 0 then
+        local st = tree:add(pndiss, tvb(0, 0), "pndiss violations decided here for earlier frames")
+        for _, v in ipairs(d) do
+            st:add(F["pndiss.late_rule"], v.rule):add(F["pndiss.late_rule.frame"], v.frame)
+        end
+    end
     local l = viol[pinfo.number]
     if l == nil or #l == 0 then return end
     local st = tree:add(pndiss, tvb(0, 0), "pndiss violations")
@@ -1562,7 +1580,7 @@ local function reset_state()
     profiles, facts, ar_devs, p922_of, im0_seen = {}, {}, {}, {}, {}
     pending_connects, pairer, superseded = {}, {}, {}
     axes, axis_list, dev_records, bf00_last, prev_bf00 = {}, {}, {}, {}, {}
-    viol, viol_seen, finished = {}, {}, false
+    viol, viol_seen, late, finished = {}, {}, {}, false
     dcp_state = {name_at = {}, ip_at = {}, mac_name = {}, mac_ip = {}, reported = {}}
     cyc_cache, rec_cache, cyclic_frame, blind = {}, {}, nil, false
 end

@@ -295,13 +295,26 @@ def rule_rows(path, *args, two_pass=True, env=None, plugin=True):
     return rows
 
 
+def late_rows(path, two_pass=False):
+    """(deciding frame, rule, frame it names) of pndiss.late_rule: violations decided for an earlier frame."""
+    rc, out, err = tshark(path, "-Y", "pndiss.late_rule", "-T", "fields", "-e", "frame.number", "-e",
+                          "pndiss.late_rule", "-e", "pndiss.late_rule.frame", two_pass=two_pass)
+    assert rc == 0 and "Lua" not in err, err
+    rows = set()
+    for line in out.splitlines():
+        fn, rules, frames = line.split("\t")
+        for r, f in zip(rules.split(","), frames.split(",")):
+            rows.add((int(fn), r, int(f)))
+    return rows
+
+
 @pytest.mark.parametrize("path,rule", fault_captures(), ids=[os.path.basename(p) for p, _ in fault_captures()])
 def test_fault_capture_filter(path, rule):
     """`tshark -2 -Y pndiss.rule` lists exactly the frames of the Python violations (every rule); the
     per-rule expert abbrev `pndiss.rule.<ID>` selects that rule's frames; the injected rule is among
     them. A single pass shows a subset of Python's violations that holds every violation decided on
     the frame it names (decided_at, from the two-pass run): later decisions cannot reach a frame
-    tshark has already printed."""
+    tshark has already printed, so the deciding frame names them (pndiss.late_rule)."""
     _, viol = python_expect(path)
     two = rule_rows(path)
     assert {(f, r) for f, r, _ in two} == viol
@@ -314,6 +327,7 @@ def test_fault_capture_filter(path, rule):
     assert one <= viol, sorted(one - viol)
     immediate = {(f, r) for f, r, d in two if d == f}
     assert immediate <= one, sorted(immediate - one)
+    assert late_rows(path) == {(d, r, f) for f, r, d in two if d not in (0, f)}
     if rule not in {r for _, r in viol}:
         pytest.skip(f"the Python core does not report the injected {rule}: nothing to select (plugin agrees)")
 
