@@ -561,12 +561,17 @@ _mutation = st.tuples(st.integers(0, 10**6), st.sampled_from(["ds", "transfer", 
 
 
 @hsettings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(st.sampled_from(["motion", "preset", "parking"]), st.lists(_mutation, max_size=12))
-def test_fast_path_mutated_sessions(tmp_path, scenario, muts):
+@given(st.sampled_from(["motion", "preset", "parking"]), st.lists(_mutation, max_size=12),
+       st.sampled_from([{}, {"on_change": True, "keyframe_s": 0.005}, {"decimate": 3},
+                        {"on_change": True, "decimate": 7, "keyframe_s": 0.002}]), st.booleans())
+def test_fast_path_mutated_sessions(tmp_path, scenario, muts, opts, exact_clock):
     """Random damage in the steady runs (DataStatus, TransferStatus, any C_SDU byte: words, IOPS;
-    cycle counter; a frame repeated or dropped; the clock stepping back): whatever the batch
-    engine and the fast path make of it, the file is the reference path's."""
+    cycle counter; a frame repeated or dropped; the clock stepping back), with and without volume
+    control: whatever the batch engine and the fast path make of it, the file is the reference
+    path's."""
     frames = list(_session(scenario, 700))
+    if exact_clock:  # no jitter: keyframe intervals end exactly on a frame
+        frames = [(frames[0][0] + 250_000 * i, d) for i, (_, d) in enumerate(frames)]
     cyc = [i for i, (_, d) in enumerate(frames) if d[12:14] in (b"\x81\x00", b"\x88\x92") and len(d) > 40
            and d[16 if d[12] == 0x81 else 12:(16 if d[12] == 0x81 else 12) + 2] == b"\x88\x92"]
     for where, kind, val, at in sorted(muts, key=lambda m: -m[0]):
@@ -592,7 +597,7 @@ def test_fast_path_mutated_sessions(tmp_path, scenario, muts):
         frames[i] = (ts, bytes(d))
     cap = str(tmp_path / "m.pcap")
     _write_pcap(cap, frames)
-    ref, new, want, got = _fast_and_reference(cap, tmp_path)
+    ref, new, want, got = _fast_and_reference(cap, tmp_path, **opts)
     _assert_same_export(ref, new)
     assert json.dumps(got, default=str, sort_keys=True) == json.dumps(want, default=str, sort_keys=True)
 
