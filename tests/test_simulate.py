@@ -67,10 +67,22 @@ def test_help_lists_every_scenario_and_option(capsys):
     ["--inject", "SYNC-FAULT-DLS-NONZERO"],       # in the catalogue, not injectable
     ["--inject", "SOL-MASTER-SKIP@0"],
     ["--encoders", "0"],
+    ["--scenario", "startup", "--inject", "PRESET-NOT-STANDSTILL"],   # a preset-scenario fault
+    ["--inject", "PRESET-NOT-STANDSTILL", "--inject", "PARK-ACK-MISSING"],   # two scenarios at once
 ])
 def test_impossible_combinations_exit_2(tmp_path, capsys, args):
     assert main(["simulate", "-o", str(tmp_path / "x.pcapng"), "--cycles", "50", *args]) == 2
     assert "error" in capsys.readouterr().err
+
+
+def test_inject_without_scenario_takes_the_faults_scenario(tmp_path):
+    """A fault that needs the preset handshake picks --scenario preset when none is given."""
+    out = sim(tmp_path, "p.pcapng", "--cycles", "400", "--profile", "scancon", "--telegram", "83",
+              "--inject", "PRESET-NOT-STANDSTILL")
+    truth = json.loads((tmp_path / "p.expected.json").read_text())
+    assert truth["config"]["scenario"] == "preset"
+    assert [f["rule"] for f in truth["faults"]] == ["PRESET-NOT-STANDSTILL"]
+    assert out.stat().st_size > 0
 
 
 def test_same_seed_same_bytes_other_seed_differs(tmp_path):

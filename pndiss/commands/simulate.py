@@ -23,8 +23,9 @@ def add_parser(sub) -> None:
         epilog="scenarios: " + _scenario_help() + ". injectable rules: " + ", ".join(sorted(INJECTIONS))
                + " (docs/simulate.md says why the others are not).",
         formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--scenario", default="startup", choices=sorted(SCENARIOS), metavar="NAME",
-                   help="one of: " + ", ".join(SCENARIOS) + " (default: startup)")
+    p.add_argument("--scenario", default=None, choices=sorted(SCENARIOS), metavar="NAME",
+                   help="one of: " + ", ".join(SCENARIOS) + " (default: the scenario the injected faults "
+                        "need, else startup)")
     p.add_argument("--profile", default="generic", choices=sorted(PROFILE_TELEGRAMS), metavar="VENDOR",
                    help="device profile: " + ", ".join(PROFILE_TELEGRAMS) + " (default: generic)")
     p.add_argument("--telegram", type=int, default=81, metavar="N",
@@ -79,6 +80,15 @@ def run(args) -> int:
         if c is not None and not 1 <= c < cycles:
             raise UsageError(f"--inject {spec}: CYCLE must be within 1..{cycles - 1}")
         injects.append((rule, c))
+    # faults that live in one scenario (a preset handshake, parking, a sensor error) pick it
+    needs = {r: INJECTIONS[r].scenario for r, _ in injects if getattr(INJECTIONS[r], "scenario", None)}
+    for r, sc in needs.items():
+        if args.scenario is not None and sc != args.scenario:
+            raise UsageError(f"--inject {r} needs --scenario {sc} (given: {args.scenario})")
+        if len(set(needs.values())) > 1:
+            raise UsageError("--inject: these faults need different scenarios: "
+                             + ", ".join(f"{k} ({v})" for k, v in sorted(needs.items())))
+    args.scenario = args.scenario or next(iter(needs.values()), "startup")
     cfg = Config(scenario=args.scenario, profile=args.profile, telegram=args.telegram, cycle_ms=args.cycle_ms,
                  cycles=cycles, encoders=args.encoders, injects=injects, seed=args.seed)
     try:
