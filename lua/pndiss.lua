@@ -1040,7 +1040,7 @@ function note_violation(frame, rule, decided, open, message)
     local k = frame .. "|" .. rule
     local v = viol_seen[k]
     if v == nil then
-        v = {rule = rule, frame = frame, decided = decided, open_only = open or false, message = message}
+        v = {rule = rule, frame = frame, decided = decided, message = message}
         viol_seen[k] = v
         local l = viol[frame]
         if l == nil then l = {}; viol[frame] = l end
@@ -1050,9 +1050,8 @@ function note_violation(frame, rule, decided, open, message)
             if d == nil then d = {}; late[decided] = d end
             d[#d + 1] = v
         end
-    elseif not open then
-        v.open_only = false
-        if v.message == nil then v.message = message end
+    elseif not open and v.message == nil then
+        v.message = message
     end
 end
 
@@ -1060,21 +1059,6 @@ local function note(evs, decided)
     if evs == nil then return end
     for _, ev in ipairs(evs) do
         if ev.rule ~= nil then note_violation(ev.frame, ev.rule, decided, ev.open, ev.message) end
-    end
-end
-
--- cyclic.py _relabel flushes the open runs into the checker's output and drops them (the next call
--- starts a new output list): a run the plugin showed when it opened is withdrawn like Python does
-local function drop_flushed(evs)
-    for _, ev in ipairs(evs or {}) do
-        local k = ev.rule and (ev.frame .. "|" .. ev.rule)
-        local v = k and viol_seen[k]
-        if v and v.open_only then
-            viol_seen[k] = nil
-            for _, l in ipairs({viol[ev.frame], late[v.decided]}) do
-                for i = #l, 1, -1 do if l[i] == v then table.remove(l, i) end end
-            end
-        end
     end
 end
 
@@ -1181,7 +1165,7 @@ local function relabel(o, fr, fn)
     end
     refine_profile(ax, fn)
     chk:apply_cfg()
-    drop_flushed(chk:flush_all())
+    note(chk:flush_all(), fn)   -- the open runs end with the old layout (cyclic.py _relabel)
     chk:reset_history()
 end
 

@@ -237,9 +237,12 @@ class CyclicTracker:
             c.telegram = t
             c.sources["telegram"] = o.source or "session"
         self._refine_profile(ax)
-        ax.checker._apply_cfg()
-        ax.checker._flush_all()
-        ax.checker._reset_history()
+        chk = ax.checker
+        chk._apply_cfg()
+        chk.out = []  # the open runs end with the old layout: emit them (the last call's list is gone)
+        chk._flush_all()
+        self._out(chk.out)
+        chk._reset_history()
 
     def _ambiguous(self, ax, o: _Obj) -> bool:
         """A length guess is judged when both data lengths leave one candidate among the profile's telegrams,
