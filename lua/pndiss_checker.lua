@@ -505,7 +505,9 @@ end
 
 -- ------------------------------------------------------------------------------ one cycle
 function Checker:pending_steady()
-  return self.pre ~= nil or self.pdone_since ~= nil or self.pdone_clear_due ~= nil or self.p860 ~= nil
+  -- a preset request already reported as unanswered (#19) and still held is inert in steady cycles
+  local pre = self.pre
+  return (pre ~= nil and (pre.done or pre.allowed)) or self.pdone_since ~= nil or self.pdone_clear_due ~= nil or self.p860 ~= nil
     or self.p89 ~= nil or self.sack_edge ~= nil or self.ackip_since ~= nil or self.restore_due ~= nil
     or self.park_rise_due ~= nil or self.solf_due ~= nil or self.bf00_due ~= nil or self.store ~= nil
 end
@@ -1087,7 +1089,7 @@ function Checker:cycle_steady(sp, ac)
   self:value_rules((stw2 - stw2 % 4096) / 4096, (ps2 - ps2 % 4096) / 4096, (zsw2 - zsw2 % 4096) / 4096,
                    (pz2 - pz2 % 4096) / 4096, SERR, ATX,
                    g1zsw % 32768 >= 16384 and 1 or 0, g1zsw % 8192 >= 4096 and 1 or 0, X1, X2, X3, NIST, pos2, ppos2,
-                   nil, motion_ref, pmotion, zsw2, g1zsw, false, ac.g1_zsw ~= nil)
+                   self.pre, motion_ref, pmotion, zsw2, g1zsw, false, ac.g1_zsw ~= nil)
 end
 
 -- ------------------------------------------------------------------------------ sign-of-life (§3)

@@ -202,7 +202,10 @@ class Checker:
         return self.solmon or self._pending_steady()
 
     def _pending_steady(self) -> bool:
-        return (self.pre is not None or self.pdone_since is not None or self.pdone_clear_due
+        # a preset request already reported as unanswered (#19) and still held is inert while the words
+        # stay the same: only a PDONE / PREQ / mode edge (a key change) can touch it again
+        pre = self.pre
+        return ((pre is not None and (pre["done"] or pre["allowed"])) or self.pdone_since is not None or self.pdone_clear_due
                 is not None or self.p860 is not None or self.p89 is not None or self.sack_edge is not None
                 or self.ackip_since is not None or self.restore_due is not None or self.park_rise_due is not None
                 or self.solf_due is not None or self.bf00_due is not None or self.store is not None)
@@ -566,7 +569,7 @@ class Checker:
         self.pos_hist.append(motion_ref)
         self._value_rules(stw2 >> 12, ps.get("stw2_enc", 0) >> 12, zsw2 >> 12, pa.get("zsw2_enc", 0) >> 12, SERR, ATX,
                           (g1zsw >> 14) & 1, (g1zsw >> 12) & 1, X1, X2, X3, ac.get("nist_b", ac.get("nist_a")), pos2, ppos2,
-                          None, motion_ref, pa.get("g1_xist1") if X1 is not None else pa.get("g1_xist3"), zsw2, g1zsw,
+                          self.pre, motion_ref, pa.get("g1_xist1") if X1 is not None else pa.get("g1_xist3"), zsw2, g1zsw,
                           False, "g1_zsw" in ac)
         if SERR:
             self._state("sensor_error", X2 if X2 is not None else 1)
