@@ -90,6 +90,8 @@ class _Ax:
 
 
 class Engine:
+    run_class = None                    # _Run, set below it; pndiss/mcap_batch.py's engine has its own
+
     def __init__(self, a, streams: dict, progress=None):
         self.a = a
         self.t = a.cyclic
@@ -158,7 +160,7 @@ class Engine:
         if m < MIN_ROWS:
             return self._miss()
         cols = [c for c, _ in cols_checks]
-        run = _Run(self, buf, pos, n, cols, S, ts_of)
+        run = self.run_class(self, buf, pos, n, cols, S, ts_of)
         if not run.prepare():
             return 1 if run.skip == 2 else self._miss()
         # every record of the run repeats its column's header fields and frame prefix
@@ -553,11 +555,15 @@ class _Run:
             data = buf[d:d + c.cap]
             s = c.s
             s.n += 1
+            self._frame(s, fn, ts, data)
             try:
                 on_cyclic(s.key, fn, ts, data[-2] & 0x14 == 0x14, data, len(c.key))
             except Malformed as e:
                 s.bad += 1
                 a._malformed(fn, ts, e.layer, e.reason)
+
+    def _frame(self, s, fn: int, ts: int, data) -> None:
+        """A frame of a single row, before the tracker sees it (the MCAP export writes its APDU message)."""
 
     def _bulk(self, r: int, e: int) -> None:
         """Rows [r, e): every stream's frames counted, the latest decodes kept, each checker advanced."""
@@ -607,3 +613,6 @@ class _Run:
             CLS = v["stw2"][r:e] >> 12
             chk.advance_steady(cnt, fn, ts, ax.sp_frame, ax.sp, x.ac.sig, motion,
                                bool(CLS.any()), bool(DLS.any()))
+
+
+Engine.run_class = _Run

@@ -50,41 +50,11 @@ class _Engine(batch.Engine):
         self.ts_info = ("pcap", bo, mult)
         return super().pcap(bo, linktype, mult)
 
-    def _take(self, *args):
-        # Engine._take builds a batch._Run: let it build an _ExportRun for the time of the call
-        # (single-threaded; batch.py has no run factory to pass)
-        batch._Run = _ExportRun
-        try:
-            return super()._take(*args)
-        finally:
-            batch._Run = _BaseRun
-
-
-_BaseRun = batch._Run
-
 
 class _ExportRun(batch._Run):
-    def _row(self, r: int) -> None:
-        """Row r frame by frame: the APDU message, then the tracker (as batch._Run._row feeds it)."""
-        a = self.e.a
-        exp = self.e.exp
-        on_cyclic = self.e.t.on_cyclic
-        buf = self.buf
-        P = len(self.cols)
-        for j, c in enumerate(self.cols):
-            p = self._frame_pos(r, j)
-            fn = self.n + r * P + j + 1
-            ts = self.ts_of(buf, p)
-            d = p + c.data - c.boff
-            data = buf[d:d + c.cap]
-            s = c.s
-            s.n += 1
-            exp._apdu_direct(s, fn, ts, data)
-            try:
-                on_cyclic(s.key, fn, ts, data[-2] & 0x14 == 0x14, data, len(c.key))
-            except Malformed as e:
-                s.bad += 1
-                a._malformed(fn, ts, e.layer, e.reason)
+    def _frame(self, s, fn: int, ts: int, data) -> None:
+        """Single rows: the APDU message, then the tracker (whose telegram_sink writes the telegram message)."""
+        self.e.exp._apdu_direct(s, fn, ts, data)
 
     def _bulk(self, r: int, e: int) -> None:
         super()._bulk(r, e)
@@ -350,3 +320,6 @@ class _List:
         if self.st is not None:
             self.st.n += rows
             self.st.sig = self.st.inner = None
+
+
+_Engine.run_class = _ExportRun   # its single rows write the APDU messages too
