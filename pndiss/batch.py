@@ -253,8 +253,7 @@ class _Run:
         for j, c in enumerate(self.cols):
             fr = t.frames.get(c.s.key, False)
             if fr is False:
-                pass  # not looked up yet: one frame the normal way does it
-                return False
+                return False  # not looked up yet: one frame the normal way does it
             if fr is None:
                 c.kind = "unmapped"
                 left = RELOOKUP_EVERY - t.misses.get(c.s.key, 0) % RELOOKUP_EVERY - 1

@@ -96,7 +96,7 @@ def run(a, frames, streams: dict | None = None, engine=None) -> None:
                     continue
                 feed(fn, ts, lt, data)
                 if s is False:
-                    streams[key] = _learn(data, off)
+                    streams[key] = learn_stream(data, off)
             else:
                 feed(fn, ts, lt, data)
     finally:
@@ -105,7 +105,7 @@ def run(a, frames, streams: dict | None = None, engine=None) -> None:
         _settle(a, streams, fn, ts)
 
 
-def _learn(data: bytes, off: int):
+def learn_stream(data: bytes, off: int):
     """A _Stream when frames starting with data[:off + 2] are cyclic PN-RT (untagged, or one 802.1Q tag
     when off is 18), else None."""
     if data[off - 2:off] != ETH_PNRT or (off == 18 and data[12:14] != VLAN_8021Q):
@@ -117,10 +117,11 @@ def _learn(data: bytes, off: int):
     return _Stream((fid, mac(data[6:12]), mac(data[0:6])), cls)
 
 
-def _settle(a, streams: dict, fn, ts) -> None:
-    """Add what the fast path counted to the analyzer's totals (the same numbers Analyzer.feed keeps)."""
+def settle_counts(a, streams) -> int:
+    """Add the frames the fast-path ``streams`` took (objects with n, bad, cls) to the analyzer's totals,
+    the same numbers Analyzer.feed keeps, and reset them; returns how many frames that was."""
     total = 0
-    for s in streams.values():
+    for s in streams:
         if not s or not s.n:
             continue
         total += s.n
@@ -130,6 +131,12 @@ def _settle(a, streams: dict, fn, ts) -> None:
         a.frame_classes[s.cls] += s.n
         s.n = s.bad = 0
     a.frames += total
+    return total
+
+
+def _settle(a, streams: dict, fn, ts) -> None:
+    """The fast path's counts into the analyzer; its last frame becomes the analyzer's current one."""
+    total = settle_counts(a, streams.values())
     if total and fn is not None:
         a.cur_frame, a.cur_ts = fn, ts
         a.last_ts = ts

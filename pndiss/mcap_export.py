@@ -614,23 +614,18 @@ class McapExporter:
 
     def _settle(self, a, streams) -> None:
         """Add the events the fast path stood in for to ``seen`` and to the analyzer's totals, which
-        then equal those of the reference path (fast.py's _settle does the same without a sink)."""
-        n_rt = n_tg = 0
-        for r in streams:
-            if r.n:
-                n_rt += r.n
-                a.counts["decoded"] += r.n - r.bad
-                a.counts["malformed"] += r.bad
-                a.frame_classes[r.cls] += r.n
-                r.n = r.bad = 0
+        then equal those of the reference path (the frame counts as fast.py keeps them)."""
+        from .fast import settle_counts
+        n_rt = settle_counts(a, streams)
+        n_tg = 0
         for st in self._tgs.values():
             n_tg += st.n
             st.n = 0
+        if n_tg:
+            a.kinds["telegram"] += n_tg
         for kind, n in (("rt", n_rt), ("telegram", n_tg)):
             if n:
-                a.kinds[kind] += n
                 self.seen[kind] = self.seen.get(kind, 0) + n
-        a.frames += n_rt
 
     # -- end --------------------------------------------------------------------------------
     def topic_counts(self) -> dict[str, int]:
@@ -669,8 +664,8 @@ def _run(a, exp: McapExporter, frames, streams: dict, engine=None) -> None:
     generic dispatch and its ``rt`` event; ``exp`` writes their APDU message from the frame bytes and
     the tracker hands their data objects to ``exp`` directly. Every other frame, and the first one of
     each stream, goes through Analyzer.feed and on_event."""
-    from .proto import rt
-    from .proto.common import Malformed, mac
+    from .fast import learn_stream as learn
+    from .proto.common import Malformed
 
     # streams: data[:16] or data[:20] -> _RtFast, None (not a fast stream) or absent; shared with
     # the batch engine, which takes steady runs of these streams straight from the reader's buffer
@@ -696,16 +691,12 @@ def _run(a, exp: McapExporter, frames, streams: dict, engine=None) -> None:
                         a._malformed(fn, ts, e.layer, e.reason)
                     continue
                 feed(fn, ts, lt, data)
-                if r is False and data[off - 2:off] == b"\x88\x92" and (off == 14 or data[12:14] == b"\x81\x00"):
-                    fid = (data[off] << 8) | data[off + 1]
-                    cls, cyclic = rt.classify(fid, False)
-                    src, dst = mac(data[6:12]), mac(data[0:6])
-                    r = exp._stream(fid, src, dst, data, off) if cyclic else None
+                if r is False:
+                    st = learn(data, off)   # (key, class) when the frames are cyclic PN-RT
+                    r = st and exp._stream(*st.key, data, off)
                     if r is not None:
-                        r.key, r.cls = (fid, src, dst), cls
+                        r.key, r.cls = st.key, st.cls
                     streams[key] = r
-                elif r is False:
-                    streams[key] = None
             else:
                 feed(fn, ts, lt, data)
     finally:
