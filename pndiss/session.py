@@ -252,10 +252,20 @@ class SessionTracker:
         self._cm(fn, ts, ev, pdu, key, src, dst)
 
     def _report_dropped(self, dropped, layer) -> None:
+        """One malformed event per dropped reassembly; its frames, counted as decoded when they came,
+        move to the malformed bucket, so the accounting agrees with the events (issue #18 item 5)."""
+        counts = getattr(self.a, "counts", None)
         for frames, reason in dropped:
-            self.a._malformed(frames[-1], self.a.cur_ts, layer,
-                              f"{reason}; frames {', '.join(map(str, frames[:20]))}"
-                              + (" ..." if len(frames) > 20 else ""))
+            total = getattr(frames, "total", len(frames))
+            last = getattr(frames, "last", None) or frames[-1]
+            if counts is not None:
+                counts["decoded"] -= total
+                counts["malformed"] += total
+            self.counts["reassembly_dropped_frames"] = self.counts.get("reassembly_dropped_frames", 0) + total
+            self.a._malformed(last, self.a.cur_ts, layer,
+                              f"{reason}; frames ({total}): "
+                              f"{', '.join(map(str, frames[:20]))}"
+                              + (f" ... {last}" if total > 20 else ""))
 
     def _expire(self, ts) -> None:
         if self.ipr.pending:
