@@ -8,7 +8,7 @@ losing it silently. Capacities come from pndiss/settings.py (docs/settings.md).
 """
 from __future__ import annotations
 
-from collections import Counter
+from collections import Counter, OrderedDict
 
 # name -> (what one entry is, words for the summary note)
 WHAT = {
@@ -25,12 +25,12 @@ SETTING = {"streams": "max_streams", "stations": "max_stations", "ars": "max_ars
            "dcp_claims": "max_stations", "profiles": "max_stations"}
 
 
-class BoundedDict(dict):
+class BoundedDict(OrderedDict):
     """A dict of at most ``cap`` keys; ``d[k] = v`` for a new key at capacity evicts the oldest one
     and adds 1 to ``evicted`` (also ``on_evict(key, value)`` when given). Other dict methods are
-    plain: only item assignment of new keys is bounded, which is how every table here grows."""
-
-    __slots__ = ("cap", "name", "evicted", "on_evict")
+    plain: only item assignment of new keys is bounded, which is how every table here grows.
+    An OrderedDict: taking the oldest key of a plain dict that keeps losing its first keys scans
+    the dead slots (O(cap) per eviction until the next resize), its linked list does not."""
 
     def __init__(self, cap: int, name: str, on_evict=None):
         super().__init__()
@@ -41,17 +41,16 @@ class BoundedDict(dict):
 
     def __setitem__(self, key, value) -> None:
         if len(self) >= self.cap and key not in self:
-            old = next(iter(self))
-            v = dict.pop(self, old)
+            old, v = self.popitem(last=False)
             self.evicted += 1
             if self.on_evict is not None:
                 self.on_evict(old, v)
-        dict.__setitem__(self, key, value)
+        OrderedDict.__setitem__(self, key, value)
 
     def setdefault(self, key, default=None):
         if key not in self:
             self[key] = default
-        return dict.__getitem__(self, key)
+        return self[key]
 
 
 class Limits:
