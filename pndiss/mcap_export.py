@@ -660,6 +660,8 @@ class McapExporter:
             meta["capture_path"] = self.capture_path
             if self.reader_info is not None:   # hashed while it was read: never a second pass
                 meta["capture_sha256"] = self.reader_info.sha256()
+                if self.reader_info.ts_clamped:   # log times of these messages are clamped to [0, 2^63) ns
+                    meta["timestamps_clamped"] = str(self.reader_info.ts_clamped)
             else:
                 meta["capture_sha256"] = _sha256(self.capture_path)
         if self.settings is not None:

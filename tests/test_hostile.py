@@ -119,6 +119,8 @@ def test_tsresol_every_sink(tmp_path, resol):
     with open(summ) as f:
         s = json.load(f)
     assert s["input"]["timestamps_clamped"] == 300 and s["input"]["timestamps_clamped_first_frame"] == 1
+    # the report-only path (fast path, batch engine) counts them the same way
+    assert analyze_file(cap).summary()["input"]["timestamps_clamped"] == 300
     r = pndiss("export", cap, "-o", str(tmp_path / "o.mcap"), "-q")
     assert r.returncode == 0, r.stderr            # was: min() arg is an empty sequence in _finish_chunk
     r = pndiss("plot", cap, "-o", str(tmp_path / "o.html"))
