@@ -2,8 +2,14 @@
 
 Reads the file in fixed-size chunks (never the whole file, never an mmap whose touched pages
 would count against RSS) and yields ``(frame_number, ts_ns, linktype, data)`` tuples.
-Frame numbers are 1-based and count packet blocks exactly as Wireshark's ``frame.number``;
-timestamps are integer nanoseconds since the epoch.
+Frame numbers are 1-based and count records exactly as Wireshark's ``frame.number``: tshark 4.0's
+wiretap hands custom blocks (0x00000BAD / 0x40000BAD) and systemd journal export blocks to the
+dissectors as records of their own, so they are frames too (link type LINKTYPE_NONE here, counted
+``not_profinet``). Blocks tshark refuses (a type's minimum length, unequal leading/trailing lengths,
+an EPB capturing more than 262,144 bytes, an SPB shorter than its packet) end the read with
+CaptureError as they end tshark's (tests/test_pcapng_blocks.py compares each kind with tshark).
+Timestamps are integer nanoseconds since the epoch, clamped to [0, 2^63) and counted in ReadInfo
+when if_tsresol / if_tsoffset / a 64-bit value put them where no sink can show them.
 
 A file that ends inside a record raises :class:`CaptureError` *after* yielding every complete
 frame, so callers can report the frames read so far.
