@@ -166,11 +166,11 @@ def gen_pending_rpc(path: str, n: int) -> int:
 # ------------------------------------------------------------------ runner
 BENCHES = {
     # name -> (generator, sizes, description)
-    "ars": (gen_ars, [1_000, 10_000, 100_000], "distinct Connects (ARs); frames = 2 per AR"),
-    "dcp": (gen_dcp, [1_000, 100_000, 1_000_000], "DCP Identify responses from random MACs"),
-    "pending_rpc": (gen_pending_rpc, [20_000, 200_000], "first fragments of distinct RPC calls"),
     "rpc_hole": (gen_rpc_hole, [10_000, 100_000, 1_000_000], "fragments of one RPC call, last first, a hole"),
     "ip_hole": (gen_ip_hole, [10_000, 100_000, 1_000_000], "fragments of one IPv4 datagram with a hole"),
+    "ars": (gen_ars, [1_000, 10_000, 100_000], "distinct Connects (ARs); frames = 2 per AR"),
+    "pending_rpc": (gen_pending_rpc, [20_000, 200_000], "first fragments of distinct RPC calls"),
+    "dcp": (gen_dcp, [1_000, 100_000, 1_000_000], "DCP Identify responses from random MACs"),
     "cyclic_random": (lambda p, n: gen_cyclic_random(p, n, max(1, n // 3)), [300_000, 3_000_000],
                       "cyclic PN-RT frames from n/3 random source MACs"),
 }
@@ -211,7 +211,22 @@ def main() -> int:
     args = ap.parse_args()
     os.makedirs(args.out, exist_ok=True)
     names = args.only.split(",") if args.only else list(BENCHES)
-    rows = []
+    results = os.path.join(HERE, "RESULTS.md")
+    if args.record:   # the section's head now, each row as soon as it is measured (a long run may be cut)
+        import datetime
+        import platform
+        commit = subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"], capture_output=True,
+                                text=True).stdout.strip()
+        head = [f"\n## Hostile inputs (issues #17, #18): `bench/hostile.py {' '.join(sys.argv[1:])}`\n",
+                f"Commit {commit}, {datetime.datetime.utcnow():%Y-%m-%d %H:%M} UTC, {platform.machine()}, "
+                f"{os.cpu_count()} cores shared with other jobs (load average {os.getloadavg()[0]:.1f} at the start). "
+                "Wall time, CPU time (user + sys) and peak RSS (wait4) of `pndiss analyze -q --summary-json` per "
+                "capture, start-up (~1-2 s CPU) included; CPU µs/frame is the figure to compare across sizes on this "
+                "shared machine (wall time follows the other jobs' load).\n",
+                "| input | n | frames | wall (s) | CPU (s) | CPU µs/frame | peak RSS (MB) | summary |",
+                "|---|---:|---:|---:|---:|---:|---:|---|"]
+        with open(results, "a", encoding="utf-8") as f:
+            f.write("\n".join(head) + "\n")
     for name in names:
         gen, sizes, what = BENCHES[name]
         for size in sizes:
@@ -221,30 +236,14 @@ def main() -> int:
             frames = gen(path, n)
             tg = time.perf_counter() - t
             dt, cpu, rss, note = measure(path)
-            row = (name, n, frames, dt, cpu, rss, note)
-            rows.append(row)
             print(f"{name:14s} n={n:>10,} frames={frames:>11,} gen {tg:6.1f}s  analyze {dt:7.2f}s wall "
                   f"{cpu:7.2f}s CPU ({cpu / frames * 1e6:8.1f} µs CPU/frame)  peak RSS {rss:5d} MB  {note}", flush=True)
+            if args.record:
+                with open(results, "a", encoding="utf-8") as f:
+                    f.write(f"| {name}: {what} | {n:,} | {frames:,} | {dt:.1f} | {cpu:.1f} | "
+                            f"{cpu / frames * 1e6:.1f} | {rss} | {note} |\n")
             if not args.keep:
                 os.unlink(path)
-    if args.record:
-        import datetime
-        import platform
-        commit = subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"], capture_output=True,
-                                text=True).stdout.strip()
-        lines = [f"\n## Hostile inputs (issues #17, #18): `bench/hostile.py {' '.join(sys.argv[1:])}`\n",
-                 f"Commit {commit}, {datetime.datetime.utcnow():%Y-%m-%d %H:%M} UTC, {platform.processor() or platform.machine()}, "
-                 f"{os.cpu_count()} cores shared with other jobs (load average {os.getloadavg()[0]:.2f}). "
-                 "Wall time, CPU time (user + sys) and peak RSS (wait4) of `pndiss analyze -q --summary-json` per "
-                 "capture, start-up (~1 s CPU) included; CPU µs/frame is the figure to compare across sizes on this "
-                 "shared machine (wall time follows the other jobs' load).\n",
-                 "| input | n | frames | wall (s) | CPU (s) | CPU µs/frame | peak RSS (MB) | summary |",
-                 "|---|---:|---:|---:|---:|---:|---:|---|"]
-        for name, n, frames, dt, cpu, rss, note in rows:
-            lines.append(f"| {name}: {BENCHES[name][2]} | {n:,} | {frames:,} | {dt:.1f} | {cpu:.1f} | "
-                         f"{cpu / frames * 1e6:.1f} | {rss} | {note} |")
-        with open(os.path.join(HERE, "RESULTS.md"), "a", encoding="utf-8") as f:
-            f.write("\n".join(lines) + "\n")
     return 0
 
 
