@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections import Counter
 from typing import Callable
 
+from . import limits
 from . import stations as st
 from .activity import Activity
 from .proto import alarm, dcp, lldp, ptcp, rt
@@ -38,17 +39,24 @@ class Analyzer:
         self.kinds: Counter = Counter()
         self.frame_classes: Counter = Counter()
         self.malformed: list[dict] = []
+        self.limits = limits.Limits()   # bounded per-key tables and what they evicted
         self.frames = 0
         self.first_ts: int | None = None
         self.last_ts: int | None = None
-        self.stations = st.Stations()
+        cap = self.settings.max_stations
+        self.stations = st.Stations(self.limits.table(cap, "stations"))
         self.activity = Activity()
         self.dcp_tracker = dcp.DcpTracker()
+        t = self.dcp_tracker   # its per-name / per-IP / per-MAC claims: bounded like the stations
+        t.name_at, t.ip_at = self.limits.table(cap, "dcp_claims"), self.limits.table(cap, "dcp_claims")
+        t.mac_name, t.mac_ip = self.limits.table(cap, "dcp_claims"), self.limits.table(cap, "dcp_claims")
         self.session = SessionTracker(self)
         self.cyclic = CyclicTracker(self)
         # (frame, ts) of the frame being processed, for events emitted by trackers
         self.cur_frame = 0
         self.cur_ts = 0
+        from .capture import ReadInfo
+        self.reader = ReadInfo()   # filled by the capture reader: input hash, clamped time stamps
 
     # -- output ---------------------------------------------------------------------------
     def emit(self, ev: dict) -> None:
@@ -176,6 +184,8 @@ class Analyzer:
             "session": self.session.summary(),
             "cyclic": self.cyclic.summary(),
             "settings": self.settings.as_dict(),
+            "input": self.reader.as_dict(),
+            "limits": limits.summary(self),
         }
 
 
@@ -193,7 +203,7 @@ def analyze_file(path: str, settings: Settings | None = None, sink=None, progres
         if fast.enabled(a.settings, sink):
             fast.run_file(a, path, progress)   # same results: steady runs batched, cyclic frames without the dispatch
         else:
-            frames = open_capture(path)
+            frames = open_capture(path, info=a.reader)
             if progress is not None:
                 frames = _with_progress(frames, progress)
             for fn, ts, lt, data in frames:

@@ -28,7 +28,7 @@ import struct
 import numpy as np
 
 from . import telegrams as tg
-from .capture import MAX_RECORD
+from .capture import MAX_PACKET, MAX_RECORD, TS_MAX
 from .cyclic import IOPS_GOOD, RELOOKUP_EVERY
 from .proto.common import Malformed
 
@@ -102,32 +102,47 @@ class Engine:
         self.last_ts = None
         self.rows_bulk = 0              # diagnostics for bench/NOTES.md
         self.rows_single = 0
+        self.ts_check = None            # pcapng: per row, the record's time stamp needs no clamping
 
     # -- reader interface ------------------------------------------------------------------------
     def pcapng(self, bo: str, ifaces: list):
         hdr = struct.Struct(bo + "IIIIII").unpack_from
         tsu = struct.Struct(bo + "II").unpack_from
+        tail = struct.Struct(bo + "I").unpack_from
+        ifid_of = struct.Struct(bo + "I").unpack_from
+
+        def ts_check(buf, p, m, S):
+            lim = ifaces[ifid_of(buf, p + 8)[0]][5]   # largest raw value of the plain multiply (capture.py)
+            if lim < 0:
+                return np.zeros(m, dtype=bool)
+            hi = _view(buf, p + 12, m, S, bo + "u4").astype(np.uint64)
+            lo = _view(buf, p + 16, m, S, bo + "u4").astype(np.uint64)
+            return ((hi << np.uint64(32)) | lo) <= np.uint64(min(lim, (1 << 64) - 1))
+
+        self.ts_check = ts_check
 
         def block(buf, p, end):
             if p + 28 > end:
                 return None
             btype, blen, ifid, _hi, _lo, cap = hdr(buf, p)
             if btype != 6 or ifid >= len(ifaces) or blen % 4 or blen < 32 + cap or p + blen > end \
-                    or ifaces[ifid][0] != 1:
-                return None
-            # the fields every record of a column must repeat: type, length, interface; caplen
-            return blen, 28, cap, ((p, 12), (p + 20, 4))
+                    or ifaces[ifid][0] != 1 or cap > MAX_PACKET or tail(buf, p + blen - 4)[0] != blen:
+                return None   # the reader's checks (tshark's): it says why, frame by frame
+            # the fields every record of a column must repeat: type, length, interface; caplen; trailing length
+            return blen, 28, cap, ((p, 12), (p + 20, 4), (p + blen - 4, 4))
 
         def ts_of(buf, p):
             ifid = struct.unpack_from(bo + "I", buf, p + 8)[0]
-            _lt, conv, off, mult = ifaces[ifid]
+            _lt, conv, off, mult = ifaces[ifid][:4]
             hi, lo = tsu(buf, p + 12)
             t = (hi << 32) | lo
-            return (t * mult if mult else conv(t)) + off
+            t = (t * mult if mult else conv(t)) + off
+            return t if 0 <= t <= TS_MAX else (0 if t < 0 else TS_MAX)   # clamped as the reader does
 
         return lambda buf, pos, end, n: self._take(buf, pos, end, n, block, ts_of)
 
     def pcap(self, bo: str, linktype: int, mult: int):
+        self.ts_check = None   # pcap time stamps always fit (32-bit seconds)
         hdr = struct.Struct(bo + "IIII").unpack_from
         tsu = struct.Struct(bo + "II").unpack_from
 
@@ -170,6 +185,9 @@ class Engine:
                 for q, dt in _chunks(p, ln):
                     V = _view(buf, q, m, S, dt)
                     good &= V == V[0]
+        if self.ts_check is not None:   # time stamps the reader would clamp (and count) go frame by frame
+            for c, _checks in cols_checks:
+                good &= self.ts_check(buf, pos + c.boff, m, S)
         if not good.all():
             m = int(np.argmin(good))
             if m < MIN_ROWS:

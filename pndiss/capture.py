@@ -2,14 +2,23 @@
 
 Reads the file in fixed-size chunks (never the whole file, never an mmap whose touched pages
 would count against RSS) and yields ``(frame_number, ts_ns, linktype, data)`` tuples.
-Frame numbers are 1-based and count packet blocks exactly as Wireshark's ``frame.number``;
-timestamps are integer nanoseconds since the epoch.
+Frame numbers are 1-based and count records exactly as Wireshark's ``frame.number``: tshark 4.0's
+wiretap hands custom blocks (0x00000BAD / 0x40000BAD) and systemd journal export blocks to the
+dissectors as records of their own, so they are frames too (link type LINKTYPE_NONE here, counted
+``not_profinet``). Blocks tshark refuses (a type's minimum length, unequal leading/trailing lengths,
+an EPB capturing more than 262,144 bytes, an SPB shorter than its packet) end the read with
+CaptureError as they end tshark's (tests/test_pcapng_blocks.py compares each kind with tshark).
+Timestamps are integer nanoseconds since the epoch, clamped to [0, 2^63) and counted in ReadInfo
+when if_tsresol / if_tsoffset / a 64-bit value put them where no sink can show them.
 
 A file that ends inside a record raises :class:`CaptureError` *after* yielding every complete
 frame, so callers can report the frames read so far.
 """
 from __future__ import annotations
 
+import hashlib
+import os
+import stat
 import struct
 from typing import BinaryIO, Iterator
 
@@ -18,6 +27,18 @@ LINKTYPE_LINUX_SLL = 113
 LINKTYPE_LINUX_SLL2 = 276
 
 MAX_RECORD = 0x4000000  # 64 MiB: larger captured lengths mean a corrupt file
+MAX_PACKET = 262144     # tshark 4.0 refuses a pcapng packet block capturing more (WTAP_MAX_PACKET_SIZE_STANDARD)
+TS_MAX = (1 << 63) - 1  # time stamps are clamped to [0, TS_MAX] ns: every sink (MCAP u64, datetime) shows them
+LINKTYPE_NONE = -1      # a frame that is no packet (pcapng custom / journal block): tshark numbers it too
+
+# pcapng block types, tshark 4.0 minimum total lengths (wiretap/pcapng.c) and whether the block is a frame
+BT_SHB, BT_IDB, BT_PB, BT_SPB, BT_NRB, BT_ISB, BT_EPB = 0x0A0D0D0A, 1, 2, 3, 4, 5, 6
+BT_JOURNAL, BT_DSB, BT_CB, BT_CB_NOCOPY = 9, 10, 0x00000BAD, 0x40000BAD
+MIN_LEN = {BT_SHB: 28, BT_IDB: 20, BT_PB: 32, BT_SPB: 16, BT_NRB: 16, BT_ISB: 24, BT_EPB: 32,
+           BT_JOURNAL: 35, BT_DSB: 20, BT_CB: 16, BT_CB_NOCOPY: 16}
+MIN_NAMES = {BT_SHB: "an SHB", BT_IDB: "an IDB", BT_PB: "a PB", BT_SPB: "an SPB", BT_NRB: "an NRB",
+             BT_ISB: "an ISB", BT_EPB: "an EPB", BT_JOURNAL: "a systemd journal export block",
+             BT_DSB: "a DSB", BT_CB: "a CB", BT_CB_NOCOPY: "a CB"}
 CHUNK = 1 << 22  # 4 MiB reads: large enough to amortise syscalls, small enough for flat RSS
 
 PCAP_MAGICS = {  # magic as read little-endian -> (byte order, ns resolution)
@@ -37,20 +58,56 @@ class CaptureError(Exception):
         self.frames = frames
 
 
+class ReadInfo:
+    """What the reader learnt besides the frames: the input's SHA-256 (hashed while streaming, so a
+    FIFO is read once and a big file not twice), whether it was read to its end, and how many time
+    stamps were out of the range every sink can show (clamped to [0, TS_MAX] ns)."""
+
+    __slots__ = ("_h", "complete", "ts_clamped", "ts_clamped_first")
+
+    def __init__(self):
+        self._h = hashlib.sha256()
+        self.complete = False
+        self.ts_clamped = 0
+        self.ts_clamped_first = None
+
+    def sha256(self) -> str:
+        """The digest of the whole input, or '' when it was not read to its end."""
+        return self._h.hexdigest() if self.complete else ""
+
+    def clamp(self, fn: int, ts: int) -> int:
+        self.ts_clamped += 1
+        if self.ts_clamped_first is None:
+            self.ts_clamped_first = fn
+        return 0 if ts < 0 else TS_MAX
+
+    def as_dict(self) -> dict:
+        return {"timestamps_clamped": self.ts_clamped, "timestamps_clamped_first_frame": self.ts_clamped_first}
+
+
 class _Buffer:
     """A window over the file: ``need(n)`` guarantees n bytes at ``pos`` or reports EOF."""
 
-    __slots__ = ("f", "buf", "pos", "eof", "base")
+    __slots__ = ("f", "buf", "pos", "eof", "base", "info", "hashed")
 
-    def __init__(self, f: BinaryIO):
+    def __init__(self, f: BinaryIO, info: ReadInfo | None = None):
         self.f = f
         self.buf = b""
         self.pos = 0
         self.eof = False
+        self.info = info if info is not None else ReadInfo()
         try:
             self.base = f.tell() if f.seekable() else None   # file offset of buf[0]
         except OSError:
             self.base = None
+        self.hashed = self.base or 0   # file offset up to which the bytes went into the hash
+
+    def _hash(self, start: int, data: bytes) -> None:
+        """Hash the part of ``data`` (read at file offset ``start``) not hashed yet."""
+        end = start + len(data)
+        if end > self.hashed:
+            self.info._h.update(memoryview(data)[self.hashed - start:])
+            self.hashed = end
 
     def need(self, n: int) -> bool:
         avail = len(self.buf) - self.pos
@@ -66,15 +123,17 @@ class _Buffer:
             want = max(CHUNK, n)
             self.buf = self.f.read(want)
             self.pos = 0
+            self._hash(self.base, self.buf)
             if len(self.buf) < want:
-                self.eof = True
+                self.eof = self.info.complete = True
             return len(self.buf) >= n
         parts = [self.buf[self.pos:]]
         while avail < n and not self.eof:
             chunk = self.f.read(max(CHUNK, n - avail))
             if not chunk:
-                self.eof = True
+                self.eof = self.info.complete = True
                 break
+            self._hash(self.hashed, chunk)
             parts.append(chunk)
             avail += len(chunk)
         self.buf = b"".join(parts)
@@ -85,27 +144,57 @@ class _Buffer:
         return not self.need(1)
 
 
-def open_capture(path: str, batch=None) -> Iterator[tuple[int, int, int, bytes]]:
+class NotACapture(CaptureError):
+    """The input is no pcap/pcapng at all (wrong magic, empty): every command refuses it at once."""
+
+
+def _check_magic(path: str, head: bytes) -> int:
+    if len(head) < 4:
+        raise NotACapture(f"{path}: empty file or too short to be a capture (no pcap/pcapng header)")
+    magic = struct.unpack_from("<I", head, 0)[0]
+    if magic not in PCAP_MAGICS and magic != PCAPNG_SHB:
+        raise NotACapture(f"{path}: not a pcap or pcapng file (magic 0x{magic:08x})")
+    return magic
+
+
+def refuse_non_capture(path: str) -> None:
+    """Raise NotACapture unless ``path`` starts like a pcap/pcapng file: the one check every command
+    (analyze, export, plot, report, fleet) runs before it creates any output. Reads 4 bytes of a
+    regular file or device (/dev/zero, /dev/urandom: refused at once); a FIFO or stdin cannot be
+    peeked without losing the bytes, so there the reader's own first read refuses it."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return  # the caller's path check (or open_capture) says why
+    if not (stat.S_ISREG(mode) or stat.S_ISCHR(mode) or stat.S_ISBLK(mode)):
+        return
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4)
+    except OSError as e:
+        raise CaptureError(f"cannot open {path}: {e.strerror}") from None
+    _check_magic(path, head)
+
+
+def open_capture(path: str, batch=None, info: ReadInfo | None = None) -> Iterator[tuple[int, int, int, bytes]]:
     """Yield frames of the pcap/pcapng file at ``path``; raise CaptureError on bad input.
 
     ``batch`` (pndiss/batch.py) is offered the buffered records now and then: it may consume a
     whole steady run of them itself (those frames are then not yielded; frame numbers still count
-    them) or say after how many frames to ask again."""
+    them) or say after how many frames to ask again. ``info`` (a ReadInfo) receives the input's
+    hash and the count of clamped time stamps."""
     try:
         f = open(path, "rb")
     except OSError as e:
         raise CaptureError(f"cannot open {path}: {e.strerror}") from None
     with f:
-        b = _Buffer(f)
-        if not b.need(4):
-            raise CaptureError(f"{path}: empty file or too short to be a capture (no pcap/pcapng header)")
-        magic = struct.unpack_from("<I", b.buf, 0)[0]
+        b = _Buffer(f, info)
+        b.need(4)
+        magic = _check_magic(path, b.buf[b.pos:b.pos + 4])
         if magic in PCAP_MAGICS:
             yield from _read_pcap(path, b, *PCAP_MAGICS[magic], batch)
-        elif magic == PCAPNG_SHB:
-            yield from _read_pcapng(path, b, batch)
         else:
-            raise CaptureError(f"{path}: not a pcap or pcapng file (magic 0x{magic:08x})")
+            yield from _read_pcapng(path, b, batch)
 
 
 NEVER = 1 << 62  # frame number at which to offer records to the batch path when there is none
@@ -153,7 +242,9 @@ def _read_pcap(path: str, b: _Buffer, bo: str, ns: bool, batch=None) -> Iterator
 
 
 def _tsres_to_ns(resol: int):
-    """Return a function converting pcapng timestamp units to ns (if_tsresol, default 10^-6)."""
+    """Return a function converting pcapng timestamp units to ns (if_tsresol, default 10^-6).
+    Any resolution is accepted as tshark does: 0x00 and 0x80 are seconds, 10^-127 and 2^-127
+    make every time stamp 0."""
     if resol & 0x80:
         shift = resol & 0x7F
         return lambda t: (t * 1_000_000_000) >> shift
@@ -165,12 +256,31 @@ def _tsres_to_ns(resol: int):
     return lambda t: t // d
 
 
+def _ts_limit(mult: int, off: int) -> int:
+    """Largest raw time stamp the EPB loop may multiply by ``mult`` (+ ``off``) without leaving
+    [0, TS_MAX]: above it (or below 0 after a negative if_tsoffset) the time stamp is clamped."""
+    if not mult or off < 0:
+        return -1   # not a plain multiply, or an offset that may go negative: check every frame
+    return max(-1, (TS_MAX - off) // mult)
+
+
 def _read_pcapng(path: str, b: _Buffer, batch=None) -> Iterator[tuple[int, int, int, bytes]]:
     n = 0
     retry = 0 if batch is not None else NEVER
     bo = "<"
     epb_bo = {"<": struct.Struct("<IIIIII"), ">": struct.Struct(">IIIIII")}  # type, length, if, ts hi/lo, caplen
-    ifaces: list[tuple[int, object, int, int]] = []  # (linktype, ts->ns function, tsoffset ns, multiplier or 0)
+    # (linktype, ts->ns function, tsoffset ns, multiplier or 0, snaplen, largest raw ts of the fast multiply)
+    ifaces: list[tuple] = []
+    info = b.info
+    last_ts = 0
+
+    def bad(what: str) -> CaptureError:
+        return CaptureError(f"{path}: corrupt pcapng block after frame {n}: {what} (tshark refuses it too)", n)
+
+    def ts_of(fn: int, iface, raw: int) -> int:
+        t = iface[1](raw) + iface[2]
+        return t if 0 <= t <= TS_MAX else info.clamp(fn, t)
+
     while True:
         if not b.need(12):
             if len(b.buf) - b.pos:
@@ -196,6 +306,7 @@ def _read_pcapng(path: str, b: _Buffer, batch=None) -> Iterator[tuple[int, int, 
             # one precompiled unpack per block, no method call; anything else goes the long way.
             buf, pos, end = b.buf, b.pos, len(b.buf)
             unpack = epb_bo[bo].unpack_from
+            trail = struct.Struct(bo + "I").unpack_from
             nif = len(ifaces)
             take = batch.pcapng(bo, ifaces) if batch is not None else None
             while pos + 28 <= end:
@@ -206,11 +317,18 @@ def _read_pcapng(path: str, b: _Buffer, batch=None) -> Iterator[tuple[int, int, 
                         continue
                     retry = n + r
                 btype, blen, ifid, hi, lo, cap = unpack(buf, pos)
-                if btype != 6 or ifid >= nif or blen % 4 or blen < 32 + cap or pos + blen > end:
+                if btype != 6 or ifid >= nif or blen % 4 or blen < 32 + cap or pos + blen > end \
+                        or cap > MAX_PACKET or trail(buf, pos + blen - 4)[0] != blen:
                     break
-                lt, conv, off, mult = ifaces[ifid]
+                iface = ifaces[ifid]
                 n += 1
-                yield n, (((hi << 32) | lo) * mult if mult else conv((hi << 32) | lo)) + off, lt, buf[pos + 28:pos + 28 + cap]
+                t = (hi << 32) | lo
+                if t <= iface[5]:
+                    t = t * iface[3] + iface[2]
+                else:
+                    t = ts_of(n, iface, t)
+                last_ts = t
+                yield n, t, iface[0], buf[pos + 28:pos + 28 + cap]
                 pos += blen
             if pos != b.pos:
                 b.pos = pos
@@ -218,29 +336,49 @@ def _read_pcapng(path: str, b: _Buffer, batch=None) -> Iterator[tuple[int, int, 
             btype, blen = 6, struct.unpack_from(bo + "I", buf, pos + 4)[0]  # not even one: the long way says why
         p = b.pos
         body = p + 8
-        if btype == 6:  # Enhanced Packet Block
-            ifid, hi, lo, cap, _orig = struct.unpack_from(bo + "IIIII", b.buf, body)
-            if ifid >= len(ifaces) or 20 + cap > blen - 12:
-                raise CaptureError(f"{path}: bad enhanced packet block after frame {n}", n)
-            lt, conv, off, _ = ifaces[ifid]
+        # what tshark 4.0 checks of every block: its type's minimum length, both lengths equal
+        if blen < MIN_LEN.get(btype, 12):
+            raise bad(f"total block length {blen} of {MIN_NAMES[btype]} is less than its minimum {MIN_LEN[btype]}")
+        if btype != BT_SPB:
+            tail = struct.unpack_from(bo + "I", b.buf, p + blen - 4)[0]
+            if tail != blen:
+                raise bad(f"total block lengths (first {blen} and second {tail}) don't match")
+        if btype == BT_EPB or btype == BT_PB:
+            if btype == BT_EPB:
+                ifid, hi, lo, cap, _orig = struct.unpack_from(bo + "IIIII", b.buf, body)
+            else:
+                ifid, _drops, hi, lo, cap, _orig = struct.unpack_from(bo + "HHIIII", b.buf, body)
+            if ifid >= len(ifaces):
+                raise bad(f"interface index {ifid} is not less than the section's interface count {len(ifaces)}")
+            if cap > MAX_PACKET:
+                raise bad(f"captured length {cap} is larger than {MAX_PACKET}")
+            if 32 + cap > blen:
+                raise bad(f"total block length {blen} is too small for {cap} bytes of packet data")
             n += 1
-            yield n, conv((hi << 32) | lo) + off, lt, b.buf[body + 20:body + 20 + cap]
-        elif btype == 3:  # Simple Packet Block: interface 0, no timestamp
+            last_ts = ts_of(n, ifaces[ifid], (hi << 32) | lo)
+            yield n, last_ts, ifaces[ifid][0], b.buf[body + 20:body + 20 + cap]
+        elif btype == BT_SPB:  # Simple Packet Block: interface 0, no timestamp, no options
             if not ifaces:
-                raise CaptureError(f"{path}: simple packet block before any interface after frame {n}", n)
+                raise bad("simple packet block before any interface description")
             orig = struct.unpack_from(bo + "I", b.buf, body)[0]
-            cap = min(orig, blen - 16)
+            snap = ifaces[0][4]
+            cap = min(orig, snap) if snap else orig
+            if 16 + cap > blen:
+                raise bad(f"total block length {blen} is too small for {cap} bytes of packet data")
+            at = p + 12 + ((cap + 3) & ~3)   # tshark reads the trailing length right after the data
+            tail = struct.unpack_from(bo + "I", b.buf, at)[0]
+            if tail != blen:
+                raise bad(f"total block lengths (first {blen} and second {tail}) don't match")
             n += 1
             yield n, 0, ifaces[0][0], b.buf[body + 4:body + 4 + cap]
-        elif btype == 2:  # obsolete Packet Block
-            ifid, _drops, hi, lo, cap, _orig = struct.unpack_from(bo + "HHIIII", b.buf, body)
-            if ifid >= len(ifaces) or 20 + cap > blen - 12:
-                raise CaptureError(f"{path}: bad packet block after frame {n}", n)
-            lt, conv, off, _ = ifaces[ifid]
+        elif btype == BT_CB or btype == BT_CB_NOCOPY or btype == BT_JOURNAL:
+            # tshark 4.0 shows custom blocks (any PEN) and systemd journal entries as frames of their
+            # own; without counting them every later frame number would be one off Wireshark's
             n += 1
-            yield n, conv((hi << 32) | lo) + off, lt, b.buf[body + 20:body + 20 + cap]
-        elif btype == 1:  # Interface Description Block
-            lt = struct.unpack_from(bo + "H", b.buf, body)[0]
+            start = body + 4 if btype != BT_JOURNAL else body
+            yield n, last_ts, LINKTYPE_NONE, b.buf[start:p + blen - 4]
+        elif btype == BT_IDB:  # Interface Description Block
+            lt, _res, snap = struct.unpack_from(bo + "HHI", b.buf, body)
             resol, tsoff = 6, 0
             o, end = body + 8, p + blen - 4
             while o + 4 <= end:
@@ -253,5 +391,6 @@ def _read_pcapng(path: str, b: _Buffer, batch=None) -> Iterator[tuple[int, int, 
                     tsoff = struct.unpack_from(bo + "q", b.buf, o + 4)[0] * 1_000_000_000
                 o += 4 + ((olen + 3) & ~3)
             # decimal resolutions up to ns are a plain multiply: the hot loop inlines it
-            ifaces.append((lt, _tsres_to_ns(resol), tsoff, 10 ** (9 - resol) if resol <= 9 else 0))
+            mult = 10 ** (9 - resol) if resol <= 9 else 0
+            ifaces.append((lt, _tsres_to_ns(resol), tsoff, mult, snap, _ts_limit(mult, tsoff)))
         b.pos = p + blen

@@ -13,7 +13,7 @@ the analyzer has a sink.
 """
 from __future__ import annotations
 
-from . import rules
+from . import limits, rules
 from . import telegrams as tg
 from .encoder import Checker, EncoderConfig
 from .encoder.acyclic import tg_length_problem
@@ -85,16 +85,20 @@ class CyclicTracker:
     def __init__(self, analyzer):
         self.a = analyzer
         self.s = analyzer.settings
-        self.frames: dict = {}        # (frame_id, src, dst) -> _Frame | None
         self.misses: dict = {}        # unmapped key -> frames seen since the last lookup
+        # (frame_id, src, dst) -> _Frame | None; bounded (Settings.max_streams), misses go with their key
+        lim = limits.of(analyzer)
+        self.frames: dict = lim.table(self.s.max_streams, "streams",
+                                                  lambda k, _v: self.misses.pop(k, None))
         self.map_generation = None    # session.map_generation the cached layouts belong to
-        self.axes: dict = {}          # axis key -> _Axis
+        self.axes: dict = lim.table(self.s.max_streams, "streams")   # axis key -> _Axis
         self.unmapped = 0
         self.mapped = 0
         self.gated = 0
-        self.records: dict = {}       # device -> [record/param events] (replayed into new axes)
-        self.bf00: dict = {}          # device MAC -> (ar_uuid, decoded 0xBF00) of the latest write
-        self.prev_bf00: dict = {}     # device MAC -> decoded 0xBF00 of an earlier connection (#31)
+        cap = self.s.max_stations
+        self.records: dict = lim.table(cap, "profiles")  # device -> [record/param events] (replayed into new axes)
+        self.bf00: dict = lim.table(cap, "profiles")     # device MAC -> (ar_uuid, decoded 0xBF00) of the latest write
+        self.prev_bf00: dict = lim.table(cap, "profiles")  # device MAC -> decoded 0xBF00 of an earlier connection (#31)
         self.byte_order = "little" if self.s.byte_order == "little" else "big"
         # With a sink: called as telegram_sink(obj, frame, frame_id, fn, ts, iops, judged) instead of building
         # a ``telegram`` event dict per frame (the MCAP exporter formats its message from obj.sig itself).

@@ -51,12 +51,12 @@ def run_file(a, path: str, progress=None) -> None:
     batch engine straight from the reader's buffer, every other frame through run()."""
     from .capture import open_capture
 
-    streams: dict = {}
+    streams = new_streams(a)
     engine = None
     if batch_enabled():
         from .batch import Engine
         engine = Engine(a, streams, progress)
-    frames = open_capture(path, batch=engine)
+    frames = open_capture(path, batch=engine, info=a.reader)
     if progress is not None:
         frames = _with_progress(frames, progress)
     run(a, frames, streams, engine)
@@ -73,7 +73,7 @@ def run(a, frames, streams: dict | None = None, engine=None) -> None:
     """Feed ``frames`` ((fn, ts, linktype, data) tuples) into analyzer ``a``. ``streams`` is shared
     with the batch ``engine`` (which takes frames of the streams learned here)."""
     if streams is None:
-        streams = {}          # data[:16] -> _Stream, or None when the key is not a fast cyclic stream
+        streams = new_streams(a)   # data[:16] -> _Stream of a fast cyclic stream (nothing for other frames)
     get = streams.get
     feed = a.feed
     on_cyclic = a.cyclic.on_cyclic
@@ -95,14 +95,24 @@ def run(a, frames, streams: dict | None = None, engine=None) -> None:
                         a._malformed(fn, ts, e.layer, e.reason)
                     continue
                 feed(fn, ts, lt, data)
-                if s is False:
-                    streams[key] = learn_stream(data, off)
+                if data[off - 2:off] == ETH_PNRT:   # no per-header state for frames that are no PN-RT
+                    s = learn_stream(data, off)
+                    if s is not None:
+                        streams[key] = s
             else:
                 feed(fn, ts, lt, data)
     finally:
         if engine is not None and engine.last_fn > (fn or 0):
             fn, ts = engine.last_fn, engine.last_ts   # the capture ended in a batched run
         _settle(a, streams, fn, ts)
+
+
+def new_streams(a, settle=None):
+    """The fast path's stream table, bounded by Settings.max_streams: an evicted stream's frame counts go
+    to the analyzer at once (``settle``, default settle_counts) and the stream is learned again if it
+    comes back."""
+    settle = settle or settle_counts
+    return a.limits.table(a.settings.max_streams, "streams", lambda _k, s: settle(a, [s]))
 
 
 def learn_stream(data: bytes, off: int):

@@ -112,7 +112,7 @@ class _ExportRun(batch._Run):
         if info[0] == "pcapng":
             bo, ifaces = info[1], info[2]
             ifid = struct.unpack_from(bo + "I", self.buf, rec + 8)[0]   # one interface per column (batch.py checks)
-            _lt, _conv, off, mult = ifaces[ifid]
+            _lt, _conv, off, mult = ifaces[ifid][:4]
             if not mult:
                 return None
             t = (field(12, bo + "u4").astype(np.uint64) << np.uint64(32)) | field(16, bo + "u4").astype(np.uint64)

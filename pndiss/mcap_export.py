@@ -237,6 +237,7 @@ class McapExporter:
         if decimate < 1:
             raise ValueError("decimate must be >= 1")
         self.path, self.capture_path, self.settings = path, capture_path, settings
+        self.reader_info = None   # capture.ReadInfo of the run: the input's hash, taken while it was read
         self.on_change, self.decimate = on_change, int(decimate)
         self.keyframe_ns = int(keyframe_s * 1e9)
         self.compression = compression
@@ -501,17 +502,25 @@ class McapExporter:
         from .capture import CaptureError, open_capture
 
         if self.reference:
-            return analyze_file(path, settings, self.on_event, progress)
+            try:
+                a = analyze_file(path, settings, self.on_event, progress)
+            except CaptureError as e:
+                self.reader_info = getattr(getattr(e, "analyzer", None), "reader", None)
+                raise
+            self.reader_info = a.reader
+            return a
         a = Analyzer(settings)
+        self.reader_info = a.reader
         self.attach(a)
-        streams: dict = {}
+        from .fast import new_streams
+        streams = new_streams(a, lambda a, rs: self._settle(a, rs))
         engine = None
         if a.settings.fast_path and os.environ.get("PNDISS_FAST_PATH", "1") != "0" \
                 and os.environ.get("PNDISS_BATCH", "1") != "0":
             from .mcap_batch import export_engine
             engine = export_engine(a, self, streams, progress)
         try:
-            frames = open_capture(path, batch=engine)
+            frames = open_capture(path, batch=engine, info=a.reader)
             if progress is not None:
                 frames = _with_progress(frames, progress)
             _run(a, self, frames, streams, engine)
@@ -649,7 +658,12 @@ class McapExporter:
         if self.capture_path:
             meta["capture"] = os.path.basename(self.capture_path)
             meta["capture_path"] = self.capture_path
-            meta["capture_sha256"] = _sha256(self.capture_path)
+            if self.reader_info is not None:   # hashed while it was read: never a second pass
+                meta["capture_sha256"] = self.reader_info.sha256()
+                if self.reader_info.ts_clamped:   # log times of these messages are clamped to [0, 2^63) ns
+                    meta["timestamps_clamped"] = str(self.reader_info.ts_clamped)
+            else:
+                meta["capture_sha256"] = _sha256(self.capture_path)
         if self.settings is not None:
             s = self.settings.as_dict() if hasattr(self.settings, "as_dict") else dict(self.settings)
             meta["settings"] = json.dumps(s, sort_keys=True, default=_default)
@@ -691,7 +705,7 @@ def _run(a, exp: McapExporter, frames, streams: dict, engine=None) -> None:
                         a._malformed(fn, ts, e.layer, e.reason)
                     continue
                 feed(fn, ts, lt, data)
-                if r is False:
+                if r is False and data[off - 2:off] == b"\x88\x92":   # no per-header state for other frames
                     st = learn(data, off)   # (key, class) when the frames are cyclic PN-RT
                     r = st and exp._stream(*st.key, data, off)
                     if r is not None:
@@ -709,6 +723,10 @@ def _run(a, exp: McapExporter, frames, streams: dict, engine=None) -> None:
 
 
 def _sha256(path: str) -> str:
+    """Hash of a capture this exporter did not read itself (a sink of `analyze`): only a regular file,
+    which ends; a FIFO or a device (/dev/zero) would be read forever or lost."""
+    if not os.path.isfile(path):
+        return ""
     h = hashlib.sha256()
     try:
         with open(path, "rb") as f:

@@ -17,7 +17,10 @@ from rich.table import Table
 def _ts(ns: int | None) -> str:
     if ns is None:
         return "-"
-    return time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime(ns // 1_000_000_000)) + f".{ns % 1_000_000_000:09d}"[:7] + " UTC"
+    try:
+        return time.strftime("%Y-%m-%d %H:%M:%S", time.gmtime(ns // 1_000_000_000)) + f".{ns % 1_000_000_000:09d}"[:7] + " UTC"
+    except (OverflowError, OSError, ValueError):   # beyond the platform's dates: the number itself
+        return f"{ns} ns since 1970"
 
 
 class ProgressReporter:
@@ -59,6 +62,12 @@ def render_report(summary: dict, analyzer, to_stderr: bool = False) -> None:
         dur = (summary["last_ts_ns"] - summary["first_ts_ns"]) / 1e9
     con.print(f"{summary['frames']:,} frames, {_ts(summary['first_ts_ns'])} … "
               f"{_ts(summary['last_ts_ns'])}" + (f" ({dur:.3f} s)" if dur is not None else ""))
+    clamped = (summary.get("input") or {}).get("timestamps_clamped")
+    if clamped:
+        con.print(f"{clamped:,} time stamps outside 1970..2262 (if_tsresol / if_tsoffset / 64-bit values) shown "
+                  f"clamped, the first in frame {summary['input']['timestamps_clamped_first_frame']}", markup=False)
+    for note in (summary.get("limits") or {}).get("notes", ()):
+        con.print(note, markup=False)
     t = Table(title="Frame accounting", show_header=True)
     t.add_column("decoded", justify="right")
     t.add_column("not PROFINET", justify="right")

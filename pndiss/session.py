@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections import OrderedDict
 
-from . import armap
+from . import armap, limits
 from .proto import dcerpc, ip, pnio_cm
 from .proto.common import Malformed
 
@@ -86,18 +86,21 @@ class SessionTracker:
         s = analyzer.settings
         self.ipr = ip.IpReassembler()
         self.rpcr = dcerpc.FragmentReassembler()
-        self.calls: OrderedDict = OrderedDict()   # (act, seq) -> request info
-        self.ars: dict[str, dict] = {}            # ar_uuid -> latest AR of that UUID
+        lim = limits.of(analyzer)  # bounded per-key tables (pndiss/limits.py): evictions are counted and reported
+        self.calls: dict = lim.table(s.max_calls, "calls")   # (act, seq) -> request info
+        # ar_uuid -> latest AR of that UUID; an evicted AR takes its frame maps along (O(its maps))
+        self.ars: dict[str, dict] = lim.table(s.max_ars, "ars", self._forget_ar)
         self.ar_list: list[dict] = []             # every Connect outcome, in order (report/summary)
         self.orphans: OrderedDict = OrderedDict()  # (act, seq) -> Connect response seen before its request
         self.maps: dict[tuple, armap.FrameMap] = {}
+        self.map_keys: dict[int, list] = {}        # id(AR record) -> keys of its maps in self.maps
         self.rt_ports = {PORT_RT_UDP}
         self.ip_datagrams: dict[tuple, bool] = {}  # IP fragment key -> PNIO? (bounded with ipr)
         self.record_rows: list[dict] = []
         self.pending_writes: dict[tuple, list] = {}  # (act, seq) -> record events awaiting results
-        self.profiles: dict[str, tuple[str, str]] = {}
-        self.im0: dict[str, dict] = {}              # device MAC -> I&M0 decoded
-        self.telegram_p922: dict[tuple, int] = {}   # (device mac, api, slot, subslot) -> P922 value
+        self.profiles: dict[str, tuple[str, str]] = lim.table(s.max_stations, "profiles")
+        self.im0: dict[str, dict] = lim.table(s.max_stations, "profiles")   # device MAC -> I&M0 decoded
+        self.telegram_p922: dict[tuple, int] = lim.table(s.max_stations, "profiles")  # (device mac, api, slot, subslot) -> P922
         self.counts = {"rpc": 0, "rpc_fragments": 0, "ip_fragments": 0, "records": 0, "params": 0,
                        "connects": 0, "connect_refused": 0, "releases": 0}
         self.pairer = _records.ParamPairer() if _records is not None else None
@@ -234,8 +237,6 @@ class SessionTracker:
         if ptype == dcerpc.REQUEST and stub is not None and key not in self.calls:
             self.calls[key] = {"frame": fn, "ts": ts, "opnum": hdr["opnum"], "conv": conv, "pdu": None,
                                "src": src, "dst": dst}
-            if len(self.calls) > MAX_CALLS:
-                self.calls.popitem(last=False)
         if stub is None or iface == "EPM" or ptype not in (dcerpc.REQUEST, dcerpc.RESPONSE) or not stub:
             self.a.emit(ev)
             return
@@ -251,10 +252,20 @@ class SessionTracker:
         self._cm(fn, ts, ev, pdu, key, src, dst)
 
     def _report_dropped(self, dropped, layer) -> None:
+        """One malformed event per dropped reassembly; its frames, counted as decoded when they came,
+        move to the malformed bucket, so the accounting agrees with the events (issue #18 item 5)."""
+        counts = getattr(self.a, "counts", None)
         for frames, reason in dropped:
-            self.a._malformed(frames[-1], self.a.cur_ts, layer,
-                              f"{reason}; frames {', '.join(map(str, frames[:20]))}"
-                              + (" ..." if len(frames) > 20 else ""))
+            total = getattr(frames, "total", len(frames))
+            last = getattr(frames, "last", None) or frames[-1]
+            if counts is not None:
+                counts["decoded"] -= total
+                counts["malformed"] += total
+            self.counts["reassembly_dropped_frames"] = self.counts.get("reassembly_dropped_frames", 0) + total
+            self.a._malformed(last, self.a.cur_ts, layer,
+                              f"{reason}; frames ({total}): "
+                              f"{', '.join(map(str, frames[:20]))}"
+                              + (f" ... {last}" if total > 20 else ""))
 
     def _expire(self, ts) -> None:
         if self.ipr.pending:
@@ -332,7 +343,7 @@ class SessionTracker:
         station = arq.get("cminitiator_station_name")
         dev_station = self._station(device) or ((sb.get(0x8106) or [{}])[0].get("cminitiator_station_name"))
         ar_uuid = arq["ar_uuid"]
-        iocrs, frame_maps = [], []
+        iocrs, frame_maps, fm_keys = [], [], []
         for cr in rb.get(0x0102, []):
             fid = res_fid.get(cr["iocr_reference"], cr["frame_id"])
             direction = {1: "input", 2: "output", 3: "input"}.get(cr["iocr_type"])
@@ -374,6 +385,7 @@ class SessionTracker:
                         fm.iocs.append(ic)
             if fm is not None:
                 self.maps[(fid, s_mac, d_mac)] = fm
+                fm_keys.append((fid, s_mac, d_mac))
                 frame_maps.append(fm)
             iocrs.append(info)
         alarm = (rb.get(0x0103) or [None])[0]
@@ -401,11 +413,11 @@ class SessionTracker:
               "released": False}
         rec = dict(ar, maps=frame_maps)
         if ok or ar_uuid not in self.ars:  # a refused retry does not hide the AR that is up
-            self.ars[ar_uuid] = rec
-            if len(self.ars) > MAX_ARS:  # bounded: forget the oldest AR and its frame maps
-                old = self.ars.pop(next(iter(self.ars)))
-                for k in [k for k, fm in self.maps.items() if any(fm is m for m in old["maps"])]:
-                    del self.maps[k]
+            prev = self.ars.get(ar_uuid)
+            if prev is not None:
+                self.map_keys.pop(id(prev), None)
+            self.map_keys[id(rec)] = fm_keys   # where its maps sit in self.maps, for _forget_ar
+            self.ars[ar_uuid] = rec   # bounded: the oldest AR goes, with its frame maps (_forget_ar)
         for cr in rb.get(0x0102, []):  # RT_CLASS_UDP: follow the UDP port the AR names
             if cr["iocr_properties_rtclass"] == 4:
                 self.rt_ports.add(arq["cminitiator_udprtport"])
@@ -417,6 +429,14 @@ class SessionTracker:
             self.a.stations.update(device, name=dev_station)
         self.map_generation += 1
         self.a.emit(ar)
+
+    def _forget_ar(self, _uuid, old: dict) -> None:
+        """An AR evicted from the bounded table: drop its frame maps (those no newer AR replaced)."""
+        for k in self.map_keys.pop(id(old), ()):
+            fm = self.maps.get(k)
+            if fm is not None and any(fm is m for m in old["maps"]):
+                del self.maps[k]
+        self.map_generation += 1
 
     def _assign_telegram(self, do: armap.DataObject, e: dict, device: str, station: str | None) -> str | None:
         """user map > P922 > GSDML > length guess (docs/map.md); returns the guess's note, if any."""

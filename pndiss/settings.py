@@ -36,6 +36,12 @@ class Settings:
     # Report-only runs (no JSONL/MCAP sink) take pndiss/fast.py for cyclic frames; False (or env
     # PNDISS_FAST_PATH=0) forces the reference path. Same results either way (tests/test_fastpath.py).
     fast_path: bool = True
+    # --- bounded per-key tables (issue #18): beyond a limit the oldest entry is evicted, and the summary
+    # says how many were not tracked (pndiss/limits.py). Memory stays flat under floods of random keys.
+    max_streams: int = 65536          # cyclic streams (FrameID, src, dst) and their layouts / axes
+    max_stations: int = 10000         # stations by MAC (and DCP name/IP claims, device profiles)
+    max_ars: int = 4096               # ARs with their frame maps
+    max_calls: int = 4096             # RPC requests awaiting their response, record writes awaiting results
 
     @classmethod
     def from_file(cls, path: str) -> "Settings":

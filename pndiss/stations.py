@@ -7,8 +7,8 @@ from __future__ import annotations
 
 
 class Stations:
-    def __init__(self):
-        self.by_mac: dict[str, dict] = {}
+    def __init__(self, by_mac: dict | None = None):
+        self.by_mac: dict[str, dict] = {} if by_mac is None else by_mac   # a limits.BoundedDict in the analyzer
 
     def get(self, mac: str) -> dict:
         s = self.by_mac.get(mac)

@@ -64,7 +64,7 @@ def test_pcapng_interfaces_and_blocks(tmp_path, bo):
             + epb(1, 2_000_000_000, ETH, bo)    # ns resolution: 2 s
             + block(3, struct.pack(bo + "I", len(ETH)) + ETH, bo)  # SPB
             + block(2, struct.pack(bo + "HHIIII", 1, 0, 0, 5, len(ETH), len(ETH)) + ETH, bo)  # OPB
-            + block(5, bytes(8), bo))  # ISB: skipped
+            + block(5, bytes(12), bo))  # ISB: skipped
     got = list(open_capture(write(tmp_path, "a.pcapng", data)))
     assert [(f[0], f[1]) for f in got] == [(1, 10**9), (2, 2 * 10**9), (3, 0), (4, 5)]
     assert all(f[3] == ETH for f in got)

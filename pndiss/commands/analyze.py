@@ -103,6 +103,8 @@ def run(args) -> int:
     from ..report import ProgressReporter, render_report
 
     check_capture_path(args.capture)
+    from ..capture import refuse_non_capture
+    refuse_non_capture(args.capture)   # the refusal every command shares (export, plot, report)
     settings = settings_from_args(args)
     sinks = []
     jsonl = open_out(args.jsonl) if args.jsonl else None

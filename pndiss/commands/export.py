@@ -1,6 +1,7 @@
 """``pndiss export CAPTURE -o out.mcap``: the analysis as an MCAP timeline for Foxglove."""
 from __future__ import annotations
 
+import os
 import sys
 
 from .analyze import add_settings_args, check_capture_path, settings_from_args
@@ -24,12 +25,13 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..capture import CaptureError
+    from ..capture import CaptureError, NotACapture, refuse_non_capture
     from ..errors import UsageError
 
     from ..mcap_export import McapExporter, UnsupportedCompression
 
     check_capture_path(args.capture)
+    refuse_non_capture(args.capture)   # /dev/zero, /dev/urandom, a text file: exit 2 before any output
     if args.decimate < 1:
         raise UsageError("--decimate must be 1 or more")
     if args.keyframe <= 0:
@@ -49,6 +51,12 @@ def run(args) -> int:
         error = e
     finally:
         exp.close()
+    if isinstance(error, NotACapture):   # a FIFO that carried no capture: nothing worth keeping
+        try:
+            os.unlink(args.output)
+        except OSError:
+            pass
+        raise error
     if error is not None:
         print(f"pndiss: error: {error} ({error.frames} frames read before it); "
               f"{args.output} holds what was read", file=sys.stderr)

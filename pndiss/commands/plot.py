@@ -22,11 +22,12 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     from ..analyzer import analyze_file
-    from ..capture import CaptureError
+    from ..capture import CaptureError, NotACapture, refuse_non_capture
     from ..errors import UsageError
     from ..plot import PlotUnavailable, Timeline, render_html, render_png
 
     check_capture_path(args.capture)
+    refuse_non_capture(args.capture)   # the same refusal as every command, before any work
     ext = os.path.splitext(args.output)[1].lower()
     if ext not in (".png", ".html", ".htm"):
         raise UsageError(f"{args.output}: the output must end in .png or .html")
@@ -51,6 +52,8 @@ def run(args) -> int:
     tl = Timeline(args.max_points)
     try:
         analyze_file(args.capture, settings, tl.on_event)
+    except NotACapture:
+        raise   # a FIFO that carried no capture: exit 2, no picture
     except CaptureError as e:
         print(f"pndiss: error: {e} ({e.frames} frames read before it); plotting what was read",
               file=sys.stderr)

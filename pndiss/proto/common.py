@@ -57,10 +57,32 @@ def u32(d: bytes, o: int) -> int:
     return U32.unpack_from(d, o)[0]
 
 
+KEEP_FRAMES = 1024  # frame numbers a reassembly keeps by name; beyond, it counts them (bounded memory)
+
+
+class FrameList(list):
+    """The frames of one reassembly: the first KEEP_FRAMES by number, ``total`` and ``last`` of all."""
+
+    __slots__ = ("total", "last")
+
+    def __init__(self, first=()):
+        super().__init__(first)
+        self.total = len(self)
+        self.last = self[-1] if self else None
+
+    def add(self, fn: int) -> None:
+        self.total += 1
+        self.last = fn
+        if len(self) < KEEP_FRAMES:
+            self.append(fn)
+
+
 class PendingBuffers:
     """Bookkeeping shared by the reassemblers (IPv4, DCE/RPC): pending entries with their frames,
-    first time stamp and byte count; dropped ones come back as ``(frames, reason)`` so the caller
-    reports them as malformed. Subclasses set ``what`` (for the reasons) and ``timeout_ns``."""
+    first time stamp and byte count; dropped ones come back as ``(frames, reason)`` (frames a
+    FrameList) so the caller reports them as malformed. Subclasses set ``what`` (for the reasons)
+    and ``timeout_ns``. Entries are dicts in arrival order, so the oldest (first to time out, first
+    evicted) is the first key: ``expire`` looks at that one only, O(1) per call while nothing is due."""
 
     what = "reassembly"
 
@@ -77,9 +99,16 @@ class PendingBuffers:
 
     def expire(self, now_ns: int | None) -> list[tuple[list[int], str]]:
         """Drop entries older than the time-out (all of them with ``now_ns=None``, end of capture)."""
-        for key in [k for k, p in self.pending.items()
-                    if now_ns is None or now_ns - p["ts"] > self.timeout_ns]:
-            self._drop(key, f"{self.what} incomplete at end of capture" if now_ns is None
-                       else f"{self.what} timed out")
+        pending = self.pending
+        if now_ns is None:
+            for key in list(pending):
+                self._drop(key, f"{self.what} incomplete at end of capture")
+        else:
+            # pending is in arrival order and time stamps mostly rise: stop at the first entry not due
+            while pending:
+                key = next(iter(pending))
+                if now_ns - pending[key]["ts"] <= self.timeout_ns:
+                    break
+                self._drop(key, f"{self.what} timed out")
         out, self.dropped = self.dropped, []
         return out

@@ -10,7 +10,7 @@ import struct
 import uuid
 from datetime import datetime, timezone
 
-from .common import Malformed, PendingBuffers
+from .common import FrameList, Malformed, PendingBuffers
 
 HDR_LEN = 80
 
@@ -112,19 +112,27 @@ class FragmentReassembler(PendingBuffers):
         self.max_call_bytes = max_call_bytes
 
     def add(self, fn: int, ts: int, h: dict, data: bytes) -> tuple[bytes, list[int]] | None:
-        """Add one fragment; returns (whole body, frames) when the last one closes the set."""
+        """Add one fragment; returns (whole body, frames) when the last one closes the set.
+        O(1) per fragment: ``contig`` counts the fragments 0, 1, ... present without a gap (before:
+        every fragment rescanned all numbers up to the last one, quadratic for a call with a hole)."""
         key = (h["dg_act_id"], h["dg_seqnum"], h["pkt_type"])
         body = data[h["body_off"]:h["body_end"]]
         p = self.pending.get(key)
         if p is None:
             while len(self.pending) >= self.max_calls:
                 self._drop(next(iter(self.pending)), "DCE/RPC reassembly buffer full")
-            p = self.pending[key] = {"ts": ts, "frames": [], "parts": {}, "bytes": 0, "last": None}
-        p["frames"].append(fn)
-        if h["dg_frag_num"] not in p["parts"]:
-            p["parts"][h["dg_frag_num"]] = body
+            p = self.pending[key] = {"ts": ts, "frames": FrameList(), "parts": {}, "bytes": 0, "last": None,
+                                     "contig": 0}
+        p["frames"].add(fn)
+        parts = p["parts"]
+        if h["dg_frag_num"] not in parts:
+            parts[h["dg_frag_num"]] = body
             p["bytes"] += len(body)
             self.bytes += len(body)
+            c = p["contig"]
+            while c in parts:   # each number is passed once in the call's life
+                c += 1
+            p["contig"] = c
         if h["dg_flags1"] & F1_LAST:
             p["last"] = h["dg_frag_num"]
         if p["bytes"] > self.max_call_bytes:
@@ -132,9 +140,7 @@ class FragmentReassembler(PendingBuffers):
             return None
         while self.bytes > self.max_bytes and self.pending:
             self._drop(next(iter(self.pending)), "DCE/RPC reassembly byte budget exceeded")
-        if key not in self.pending or p["last"] is None or len(p["parts"]) <= p["last"]:
-            return None
-        if any(i not in p["parts"] for i in range(p["last"] + 1)):
+        if key not in self.pending or p["last"] is None or p["contig"] <= p["last"]:
             return None
         del self.pending[key]
         self.bytes -= p["bytes"]

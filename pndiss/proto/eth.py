@@ -13,6 +13,8 @@ MAX_TAGS = 16
 
 def decode_link(linktype: int, data: bytes):
     """(dst_mac_bytes, src_mac_bytes, ethertype, payload_offset, tags) or raise Malformed."""
+    if linktype == -1:  # capture.LINKTYPE_NONE: a pcapng custom/journal block tshark numbers as a frame
+        return b"", b"", -1, 0, None
     if linktype == 1:
         if len(data) < 14:
             raise Malformed("eth", f"frame of {len(data)} bytes is shorter than an Ethernet header")
