@@ -80,27 +80,73 @@ def need_tshark() -> str:
     return t
 
 
-@functools.lru_cache(maxsize=64)
+@functools.lru_cache(maxsize=8)
 def tshark_ek(path: str, extra: tuple = ()) -> dict[int, dict[str, list]]:
-    """{frame number: {tshark field with '_' for '.': [values]}} from ``tshark -T ek``."""
+    """{frame number: {tshark field with '_' for '.': [values]}} from ``tshark -T ek``.
+
+    Keys ek writes at the layer level (``pn_rt_pn_user_data``, ``dcerpc_dcerpc_fragments``: the
+    "flat" keys of fields added outside a protocol subtree) are kept under their own name, so
+    they are seen and compared like any other field.
+    """
     out = subprocess.run([need_tshark(), "-n", "-r", path, "-T", "ek", *extra],
                          capture_output=True, text=True, check=True).stdout
     frames: dict[int, dict[str, list]] = {}
+    layers_of: dict[int, dict[str, set]] = {}
     for line in out.splitlines():
         if not line.startswith('{"timestamp"'):
             continue
-        layers = json.loads(line)["layers"]
+        layers = json.loads(line, object_pairs_hook=_keep_duplicates)["layers"]
         fn = int(layers["frame"]["frame_frame_number"])
         fields: dict[str, list] = defaultdict(list)
+        owner: dict[str, set] = defaultdict(set)  # layer -> field names found in it
         for lname, body in layers.items():
+            if not isinstance(body, (dict, list)) or (isinstance(body, list) and not any(
+                    isinstance(d, dict) for d in body)):
+                fields[lname].extend(body if isinstance(body, list) else [body])  # flat key
+                owner[""].add(lname)
+                continue
             for d in body if isinstance(body, list) else [body]:
                 if not isinstance(d, dict):
                     continue
                 for k, v in d.items():
                     name = k[len(lname) + 1:] if k.startswith(lname + "_") else k
                     fields[name].extend(v if isinstance(v, list) else [v])
+                    owner[lname].add(name)
         frames[fn] = fields
+        layers_of[fn] = owner
+    _LAYERS[(path, extra)] = layers_of
     return frames
+
+
+_LAYERS: dict[tuple, dict[int, dict[str, set]]] = {}
+
+# tshark appends its AR summary ([ARUUID ... ContrMAC ... DevMAC ... InCR ... OutCR]) to the PNIO-CM
+# layer as these last keys: values of its conversation state, not of the frame's bytes.
+AR_SUMMARY = [f"pn_io_pn_io_{k}" for k in ("ar_uuid", "cminitiator_mac_add", "localalarmref",
+                                            "cmresponder_macadd", "frame_id")]
+
+
+def _keep_duplicates(pairs: list) -> dict:
+    """json object hook: ek writes a field found in several subtrees as repeated keys; keep every
+    value (json.loads would keep the last group only). tshark's AR summary is dropped."""
+    if [k for k, _ in pairs[-5:]] == AR_SUMMARY:
+        pairs = pairs[:-5]
+    d: dict = {}
+    for k, v in pairs:
+        if k in d:
+            old = d[k]
+            d[k] = (old if isinstance(old, list) else [old]) + (v if isinstance(v, list) else [v])
+        else:
+            d[k] = v
+    return d
+
+
+def ek_layers(path: str) -> dict[int, dict[str, set]]:
+    """{frame: {layer (\"\" = flat keys): field names}} of the same ek run as tshark_ek(path)."""
+    if (path, ()) not in _LAYERS:
+        tshark_ek.cache_clear()
+    tshark_ek(path)
+    return _LAYERS[(path, ())]
 
 
 def walk(ev, path: str) -> list:
@@ -132,8 +178,9 @@ def pndiss_events(path: str) -> dict[int, list[dict]]:
     return per_frame
 
 
-def compare(path: str, maps: list[dict]) -> tuple[int, list[str]]:
-    """(values compared, mismatch descriptions) for one capture."""
+def compare(path: str, maps: list[dict], compared_fields: set | None = None) -> tuple[int, list[str]]:
+    """(values compared, mismatch descriptions) for one capture; ``compared_fields`` collects the
+    tshark fields (ek names) for which at least one frame was compared with values on tshark's side."""
     ts = tshark_ek(path)
     ours = pndiss_events(path)
     by_field: dict[str, list[tuple[str, str]]] = defaultdict(list)  # tshark field -> [(kind, path)]
@@ -156,7 +203,51 @@ def compare(path: str, maps: list[dict]) -> tuple[int, list[str]]:
                             mine[norm(v)] += 1
             theirs = Counter(norm(v) for v in tframe.get(tf.replace(".", "_"), []) if v is not None)
             compared += sum(theirs.values())
+            if compared_fields is not None and (theirs or mine):
+                compared_fields.add(tf.replace(".", "_"))
             if mine != theirs:
                 diffs.append(f"{os.path.basename(path)} frame {fn} {tf}: pndiss {sorted(mine.elements(), key=str)[:8]} "
                              f"tshark {sorted(theirs.elements(), key=str)[:8]}")
     return compared, diffs
+
+
+# --- coverage: which fields tshark emits on PROFINET frames, and which of them were compared -------
+PN_LAYERS = frozenset({"pn_rt", "pn_dcp", "pn_io", "pn_io_device", "pn_io_controller", "pn_io_supervisor",
+                       "pn_io_parameterserver", "pn_ptcp", "pn_mrp"})
+PNIO_IF = ("dea00001", "dea00002", "dea00003", "dea00004")  # PNIO device/controller/supervisor/parameter server
+COVERAGE_FILE = os.path.join(HERE, "tshark_coverage.json")
+
+
+def load_coverage() -> dict:
+    """{"excluded": {ek field: reason}, "open": {ek field: reason}} (tests/tshark_coverage.json)."""
+    with open(COVERAGE_FILE) as f:
+        return json.load(f)
+
+
+def profinet_fields(path: str) -> tuple[set, set]:
+    """(fields with a value, fields only ever without one) that tshark emits on the PROFINET frames
+    of a capture: every field of the PN layers, the PROFINET TLVs of LLDP, DCE/RPC on the PNIO
+    interfaces and the flat ek keys of those protocols. ek names (``.`` -> ``_``), as tshark_ek."""
+    frames = tshark_ek(path)
+    valued: set = set()
+    named: set = set()
+    for fn, owner in ek_layers(path).items():
+        fields = frames[fn]
+        pn = any(ln in PN_LAYERS for ln in owner)
+        rpc = "dcerpc" in owner and any(str(v).lower().startswith(PNIO_IF)
+                                        for v in fields.get("dcerpc_dg_if_id", ()))
+        scope: set = set()
+        for ln, names in owner.items():
+            if ln in PN_LAYERS:
+                scope |= names
+            elif ln == "lldp":
+                scope |= {n for n in names if "profinet" in n}
+            elif ln == "dcerpc" and rpc:
+                scope |= names
+            elif ln == "" and (pn or rpc):
+                scope |= {n for n in names if n.startswith(("pn_", "dcerpc_"))}
+        for n in scope:
+            named.add(n)
+            if any(v is not None for v in fields.get(n, ())):
+                valued.add(n)
+    return valued, named - valued

@@ -13,8 +13,9 @@ from __future__ import annotations
 
 import struct
 
-from .common import Malformed, mac
-from .dcerpc import get_uuid
+from . import cmblocks, pdrecords
+from .cmblock import Cursor as _Cur, bits as _bits  # shared with the block-family modules
+from .common import Malformed
 
 L = "pnio_cm"
 
@@ -170,53 +171,6 @@ def decode_ndr(stub: bytes, order: str, request: bool) -> tuple[dict, int]:
     st, alen, mc, ao, ac = _NDR[order].unpack_from(stub, 0)
     return {"status": status(st >> 24, (st >> 16) & 0xFF, (st >> 8) & 0xFF, st & 0xFF),
             "args_len": alen, "array_max_count": mc, "array_offset": ao, "array_act_count": ac}, 20
-
-
-# --- a tiny big-endian cursor: every read checks the bounds and raises Malformed ---------------
-class _Cur:
-    __slots__ = ("b", "o", "end", "what", "start")
-
-    def __init__(self, b: bytes, o: int, end: int, what: str):
-        self.b, self.o, self.end, self.what = b, o, end, what
-        self.start = o - 6  # the block header: alignment counts from there
-
-    def take(self, n: int) -> int:
-        if self.o + n > self.end:
-            raise Malformed(L, f"{self.what} truncated at offset {self.o} (needs {n} more bytes, "
-                               f"{self.end - self.o} left)")
-        o = self.o
-        self.o += n
-        return o
-
-    def u8(self) -> int:
-        return self.b[self.take(1)]
-
-    def u16(self) -> int:
-        o = self.take(2)
-        return (self.b[o] << 8) | self.b[o + 1]
-
-    def u32(self) -> int:
-        o = self.take(4)
-        return int.from_bytes(self.b[o:o + 4], "big")
-
-    def uuid(self) -> str:
-        return get_uuid(self.b, self.take(16), "big")
-
-    def mac(self) -> str:
-        o = self.take(6)
-        return mac(self.b[o:o + 6])
-
-    def text(self, n: int) -> str:
-        o = self.take(n)
-        return self.b[o:o + n].decode("latin-1")
-
-
-def _bits(v: int, table: tuple) -> dict:
-    """Bit fields as tshark shows them: (name, mask) -> (v & mask) >> lowest bit of mask."""
-    out = {}
-    for name, mask in table:
-        out[name] = (v & mask) >> ((mask & -mask).bit_length() - 1)
-    return out
 
 
 # bit tables, spec/wire.md §6.3-§6.8 (tshark field names)
@@ -424,51 +378,6 @@ def _ir_info(c: _Cur, d: dict) -> None:
                   for _ in range(d["number_of_iocrs"])]
 
 
-def _diagnosis(c: _Cur, d: dict) -> None:
-    # DiagnosisData: version 1.1 starts with the API (tshark dissect_DiagnosisData_block); the
-    # channel entries are not decoded here
-    if d["block_version_low"] >= 1:
-        d["api"] = c.u32()
-    d["slot_nr"] = c.u16()
-    d["subslot_nr"] = c.u16()
-
-
-def _slot_prefix(c: _Cur, d: dict) -> None:
-    # PDPortDataReal and friends start with padding, SlotNumber, SubslotNumber (the rest is not decoded)
-    c.u16()
-    d["slot_nr"] = c.u16()
-    d["subslot_nr"] = c.u16()
-
-
-def _subframe(c: _Cur, d: dict) -> None:
-    # SubframeBlock (tshark dissect_SubFrameBlock_block): FrameID first
-    d["frame_id"] = c.u16()
-
-
-def _pd_sync(c: _Cur, d: dict) -> None:
-    # PDSyncData version 1.2 (tshark dissect_PDSyncData_block): only up to the send clock here
-    if d["block_version_low"] != 2:
-        return
-    c.take(2 + 16 + 4 + 4 + 4 + 4)  # padding, PTCP subdomain UUID, interval begin/end, PLL window, sync send factor
-    d["send_clock_factor"] = c.u16()
-
-
-def _pdir_frame(c: _Cur, d: dict) -> None:
-    # PDIRFrameData (tshark dissect_PDIRFrameData_block): per frame FrameSendOffset, DataLength,
-    # ReductionRatio, Phase, FrameID, Ethertype, RxPort, FrameDetails, TxPortGroups, 4-byte alignment
-    c.u16()
-    if d["block_version_low"] >= 1:
-        d["frame_data_properties"] = c.u32()
-    frames = d["ir_frames"] = []
-    while c.end - c.o >= 17:
-        f = {"frame_send_offset": c.u32(), "data_length": c.u16(), "reduction_ratio": c.u16(),
-             "phase": c.u16(), "frame_id": c.u16(), "ethertype": c.u16(), "rx_port": c.u8(),
-             "frame_details": c.u8(), "nr_of_tx_port_groups": c.u8()}
-        c.take(f["nr_of_tx_port_groups"])
-        c.take((-(c.o - c.start)) % 4)
-        frames.append(f)
-
-
 RW_HEADERS = {0x0008: "write", 0x0009: "read", 0x8008: "write", 0x8009: "read"}
 
 
@@ -496,11 +405,12 @@ def _rw_header(c: _Cur, d: dict) -> None:
 BODIES = {
     0x0101: _ar_req, 0x8101: _ar_res, 0x0102: _iocr_req, 0x8102: _iocr_res,
     0x0103: _alarmcr_req, 0x8103: _alarmcr_res, 0x0104: _expected_sub, 0x8104: _module_diff,
-    0x8106: _ar_server, 0x0109: _ir_info, 0x0203: _pd_sync, 0x0207: _pdir_frame,
-    0x020F: _slot_prefix, 0x022B: _subframe, 0x0010: _diagnosis, 0x0030: _im_filter, 0x0031: _im_filter, 0x0032: _im_filter,
+    0x8106: _ar_server, 0x0109: _ir_info, 0x0030: _im_filter, 0x0031: _im_filter, 0x0032: _im_filter,
     **{t: _control for t in (0x0110, 0x0111, 0x0112, 0x0113, 0x0114, 0x0116, 0x0117,
                              0x8110, 0x8111, 0x8112, 0x8113, 0x8114, 0x8116, 0x8117)},
     **{t: _rw_header for t in RW_HEADERS},
+    **pdrecords.BODIES,
+    **cmblocks.BODIES,
 }
 
 # Blocks whose body holds further blocks after a fixed prefix: (field, bytes) with None = padding.
@@ -564,6 +474,11 @@ def decode_blocks(b: bytes, off: int, end: int, out: list, depth: int = 0) -> No
                 # the record data may lie past this block's end: continue after it
                 off = d.pop("_next")
                 continue
+        elif (bt, d["block_version_low"]) in pdrecords.PREFIX_BODIES and d["block_version_high"] == 1:
+            c = _Cur(b, off + 6, bend, d["block_name"])
+            pdrecords.PREFIX_BODIES[(bt, d["block_version_low"])](c, d)
+            if depth < MAX_DEPTH:
+                decode_blocks(b, c.o, bend, out, depth + 1)  # MRP manager/client parameter blocks
         elif depth < MAX_DEPTH and (bt in CONTAINERS or (bt, d["block_version_low"]) in CONTAINERS):
             c = _Cur(b, off + 6, bend, d["block_name"])
             for name, size in CONTAINERS.get(bt) or CONTAINERS[(bt, d["block_version_low"])]:
