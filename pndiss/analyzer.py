@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections import Counter
 from typing import Callable
 
-from . import stations as st
+from . import iodata, stations as st
 from .activity import Activity
 from .proto import alarm, dcp, lldp, ptcp, rt
 from .proto.common import Malformed, mac
@@ -116,6 +116,10 @@ class Analyzer:
                 self.emit(ev)
                 raise Malformed("pn_rt", f"cyclic PDU of {len(pdu) - off} bytes has no room for the APDU status")
             ev.update(rt.decode_apdu_status(pdu, off))
+            if self.sink is not None:  # IOPS/IOCS of every submodule (pndiss/iodata.py), for event readers
+                io = iodata.decode(self.session.lookup(frame_id, src, dst), pdu[off + 2:len(pdu) - 4])
+                if io is not None:
+                    ev["iodata"] = io
             self.emit(ev)
             self.cyclic.on_frame(ev, pdu, off + 2)
             return "decoded"

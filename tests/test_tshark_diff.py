@@ -2,7 +2,8 @@
 field tshark emits on a PROFINET frame is compared unless tests/tshark_coverage.json says why not.
 
 Printed on every run (the coverage figure): tshark fields seen (with a value, on PROFINET frames),
-fields compared, fields excluded (with reasons) or still open, field values compared, mismatches.
+fields compared, fields excluded (with reasons) or still open, field values compared, mismatches, and
+the frames a map with ``requires`` left out (cyclic frames between a Connect request and response).
 """
 import os
 
@@ -12,7 +13,7 @@ from conftest import record_count, record_names
 from tsharkdiff import capture_files, compare, load_coverage, load_maps, need_tshark, profinet_fields
 
 FILES = capture_files()
-TOTAL = {"values": 0, "mismatches": 0, "seen": set(), "compared": set(), "excluded": set(), "open": set(),
+TOTAL = {"values": 0, "mismatches": 0, "skipped": 0, "seen": set(), "compared": set(), "excluded": set(), "open": set(),
          "labels": set()}
 N = len(FILES)
 
@@ -20,7 +21,8 @@ N = len(FILES)
 def _figure(t: dict) -> str:
     return (f"tshark coverage over {N} captures: {len(t['seen'])} PROFINET fields seen with values, "
             f"{len(t['compared'])} compared, {len(t['excluded'])} excluded, {len(t['open'])} open; "
-            f"{t['values']} values compared, {t['mismatches']} mismatches")
+            f"{t['values']} values compared, {t['mismatches']} mismatches; {t['skipped']} frames not compared "
+            f"for maps with 'requires' (tests/tshark_map/iodata.json quirks)")
 
 
 @pytest.mark.parametrize("path", FILES, ids=[os.path.basename(f) for f in FILES])
@@ -28,7 +30,9 @@ def test_fields_equal_tshark(path):
     need_tshark()
     cov = load_coverage()
     done: set = set()
-    compared, diffs = compare(path, load_maps(), done)
+    skipped: dict = {}
+    compared, diffs = compare(path, load_maps(), done, skipped)
+    n_skipped = sum(len(v) for v in skipped.values())
     seen, labels = profinet_fields(path)
     done &= seen
     excluded = (seen - done) & set(cov["excluded"])
@@ -36,17 +40,19 @@ def test_fields_equal_tshark(path):
     missing = seen - done - excluded - still_open
     TOTAL["values"] += compared
     TOTAL["mismatches"] += len(diffs)
+    TOTAL["skipped"] += n_skipped
     for k, v in (("seen", seen), ("compared", done), ("excluded", excluded), ("open", still_open),
                  ("labels", labels)):
         TOTAL[k] |= v
     record_count(f"tshark differential: field values compared over {N} captures", compared)
     record_count(f"tshark differential: mismatches over {N} captures", len(diffs))
+    record_count(f"tshark differential: frames not compared for maps with 'requires' over {N} captures", n_skipped)
     record_names(f"tshark coverage: PROFINET fields seen with values over {N} captures", seen)
     record_names(f"tshark coverage: PROFINET fields compared over {N} captures", done)
     record_names(f"tshark coverage: PROFINET fields excluded (tests/tshark_coverage.json)", excluded)
     record_names(f"tshark coverage: PROFINET fields open (not decoded yet)", still_open)
     print(f"\n{os.path.basename(path)}: {len(seen)} fields seen, {len(done)} compared, {len(excluded)} excluded, "
-          f"{len(still_open)} open; {compared} values compared, {len(diffs)} mismatches")
+          f"{len(still_open)} open; {compared} values compared, {len(diffs)} mismatches, {n_skipped} frames skipped")
     assert not diffs, f"{len(diffs)} mismatches, first ones:\n" + "\n".join(diffs[:30])
     assert not missing, (f"{len(missing)} fields tshark shows on PROFINET frames are neither compared nor "
                          f"on the exclusion list: {sorted(missing)}")

@@ -178,27 +178,38 @@ def pndiss_events(path: str) -> dict[int, list[dict]]:
     return per_frame
 
 
-def compare(path: str, maps: list[dict], compared_fields: set | None = None) -> tuple[int, list[str]]:
+def compare(path: str, maps: list[dict], compared_fields: set | None = None,
+            skipped: dict | None = None) -> tuple[int, list[str]]:
     """(values compared, mismatch descriptions) for one capture; ``compared_fields`` collects the
-    tshark fields (ek names) for which at least one frame was compared with values on tshark's side."""
+    tshark fields (ek names) for which at least one frame was compared with values on tshark's side.
+
+    A map with ``"requires": KEY`` compares only events that carry KEY (e.g. rt events with
+    ``iodata``: cyclic frames of an AR pndiss has mapped); frames where tshark shows the field and
+    no event qualifies are collected in ``skipped`` ({map file: {frame}}), never silently.
+    """
     ts = tshark_ek(path)
     ours = pndiss_events(path)
-    by_field: dict[str, list[tuple[str, str]]] = defaultdict(list)  # tshark field -> [(kind, path)]
+    by_field: dict[str, list[tuple]] = defaultdict(list)  # tshark field -> [(kind, requires, path, map file)]
     for m in maps:
         for p, tf in m["fields"].items():
-            by_field[tf].append((m["kind"], p))
+            by_field[tf].append((m["kind"], m.get("requires"), p, m["file"]))
     compared = 0
     diffs: list[str] = []
     for fn, events in sorted(ours.items()):
         kinds = {e["kind"] for e in events}
         tframe = ts.get(fn, {})
         for tf, paths in by_field.items():
-            if not any(k in kinds for k, _ in paths):
+            usable = [(k, r, p) for k, r, p, _ in paths
+                      if k in kinds and (r is None or any(e["kind"] == k and r in e for e in events))]
+            if not usable:
+                if skipped is not None and any(k in kinds for k, _, _, _ in paths) and any(
+                        v is not None for v in tframe.get(tf.replace(".", "_"), ())):
+                    skipped.setdefault(paths[0][3], set()).add(fn)
                 continue
             mine = Counter()
-            for k, p in paths:
+            for k, r, p in usable:
                 for e in events:
-                    if e["kind"] == k:
+                    if e["kind"] == k and (r is None or r in e):
                         for v in walk(e, p):
                             mine[norm(v)] += 1
             theirs = Counter(norm(v) for v in tframe.get(tf.replace(".", "_"), []) if v is not None)
