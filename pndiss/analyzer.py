@@ -14,7 +14,7 @@ from typing import Callable
 
 from . import iodata, stations as st
 from .activity import Activity
-from .proto import alarm, dcp, lldp, ptcp, rt
+from .proto import alarm, dcp, lldp, ptcp, rt, rtfrag
 from .proto.common import Malformed, mac
 from .proto.eth import decode_link
 from .settings import Settings
@@ -46,6 +46,7 @@ class Analyzer:
         self.dcp_tracker = dcp.DcpTracker()
         self.session = SessionTracker(self)
         self.cyclic = CyclicTracker(self)
+        self.rt_frags = rtfrag.Reassembler()  # FRAG_PDUs (FrameID 0xFF80-0xFF8F)
         # (frame, ts) of the frame being processed, for events emitted by trackers
         self.cur_frame = 0
         self.cur_ts = 0
@@ -122,6 +123,17 @@ class Analyzer:
                     ev["iodata"] = io
             self.emit(ev)
             self.cyclic.on_frame(ev, pdu, off + 2)
+            return "decoded"
+        if cls == "FRAG":  # RT fragmentation: header, reassembly, then the PDU it carried (pndiss/proto/rtfrag.py)
+            f = ev["frag"] = rtfrag.decode(pdu, off + 2)
+            whole, frames, problem = self.rt_frags.add(frame_id, fn, f, pdu[off + 4:])
+            if problem:
+                f["problem"] = problem
+            if whole is not None:
+                f["reassembled_frames"], f["reassembled_length"] = frames, len(whole)
+            self.emit(ev)
+            if whole is not None and len(whole) >= 4 and (whole[0] << 8) | whole[1] == 0x8892:
+                return self._pn_rt(fn, ts, whole, 2, src, dst, tags, udp)
             return "decoded"
         self.emit(ev)
         body = off + 2

@@ -151,3 +151,49 @@ def test_ioxs_random_layouts(objs, iocs, csdu):
     for o in d["objects"]:
         assert o["iops"]["value"] == csdu[fm.objects[[x.slot for x in fm.objects].index(o["slot"])].offset + o["length"]]
     assert all(0 <= i["iocs"]["value"] <= 255 for i in d["iocs"])
+
+
+# --- RT fragmentation (FrameID 0xFF80-0xFF8F) -------------------------------------------------------
+def _frag_frames(name: bytes = b"encoder-with-a-rather-long-name-for-two-fragments-x1"):
+    import synframes as sf
+    blk = struct.pack(">BBHH", 2, 2, len(name) + 2, 1) + name
+    blk += bytes(len(blk) % 2)
+    dcp = struct.pack(">BBIHH", 4, 0, 0x1234, 0, len(blk)) + blk
+    inner = struct.pack(">HH", 0x8892, 0xFEFD) + dcp
+    first, rest = inner[:48], inner[48:]
+    f0 = sf.pn_rt(0xFF80, bytes([6, 0x80]) + first)
+    f1 = sf.pn_rt(0xFF80, bytes([(len(rest) + 7) // 8, 0x01]) + rest)
+    return [f0, f1]
+
+
+def test_rt_fragments_reassembled_and_equal_tshark(tmp_path):
+    import synframes as sf
+    from tsharkdiff import need_tshark
+
+    from pndiss.analyzer import analyze_file
+
+    frames = _frag_frames()
+    need_tshark()
+    compared, diffs = sf.diff(tmp_path, frames, "frag.pcap")
+    assert compared > 0 and not diffs, diffs[:10]
+    evs = []
+    analyze_file(sf.write_pcap(str(tmp_path / "frag2.pcap"), frames), sink=evs.append)
+    frag = [e["frag"] for e in evs if e["kind"] == "rt" and "frag" in e]
+    assert [(f["fragment_number"], f["more_follows"]) for f in frag] == [(0, 1), (1, 0)]
+    assert frag[1]["reassembled_frames"] == [1, 2]
+    dcp = [e for e in evs if e["kind"] == "dcp"]
+    assert len(dcp) == 1 and dcp[0]["frame"] == 2
+
+
+@FAST
+@given(st.lists(st.tuples(st.integers(0, 255), st.integers(0, 255), st.binary(max_size=64)), max_size=6))
+def test_rt_fragment_random(parts):
+    from pndiss.proto import rtfrag
+
+    r = rtfrag.Reassembler()
+    for i, (flen, status, data) in enumerate(parts):
+        pdu = struct.pack(">H", 0xFF81) + bytes([flen, status]) + data
+        d = rtfrag.decode(pdu, 2)
+        whole, frames, problem = r.add(0xFF81, i + 1, d, pdu[4:])
+        assert whole is None or isinstance(whole, bytes)
+        assert problem is None or isinstance(problem, str)
