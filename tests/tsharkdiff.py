@@ -64,6 +64,8 @@ def norm(v):
         pass
     if re.fullmatch(r"[0-9]+", s):  # leading zeros: int(.., 0) refuses them
         return int(s, 10)
+    if len(s) == 3 and s[0] == s[2] == "'":  # FT_CHAR: ek prints 'V'
+        return s[1]
     low = s.lower()
     if _HEXCOLON.fullmatch(low):
         return low.replace(":", "")
@@ -129,8 +131,11 @@ AR_SUMMARY = [f"pn_io_pn_io_{k}" for k in ("ar_uuid", "cminitiator_mac_add", "lo
 def _keep_duplicates(pairs: list) -> dict:
     """json object hook: ek writes a field found in several subtrees as repeated keys; keep every
     value (json.loads would keep the last group only). tshark's AR summary is dropped."""
-    if [k for k, _ in pairs[-5:]] == AR_SUMMARY:
-        pairs = pairs[:-5]
+    keys = [k for k, _ in pairs]
+    for i in range(len(keys) - 5, -1, -1):  # the summary's five keys in a row (expert info may follow)
+        if keys[i:i + 5] == AR_SUMMARY:
+            pairs = pairs[:i] + pairs[i + 5:]
+            break
     d: dict = {}
     for k, v in pairs:
         if k in d:
