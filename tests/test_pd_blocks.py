@@ -197,3 +197,18 @@ def test_rt_fragment_random(parts):
         whole, frames, problem = r.add(0xFF81, i + 1, d, pdu[4:])
         assert whole is None or isinstance(whole, bytes)
         assert problem is None or isinstance(problem, str)
+
+
+@FAST
+@given(st.lists(st.tuples(st.integers(0xFF80, 0xFF8F), st.binary(max_size=80)), min_size=1, max_size=8))
+def test_rt_fragment_frames_through_the_pipeline(frames):
+    """Random FRAG_PDUs (and whatever their reassembly carries) are decoded or malformed, counted once."""
+    import synframes as sf
+
+    from pndiss.analyzer import Analyzer
+
+    a = Analyzer(sink=lambda ev: None)
+    for i, (fid, body) in enumerate(frames):
+        a.feed(i + 1, i, 1, sf.pn_rt(fid, body))
+    a.finish()
+    assert sum(a.counts.values()) == len(frames)
