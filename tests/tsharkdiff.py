@@ -198,17 +198,24 @@ def compare(path: str, maps: list[dict], compared_fields: set | None = None,
     for m in maps:
         for p, tf in m["fields"].items():
             by_field[tf].append((m["kind"], m.get("requires"), p, m["file"]))
+    by_kind: dict[str, list[str]] = defaultdict(list)  # event kind -> tshark fields it may carry
+    for tf, paths in by_field.items():
+        for k in {k for k, _, _, _ in paths}:
+            by_kind[k].append(tf)
+    requires = {r for paths in by_field.values() for _, r, _, _ in paths if r is not None}
     compared = 0
     diffs: list[str] = []
     for fn, events in sorted(ours.items()):
         kinds = {e["kind"] for e in events}
+        have = {(e["kind"], r) for e in events for r in requires if r in e}
         tframe = ts.get(fn, {})
-        for tf, paths in by_field.items():
-            usable = [(k, r, p) for k, r, p, _ in paths
-                      if k in kinds and (r is None or any(e["kind"] == k and r in e for e in events))]
+        fields = {tf for k in kinds for tf in by_kind.get(k, ())}
+        for tf in fields:
+            paths = by_field[tf]
+            usable = [(k, r, p) for k, r, p, _ in paths if k in kinds and (r is None or (k, r) in have)]
+            key = tf.replace(".", "_")
             if not usable:
-                if skipped is not None and any(k in kinds for k, _, _, _ in paths) and any(
-                        v is not None for v in tframe.get(tf.replace(".", "_"), ())):
+                if skipped is not None and any(v is not None for v in tframe.get(key, ())):
                     skipped.setdefault(paths[0][3], set()).add(fn)
                 continue
             mine = Counter()
@@ -217,10 +224,10 @@ def compare(path: str, maps: list[dict], compared_fields: set | None = None,
                     if e["kind"] == k and (r is None or r in e):
                         for v in walk(e, p):
                             mine[norm(v)] += 1
-            theirs = Counter(norm(v) for v in tframe.get(tf.replace(".", "_"), []) if v is not None)
+            theirs = Counter(norm(v) for v in tframe.get(key, ()) if v is not None)
             compared += sum(theirs.values())
             if compared_fields is not None and (theirs or mine):
-                compared_fields.add(tf.replace(".", "_"))
+                compared_fields.add(key)
             if mine != theirs:
                 diffs.append(f"{os.path.basename(path)} frame {fn} {tf}: pndiss {sorted(mine.elements(), key=str)[:8]} "
                              f"tshark {sorted(theirs.elements(), key=str)[:8]}")
