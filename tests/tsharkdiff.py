@@ -128,9 +128,15 @@ AR_SUMMARY = [f"pn_io_pn_io_{k}" for k in ("ar_uuid", "cminitiator_mac_add", "lo
                                             "cmresponder_macadd", "frame_id")]
 
 
+# PNIO-CM and cyclic IO fields: one key per subtree (block), every group is data. Elsewhere (MRP, DCP)
+# tshark adds some items twice in the same place; there the last group stands, as json.loads does.
+DUPLICATES_KEPT = ("pn_io_",)
+
+
 def _keep_duplicates(pairs: list) -> dict:
     """json object hook: ek writes a field found in several subtrees as repeated keys; keep every
-    value (json.loads would keep the last group only). tshark's AR summary is dropped."""
+    value of the PNIO fields (json.loads would keep the last group only). tshark's AR summary is
+    dropped."""
     keys = [k for k, _ in pairs]
     for i in range(len(keys) - 5, -1, -1):  # the summary's five keys in a row (expert info may follow)
         if keys[i:i + 5] == AR_SUMMARY:
@@ -138,7 +144,7 @@ def _keep_duplicates(pairs: list) -> dict:
             break
     d: dict = {}
     for k, v in pairs:
-        if k in d:
+        if k in d and k.startswith(DUPLICATES_KEPT):
             old = d[k]
             d[k] = (old if isinstance(old, list) else [old]) + (v if isinstance(v, list) else [v])
         else:
