@@ -72,11 +72,33 @@ for _, name in ipairs(sig_names) do
     local word = T.bitmaps[name] ~= nil and s.size <= 4
     field("pndiss." .. name, (s.signed and SCTOR or UCTOR)[s.size], s.title, (word and not s.signed) and base.HEX or base.DEC)
 end
--- bits: one field per (signal, bit name); profile variants share the name (positions may differ)
+-- bits: one field per (signal, bit name); profile variants share the name. Where every variant puts
+-- the bit at the same place (and the word is unsigned and at most 32 bits) the field has the word's
+-- type and the bit mask, so Wireshark shows "..1. ...." and filters on the field's own value; the tree
+-- then adds the whole word (MASKED[abbrev]). Otherwise a plain field wide enough for the value.
+local MASKED = {}
+local function width_ctor(w)
+    return w <= 8 and ProtoField.uint8 or w <= 16 and ProtoField.uint16 or w <= 32 and ProtoField.uint32
+        or ProtoField.uint64
+end
 for _, sig in ipairs(sig_names) do
+    local s = T.signals[sig]
+    local where = {}
+    for _, b in ipairs(T.bitmaps[sig] or {}) do
+        local k = b.bit .. ":" .. b.width
+        if where[b.name] == nil then where[b.name] = k elseif where[b.name] ~= k then where[b.name] = false end
+    end
     for _, b in ipairs(T.bitmaps[sig] or {}) do
         local ab = "pndiss." .. sig .. "." .. b.name
-        if not F[ab] then field(ab, ProtoField.uint8, b.title) end
+        if not F[ab] then
+            if where[b.name] and s.size <= 4 and not s.signed then
+                local ones = b.width >= 32 and 0xFFFFFFFF or bit.lshift(1, b.width) - 1
+                field(ab, UCTOR[s.size], b.title, base.DEC, nil, bit.lshift(ones, b.bit))
+                MASKED[ab] = true
+            else
+                field(ab, width_ctor(b.width), b.title)
+            end
+        end
     end
 end
 -- telegram event "xist2_error": G1_XIST2 holds an error code while g1_zsw.sensor_error = 1 (cyclic.md §9)
@@ -90,7 +112,8 @@ field("pndiss.record.index_name", ProtoField.string, "Record index name")
 field("pndiss.record.length", ProtoField.uint32, "Record data length")
 field("pndiss.param.kind", ProtoField.string, "Parameter access")
 field("pndiss.param.request_ref", ProtoField.uint8, "Request reference", base.HEX)
-field("pndiss.param.request_id", ProtoField.string, "Request ID")
+field("pndiss.param.request_id", ProtoField.uint8, "Request ID", base.HEX)
+field("pndiss.param.request_id_name", ProtoField.string, "Request")
 field("pndiss.param.response_id", ProtoField.uint8, "Response ID", base.HEX)
 field("pndiss.param.axis", ProtoField.uint8, "Axis / DO-ID")
 field("pndiss.param.request_frame", ProtoField.framenum, "Request in frame")
@@ -183,6 +206,7 @@ end
 -- Connect-derived maps: key "fid|src|dst" -> {direction, device, controller, station, ar, frame_id,
 -- cycle_ns, source, objects}
 local maps, map_cache
+local dcp_state        -- DcpTracker state (section 6); station = MAC -> last NameOfStation (stations.py)
 local usermap = {}     -- fid -> {direction, telegram, offset} (preference, not capture state)
 local profiles         -- device MAC -> profile (I&M0 / DCP)
 local ar_devs          -- AR UUID -> {device, controller} (session.ars: records name their AR)
@@ -446,8 +470,12 @@ local function connect_response(key, pinfo)
     local bl = blocks()
     local device = tostring(pinfo.dl_src)
     local res_fid = {}
+    local server_name
     for _, b in ipairs(bl) do
-        if b.type == 0x8101 then
+        if b.type == 0x8106 and server_name == nil then
+            local n = inside(all("pn_io.cminitiator_station_name"), b)
+            if n[1] then server_name = tostring(n[1].value) end
+        elseif b.type == 0x8101 then
             local m = inside(all("pn_io.cmresponder_macadd"), b)
             if m[1] then device = tostring(m[1].value) end
         elseif b.type == 0x8102 then
@@ -457,6 +485,8 @@ local function connect_response(key, pinfo)
     end
     if req.ar and (ok or ar_devs[req.ar] == nil) then ar_devs[req.ar] = {device, req.controller} end
     if not ok then return end
+    local station = dcp_state.station[device]
+    if station == nil or station == "" then station = server_name end  -- session._connect: dev_station
     for _, cr in ipairs(req.iocrs) do
         local direction = ({[1] = "input", [2] = "output", [3] = "input"})[cr.type]
         if direction then
@@ -465,6 +495,7 @@ local function connect_response(key, pinfo)
             if direction == "output" then s, d = req.controller, device end
             if cr.type == 3 and cr.mcast then d = tostring(cr.mcast) end
             local fm = {direction = direction, device = device, controller = req.controller, ar = req.ar, frame_id = fid,
+                        station = station,
                         source = "connect", objects = {},
                         -- armap.FrameMap.cycle_time_ns: SendClockFactor x ReductionRatio x 31.25 us
                         cycle_ns = (cr.scf and cr.scf > 0 and cr.rr and cr.rr > 0) and cr.scf * cr.rr * 31250 or nil}
@@ -766,8 +797,9 @@ local function pair_response(key, rsp, frame, ts, profile)
         w[#w + 1] = "no request"
     else
         ev.request_frame, ev.request_ts_ns, ev.request_ref = p.frame, p.ts, q.request_ref
-        ev.request_id, ev.request_id_code, ev.axis, ev.no_of_parameters = q.request_id_name, q.request_id, q.axis,
+        ev.request_id, ev.request_id_name, ev.axis, ev.no_of_parameters = q.request_id, q.request_id_name, q.axis,
             q.no_of_parameters
+        ev.request_id_code = q.request_id  -- alias kept for older readers
         if rsp.request_ref ~= q.request_ref then
             w[#w + 1] = string.format("request ref mismatch (request 0x%02X, response 0x%02X)", q.request_ref, rsp.request_ref)
         end
@@ -952,7 +984,7 @@ local function name_bad(name)
 end
 
 -- DcpTracker
-local dcp_state   -- {name_at, ip_at, mac_name, mac_ip, reported}
+-- dcp_state (declared with the maps, section 3): {name_at, ip_at, mac_name, mac_ip, reported, station}
 local function dcp_release(at, by_mac, mac)
     local old = by_mac[mac]
     by_mac[mac] = nil
@@ -1005,6 +1037,7 @@ local function on_dcp(pinfo)
     local assign = d.sid == SET and d.stype == 0
     local target = assign and tostring(pinfo.dl_dst) or tostring(pinfo.dl_src)
     local S_ = dcp_state
+    if st_name ~= nil then S_.station[target] = st_name end
     if st_name ~= nil and st_name ~= "" then
         dcp_claim("name", st_name, target, assign, fn)
     elseif st_name == "" then
@@ -1251,9 +1284,9 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok)
             -- what the tree shows of this object; the same table while nothing changes (memory per frame)
             local v = o.view
             if v == nil or v.iops ~= iops or v.ok ~= ok or v.profile ~= ax.profile or v.telegram ~= o.telegram
-                    or v.rows ~= o.rows or v.source ~= o.source then
+                    or v.rows ~= o.rows or v.source ~= o.source or v.station ~= fr.fm.station then
                 v = {telegram = o.telegram, source = o.source, rows = o.rows, len = o.len, d = d, dir = dir,
-                     iops = iops, ok = ok, profile = ax.profile}
+                     iops = iops, ok = ok, profile = ax.profile, station = fr.fm.station}
                 o.view = v
             end
             out.objs[#out.objs + 1] = v
@@ -1307,7 +1340,7 @@ local function bits_of(sig, v, profile)
             local x
             if type(v) == "number" then x = bit.band(bit.rshift(v, b.bit), mask)
             else x = v:rshift(b.bit):band(mask):tonumber() end
-            out[#out + 1] = {b.name, x}
+            out[#out + 1] = {b.name, x, b}
         end
     end
     return out
@@ -1321,6 +1354,7 @@ local function add_object(tree, tvb, c)
     st:add(F["pndiss.telegram"], c.telegram)
     st:add(F["pndiss.slot"], d.slot or 0)
     st:add(F["pndiss.subslot"], d.subslot or 0)
+    if c.station then st:add(F["pndiss.station"], c.station) end
     if tree.visible then   -- shown, not needed for filtering: skipped in plain tshark runs (hot path)
         st:add(F["pndiss.direction"], c.dir)
         st:add(F["pndiss.telegram_source"], c.source or "")
@@ -1336,7 +1370,11 @@ local function add_object(tree, tvb, c)
         local it = st:add(F["pndiss." .. row.name], r, v)
         if T.bitmaps[row.name] then
             for _, b in ipairs(bits_of(row.name, v, c.profile)) do
-                it:add(F["pndiss." .. row.name .. "." .. b[1]], r, b[2])
+                local ab = "pndiss." .. row.name .. "." .. b[1]
+                local x = b[2]
+                if MASKED[ab] then x = v
+                elseif b[3].width > 32 then x = v:rshift(b[3].bit):band(UInt64.max():rshift(64 - b[3].width)) end
+                it:add(F[ab], r, x)
                 if row.name == "g1_zsw" and b[1] == "sensor_error" and b[2] ~= 0 then serr = true end
             end
         end
@@ -1448,7 +1486,8 @@ local function show_records(tree, tvb, items)
             if q and q.kind == "parameter request" then
                 st:add(F["pndiss.param.kind"], "parameter request")
                 st:add(F["pndiss.param.request_ref"], q.request_ref)
-                st:add(F["pndiss.param.request_id"], q.request_id_name)
+                st:add(F["pndiss.param.request_id"], q.request_id)
+                st:add(F["pndiss.param.request_id_name"], q.request_id_name)
                 st:add(F["pndiss.param.axis"], q.axis)
                 for _, a in ipairs(q.params) do
                     local pt2 = st:add(F["pndiss.param.pnu"], a.pnu)
@@ -1462,6 +1501,7 @@ local function show_records(tree, tvb, items)
                 if ev.request_ref ~= nil then
                     st:add(F["pndiss.param.request_ref"], ev.request_ref)
                     st:add(F["pndiss.param.request_id"], ev.request_id)
+                    st:add(F["pndiss.param.request_id_name"], ev.request_id_name)
                     st:add(F["pndiss.param.axis"], ev.axis)
                 end
                 st:add(F["pndiss.param.response_id"], ev.response_id)
@@ -1565,7 +1605,7 @@ local function reset_state()
     pending_connects, pairer, superseded = {}, {}, {}
     axes, axis_list, dev_records, bf00_last, prev_bf00 = {}, {}, {}, {}, {}
     viol, viol_seen, late, finished = {}, {}, {}, false
-    dcp_state = {name_at = {}, ip_at = {}, mac_name = {}, mac_ip = {}, reported = {}}
+    dcp_state = {name_at = {}, ip_at = {}, mac_name = {}, mac_ip = {}, reported = {}, station = {}}
     cyc_cache, rec_cache, cyclic_frame, blind = {}, {}, nil, false
 end
 function pndiss.init() reset_state() end

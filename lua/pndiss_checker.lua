@@ -1631,7 +1631,9 @@ end
 
 local function param(chk, ev)
   local c = chk.cfg
-  local is_change = find(tostring(ev.request_id or "None"), "change", 1, true) ~= nil
+  local is_change   -- request_id is the code (0x02 = change parameter); hand-made events may give the name
+  if isint(ev.request_id) then is_change = ev.request_id == 2
+  else is_change = find(tostring(ev.request_id_name or ev.request_id or "None"), "change", 1, true) ~= nil end
   local frame = ev.response_frame or ev.frame or 0
   for _, prob in ipairs(ev.pairing or {}) do
     local words = lower(tostring(prob))

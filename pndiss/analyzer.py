@@ -12,10 +12,10 @@ from __future__ import annotations
 from collections import Counter
 from typing import Callable
 
-from . import limits
+from . import iodata, limits
 from . import stations as st
 from .activity import Activity
-from .proto import alarm, dcp, lldp, ptcp, rt
+from .proto import alarm, dcp, lldp, ptcp, rt, rtfrag
 from .proto.common import Malformed, mac
 from .proto.eth import decode_link
 from .settings import Settings
@@ -52,6 +52,7 @@ class Analyzer:
         t.mac_name, t.mac_ip = self.limits.table(cap, "dcp_claims"), self.limits.table(cap, "dcp_claims")
         self.session = SessionTracker(self)
         self.cyclic = CyclicTracker(self)
+        self.rt_frags = rtfrag.Reassembler()  # FRAG_PDUs (FrameID 0xFF80-0xFF8F)
         # (frame, ts) of the frame being processed, for events emitted by trackers
         self.cur_frame = 0
         self.cur_ts = 0
@@ -124,8 +125,23 @@ class Analyzer:
                 self.emit(ev)
                 raise Malformed("pn_rt", f"cyclic PDU of {len(pdu) - off} bytes has no room for the APDU status")
             ev.update(rt.decode_apdu_status(pdu, off))
+            if self.sink is not None:  # IOPS/IOCS of every submodule (pndiss/iodata.py), for event readers
+                io = iodata.decode(self.session.lookup(frame_id, src, dst), pdu[off + 2:len(pdu) - 4])
+                if io is not None:
+                    ev["iodata"] = io
             self.emit(ev)
             self.cyclic.on_frame(ev, pdu, off + 2)
+            return "decoded"
+        if cls == "FRAG":  # RT fragmentation: header, reassembly, then the PDU it carried (pndiss/proto/rtfrag.py)
+            f = ev["frag"] = rtfrag.decode(pdu, off + 2)
+            whole, frames, problem = self.rt_frags.add(frame_id, fn, f, pdu[off + 4:])
+            if problem:
+                f["problem"] = problem
+            if whole is not None:
+                f["reassembled_frames"], f["reassembled_length"] = frames, len(whole)
+            self.emit(ev)
+            if whole is not None and len(whole) >= 4 and (whole[0] << 8) | whole[1] == 0x8892:
+                return self._pn_rt(fn, ts, whole, 2, src, dst, tags, udp)
             return "decoded"
         self.emit(ev)
         body = off + 2

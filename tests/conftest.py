@@ -20,6 +20,15 @@ def record_count(what: str, n: int) -> None:
             f.write(f"{what}\t{n}\n")
 
 
+def record_names(what: str, names) -> None:
+    """Add names to the set whose size is printed as 'WHAT: N' in the terminal summary (across workers)."""
+    d = os.environ.get("PNDISS_COUNTS_DIR")
+    if d:
+        with open(os.path.join(d, f"{os.getpid()}.names"), "a", encoding="utf-8") as f:
+            for n in names:
+                f.write(f"{what}\t{n}\n")
+
+
 def pytest_terminal_summary(terminalreporter, exitstatus, config):
     if hasattr(config, "workerinput"):
         return
@@ -27,10 +36,17 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
     if not d or not os.path.isdir(d):
         return
     totals: dict[str, int] = {}
+    sets: dict[str, set] = {}
     for name in sorted(os.listdir(d)):
         with open(os.path.join(d, name), encoding="utf-8") as f:
             for line in f:
+                if name.endswith(".names"):
+                    what, _, n = line.rstrip("\n").partition("\t")
+                    sets.setdefault(what, set()).add(n)
+                    continue
                 what, _, n = line.rstrip("\n").rpartition("\t")
                 totals[what] = totals.get(what, 0) + int(n)
+    for what, names in sets.items():
+        totals[what] = len(names)
     for what, n in sorted(totals.items()):
         terminalreporter.write_line(f"{what}: {n:,}")

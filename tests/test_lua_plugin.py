@@ -138,6 +138,8 @@ def python_expect(path, settings=None):
             d.setdefault("pndiss.telegram", []).append(ev["telegram"])
             d.setdefault("pndiss.slot", []).append(ev["slot"])
             d.setdefault("pndiss.subslot", []).append(ev["subslot"])
+            if ev.get("station"):
+                d.setdefault("pndiss.station", []).append(ev["station"])
             for s, v in ev["signals"].items():
                 d.setdefault(f"pndiss.{s}", []).append(v)
             for b, v in ev["bits"].items():
@@ -153,7 +155,8 @@ def python_expect(path, settings=None):
             dec = ev.get("decoded") or {}
             if ev["op"] == "write" and dec.get("kind") == "parameter request":
                 add(d, "pndiss.param.request_ref", dec["request_ref"])
-                add(d, "pndiss.param.request_id", dec["request_id_name"])
+                add(d, "pndiss.param.request_id", dec["request_id"])
+                add(d, "pndiss.param.request_id_name", dec["request_id_name"])
                 add(d, "pndiss.param.axis", dec["axis"])
                 for p in dec["params"]:
                     add(d, "pndiss.param.pnu", p["pnu"])
@@ -174,6 +177,7 @@ def python_expect(path, settings=None):
             add(d, "pndiss.param.request_frame", ev["request_frame"])
             add(d, "pndiss.param.request_ref", ev["request_ref"])
             add(d, "pndiss.param.request_id", ev["request_id"])
+            add(d, "pndiss.param.request_id_name", ev["request_id_name"])
             add(d, "pndiss.param.axis", ev["axis"])
             add(d, "pndiss.param.response_id", ev["response_id"])
             add(d, "pndiss.param.ok", int(ev["ok"]))
@@ -195,7 +199,7 @@ def python_expect(path, settings=None):
     return want, viol
 
 
-COMPARED = ("pndiss.telegram", "pndiss.slot", "pndiss.subslot", "pndiss.xist2_error.code",
+COMPARED = ("pndiss.telegram", "pndiss.slot", "pndiss.subslot", "pndiss.station", "pndiss.xist2_error.code",
             "pndiss.xist2_error.text", "pndiss.record.op", "pndiss.record.index", "pndiss.record.index_name")
 COMPARED_PREFIXES = ("pndiss.param.", "pndiss.bf00.", "pndiss.im0.")
 NOT_COMPARED = {"pndiss.param.kind", "pndiss.param.value_text"}

@@ -89,7 +89,7 @@ def test_pairing_gives_every_value_its_address():
     rsp = build_param_response(5, 1, [{"format": 0x07, "values": [0x401, 0xFFFFFFFF]}, {"format": 0x06, "values": [81]}])
     ev = _pair(req, rsp, "lika")
     assert ev["pairing"] == [] and ev["ok"] and ev["request_frame"] == 10 and ev["response_frame"] == 12
-    assert ev["request_id"] == "request parameter" and ev["response_id"] == 1
+    assert ev["request_id"] == 1 and ev["request_id_name"] == "request parameter" and ev["response_id"] == 1
     a, b = ev["params"]
     assert (a["pnu"], a["subindex"], a["count"], a["values"]) == (65001, 6, 2, [0x401, 0xFFFFFFFF])
     assert [e["name"] for e in a["elements"]] == ["encoder profile version", "operating time"]

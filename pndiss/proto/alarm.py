@@ -174,6 +174,23 @@ def _channel(data: bytes, o: int) -> dict:
     return item
 
 
+def channel_item(data: bytes, o: int, usi: int) -> dict:
+    """One channel / extended / qualified channel diagnosis entry at data[o] (USI 0x8000/0x8002/
+    0x8003; the caller checked USI_ITEM_SIZES[usi] bytes are there). Also used for DiagnosisData
+    records (pndiss/proto/cmblocks.py)."""
+    item = _channel(data, o)
+    if usi in (0x8002, 0x8003):
+        xet, add = struct.unpack_from(">HI", data, o + 6)
+        field = _ext_field(item["channel_error_type"])
+        item["ext_channel_error_type" + field] = xet
+        item["ext_channel_error_type_value"] = xet
+        item["ext_channel_error_type_name"] = EXT_CHANNEL_ERROR_TYPES.get(field, {}).get(xet)
+        item["ext_channel_add_value"] = add
+    if usi == 0x8003:
+        item["qualified_channel_qualifier"] = _U32.unpack_from(data, o + 12)[0]
+    return item
+
+
 def _items(data: bytes, o: int, end: int) -> list[dict]:
     """Diagnosis items: USI + item until the block is used up; one item per USI, as tshark reads."""
     items = []
@@ -197,16 +214,7 @@ def _items(data: bytes, o: int, end: int) -> list[dict]:
             item.update(block={"type": btype, "length": blen, "version_high": vh, "version_low": vl},
                         maintenance_status={"value": ms, "required": ms & 1, "demanded": (ms >> 1) & 1})
         else:
-            item.update(_channel(data, o))
-            if usi in (0x8002, 0x8003):
-                xet, add = struct.unpack_from(">HI", data, o + 6)
-                field = _ext_field(item["channel_error_type"])
-                item["ext_channel_error_type" + field] = xet
-                item["ext_channel_error_type_value"] = xet
-                item["ext_channel_error_type_name"] = EXT_CHANNEL_ERROR_TYPES.get(field, {}).get(xet)
-                item["ext_channel_add_value"] = add
-            if usi == 0x8003:
-                item["qualified_channel_qualifier"] = _U32.unpack_from(data, o + 12)[0]
+            item.update(channel_item(data, o, usi))
         o += size
     return items
 

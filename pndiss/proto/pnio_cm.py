@@ -13,8 +13,9 @@ from __future__ import annotations
 
 import struct
 
-from .common import Malformed, mac
-from .dcerpc import get_uuid
+from . import cm_connect, cmblocks, pdrecords
+from .cmblock import Cursor as _Cur  # shared with the block-family modules
+from .common import Malformed
 
 L = "pnio_cm"
 
@@ -172,303 +173,6 @@ def decode_ndr(stub: bytes, order: str, request: bool) -> tuple[dict, int]:
             "args_len": alen, "array_max_count": mc, "array_offset": ao, "array_act_count": ac}, 20
 
 
-# --- a tiny big-endian cursor: every read checks the bounds and raises Malformed ---------------
-class _Cur:
-    __slots__ = ("b", "o", "end", "what", "start")
-
-    def __init__(self, b: bytes, o: int, end: int, what: str):
-        self.b, self.o, self.end, self.what = b, o, end, what
-        self.start = o - 6  # the block header: alignment counts from there
-
-    def take(self, n: int) -> int:
-        if self.o + n > self.end:
-            raise Malformed(L, f"{self.what} truncated at offset {self.o} (needs {n} more bytes, "
-                               f"{self.end - self.o} left)")
-        o = self.o
-        self.o += n
-        return o
-
-    def u8(self) -> int:
-        return self.b[self.take(1)]
-
-    def u16(self) -> int:
-        o = self.take(2)
-        return (self.b[o] << 8) | self.b[o + 1]
-
-    def u32(self) -> int:
-        o = self.take(4)
-        return int.from_bytes(self.b[o:o + 4], "big")
-
-    def uuid(self) -> str:
-        return get_uuid(self.b, self.take(16), "big")
-
-    def mac(self) -> str:
-        o = self.take(6)
-        return mac(self.b[o:o + 6])
-
-    def text(self, n: int) -> str:
-        o = self.take(n)
-        return self.b[o:o + n].decode("latin-1")
-
-
-def _bits(v: int, table: tuple) -> dict:
-    """Bit fields as tshark shows them: (name, mask) -> (v & mask) >> lowest bit of mask."""
-    out = {}
-    for name, mask in table:
-        out[name] = (v & mask) >> ((mask & -mask).bit_length() - 1)
-    return out
-
-
-# bit tables, spec/wire.md §6.3-§6.8 (tshark field names)
-AR_PROPERTIES = (("ar_properties_state", 0x7), ("ar_properties_supervisor_takeover_allowed", 0x8),
-                 ("ar_properties_parameterization_server", 0x10), ("ar_properties_reserved_1", 0xE0),
-                 ("ar_properties_device_access", 0x100), ("ar_properties_companion_ar", 0x600),
-                 ("ar_properties_acknowledge_companion_ar", 0x800), ("ar_properties_reserved", 0x0FFFF000),
-                 ("ar_properties_time_aware_system", 0x10000000),
-                 ("ar_properties_combined_object_container", 0x20000000),
-                 ("ar_properties_StartupMode", 0x40000000),
-                 ("ar_properties_pull_module_alarm_allowed", 0x80000000))
-IOCR_PROPERTIES = (("iocr_properties_rtclass", 0xF), ("iocr_properties_reserved1", 0x7F0),
-                   ("iocr_properties_media_redundancy", 0x800), ("iocr_properties_reserved2", 0xFFF000),
-                   ("iocr_properties_reserved3", 0xF000000),
-                   ("iocr_properties_fast_forwarding_mac_adr", 0x20000000),
-                   ("iocr_properties_distributed_subframe_watchdog", 0x40000000),
-                   ("iocr_properties_full_subframe_structure", 0x80000000))
-ALARMCR_PROPERTIES = (("alarmcr_properties_priority", 0x1), ("alarmcr_properties_transport", 0x2),
-                      ("alarmcr_properties_reserved", 0xFFFFFFFC))
-SUBMODULE_PROPERTIES = (("submodule_properties_type", 0x3), ("submodule_properties_shared_input", 0x4),
-                        ("submodule_properties_reduce_input_submodule_data_length", 0x8),
-                        ("submodule_properties_reduce_output_submodule_data_length", 0x10),
-                        ("submodule_properties_discard_ioxs", 0x20), ("submodule_properties_reserved", 0xFFC0))
-SUBMODULE_STATE = (("submodule_state_format_indicator", 0x8000), ("submodule_state_ident_info", 0x7800),
-                   ("submodule_state_ar_info", 0x0780), ("submodule_state_fault", 0x40),
-                   ("submodule_state_maintenance_demanded", 0x20),
-                   ("submodule_state_maintenance_required", 0x10), ("submodule_state_advice", 0x8),
-                   ("submodule_state_add_info", 0x7))
-CONTROL_COMMAND = (("control_command_prmend", 0x1), ("control_command_applready", 0x2),
-                   ("control_command_release", 0x4), ("control_command_done", 0x8),
-                   ("control_command_ready_for_companion", 0x10),
-                   ("control_command_ready_for_rt_class3", 0x20), ("control_command_prmbegin", 0x40))
-APPL_READY = (("control_block_properties_appl_ready_bit0", 0x1),
-              ("control_block_properties_appl_ready_bit1", 0x2),
-              ("control_block_properties_appl_ready_otherbits", 0xFFFC))
-IOCR_TYPES = {1: "input", 2: "output", 3: "multicast provider", 4: "multicast consumer"}
-AR_TYPES = {0x0001: "IO Controller AR", 0x0003: "IOCARCIR", 0x0006: "IO Supervisor AR",
-            0x0010: "IO Controller AR (RT_CLASS_3)", 0x0020: "IO Controller AR (sysred/CiR)"}
-DATA_DESCRIPTION = {1: "input", 2: "output"}
-
-
-# --- block bodies ---------------------------------------------------------------------------
-def _ar_req(c: _Cur, d: dict) -> None:
-    d["artype_req"] = c.u16()  # tshark's pn_io.artype_req is a label without the value (quirk)
-    d["ar_type_name"] = AR_TYPES.get(d["artype_req"], "reserved")
-    d["ar_uuid"] = c.uuid()
-    if d["artype_req"] == 0x0020:
-        # ARType 0x0020 (sysred/CiR): tshark shows the ARUUID again as Discriminator/ConfigID/Selector
-        b = c.b[c.o - 16:c.o]
-        d["ar_uuid_sysred"] = d["ar_uuid"]
-        d["ar_discriminator"] = b[:6].hex()
-        d["ar_configid"] = b[6:14].hex()
-        sel = (b[14] << 8) | b[15]
-        d["ar_selector"] = sel
-        d["ar_arnumber"], d["ar_arresource"], d["ar_arreserved"] = sel & 0x7, (sel >> 3) & 0x3, sel >> 5
-    d["session_key"] = c.u16()
-    d["cminitiator_mac_add"] = c.mac()
-    d["cminitiator_uuid"] = c.uuid()
-    d["ar_properties"] = c.u32()
-    d.update(_bits(d["ar_properties"], AR_PROPERTIES))
-    d["cminitiator_activitytimeoutfactor"] = c.u16()
-    d["cminitiator_udprtport"] = c.u16()
-    n = d["station_name_length"] = c.u16()
-    d["cminitiator_station_name"] = c.text(n)
-
-
-def _ar_res(c: _Cur, d: dict) -> None:
-    d["ar_type"] = c.u16()
-    d["ar_type_name"] = AR_TYPES.get(d["ar_type"], "reserved")
-    d["ar_uuid"] = c.uuid()
-    d["session_key"] = c.u16()
-    d["cmresponder_macadd"] = c.mac()
-    d["cmresponder_udprtport"] = c.u16()
-
-
-def _iocr_req(c: _Cur, d: dict) -> None:
-    d["iocr_type"] = c.u16()
-    d["direction"] = IOCR_TYPES.get(d["iocr_type"], "reserved")
-    d["iocr_reference"] = c.u16()
-    d["lt"] = c.u16()
-    d["iocr_properties"] = c.u32()
-    d.update(_bits(d["iocr_properties"], IOCR_PROPERTIES))
-    for k in ("data_length", "frame_id", "send_clock_factor", "reduction_ratio", "phase", "sequence"):
-        d[k] = c.u16()
-    d["frame_send_offset"] = c.u32()
-    for k in ("watchdog_factor", "data_hold_factor", "iocr_tag_header"):
-        d[k] = c.u16()
-    d["iocr_multicast_mac_add"] = c.mac()
-    d["number_of_apis"] = c.u16()
-    apis = d["apis"] = []
-    for _ in range(d["number_of_apis"]):
-        a = {"api": c.u32(), "number_of_io_data_objects": c.u16()}
-        a["io_data_objects"] = [{"slot_nr": c.u16(), "subslot_nr": c.u16(),
-                                 "io_data_object_frame_offset": c.u16()}
-                                for _ in range(a["number_of_io_data_objects"])]
-        a["number_of_iocs"] = c.u16()
-        a["iocs"] = [{"slot_nr": c.u16(), "subslot_nr": c.u16(), "iocs_frame_offset": c.u16()}
-                     for _ in range(a["number_of_iocs"])]
-        apis.append(a)
-
-
-def _iocr_res(c: _Cur, d: dict) -> None:
-    d["iocr_type"] = c.u16()
-    d["direction"] = IOCR_TYPES.get(d["iocr_type"], "reserved")
-    d["iocr_reference"] = c.u16()
-    d["frame_id"] = c.u16()
-
-
-def _alarmcr_req(c: _Cur, d: dict) -> None:
-    d["alarmcr_type"] = c.u16()
-    d["lt"] = c.u16()
-    d["alarmcr_properties"] = c.u32()
-    d.update(_bits(d["alarmcr_properties"], ALARMCR_PROPERTIES))
-    for k in ("rta_timeoutfactor", "rta_retries", "localalarmref", "maxalarmdatalength",
-              "alarmcr_tagheaderhigh", "alarmcr_tagheaderlow"):
-        d[k] = c.u16()
-
-
-def _alarmcr_res(c: _Cur, d: dict) -> None:
-    d["alarmcr_type"] = c.u16()
-    d["localalarmref"] = c.u16()
-    d["maxalarmdatalength"] = c.u16()
-
-
-def _expected_sub(c: _Cur, d: dict) -> None:
-    d["number_of_apis"] = c.u16()
-    apis = d["apis"] = []
-    for _ in range(d["number_of_apis"]):
-        a = {"api": c.u32(), "slot_nr": c.u16(), "module_ident_number": c.u32(),
-             "module_properties": c.u16(), "number_of_submodules": c.u16(), "submodules": []}
-        for _ in range(a["number_of_submodules"]):
-            s = {"subslot_nr": c.u16(), "submodule_ident_number": c.u32(), "submodule_properties": c.u16()}
-            s.update(_bits(s["submodule_properties"], SUBMODULE_PROPERTIES))
-            # one Input description for types 0 and 1, Output for 2, both for 3 (spec/wire.md §6.6)
-            kinds = {0: (1,), 1: (1,), 2: (2,), 3: (1, 2)}[s["submodule_properties_type"]]
-            s["data_descriptions"] = []
-            for _k in kinds:
-                dd = c.u16()
-                s["data_descriptions"].append({"data_description": dd, "direction": DATA_DESCRIPTION.get(dd),
-                                               "submodule_data_length": c.u16(),
-                                               "length_iocs": c.u8(), "length_iops": c.u8()})
-            a["submodules"].append(s)
-        apis.append(a)
-
-
-def _module_diff(c: _Cur, d: dict) -> None:
-    d["number_of_apis"] = c.u16()
-    apis = d["apis"] = []
-    for _ in range(d["number_of_apis"]):
-        a = {"api": c.u32(), "number_of_modules": c.u16(), "modules": []}
-        for _ in range(a["number_of_modules"]):
-            m = {"slot_nr": c.u16(), "module_ident_number": c.u32(), "module_state": c.u16(),
-                 "number_of_submodules": c.u16(), "submodules": []}
-            for _ in range(m["number_of_submodules"]):
-                s = {"subslot_nr": c.u16(), "submodule_ident_number": c.u32(), "submodule_state": c.u16()}
-                s.update(_bits(s["submodule_state"], SUBMODULE_STATE))
-                m["submodules"].append(s)
-            a["modules"].append(m)
-        apis.append(a)
-
-
-def _ar_server(c: _Cur, d: dict) -> None:
-    n = d["station_name_length"] = c.u16()
-    d["cminitiator_station_name"] = c.text(n)  # tshark labels the device's name so (quirk)
-
-
-def _control(c: _Cur, d: dict) -> None:
-    d["reserved16"] = [c.u16()]
-    d["ar_uuid"] = c.uuid()
-    d["session_key"] = c.u16()
-    d["reserved16"].append(c.u16())
-    cmd = d["control_command"] = c.u16()
-    d.update(_bits(cmd, CONTROL_COMMAND))
-    props = c.u16()
-    d["command"] = [n[len("control_command_"):] for n, m in CONTROL_COMMAND if cmd & m]
-    if cmd & 0x2:  # tshark shows the properties as ApplicationReady bits then
-        d["control_block_properties_appl_ready"] = props
-        d.update(_bits(props, APPL_READY))
-    else:
-        d["control_block_properties"] = props
-
-
-def _im_filter(c: _Cur, d: dict) -> None:
-    # I&M0FilterData (records 0xF840), tshark dissect_IandM0FilterData_block
-    d["number_of_apis"] = c.u16()
-    apis = d["apis"] = []
-    for _ in range(d["number_of_apis"]):
-        a = {"api": c.u32(), "number_of_modules": c.u16(), "modules": []}
-        for _ in range(a["number_of_modules"]):
-            m = {"slot_nr": c.u16(), "module_ident_number": c.u32(), "number_of_submodules": c.u16(),
-                 "submodules": []}
-            for _ in range(m["number_of_submodules"]):
-                m["submodules"].append({"subslot_nr": c.u16(), "submodule_ident_number": c.u32()})
-            a["modules"].append(m)
-        apis.append(a)
-
-
-def _ir_info(c: _Cur, d: dict) -> None:
-    # IRInfoBlock (RT_CLASS_3 Connect), tshark dissect_IRInfo_block: which IOCR sits where in DFP frames
-    c.u16()
-    d["IRData_uuid"] = c.uuid()
-    c.u16()
-    d["number_of_iocrs"] = c.u16()
-    d["iocrs"] = [{"iocr_reference": c.u16(), "subframe_offset": c.u16(), "subframe_data": c.u32()}
-                  for _ in range(d["number_of_iocrs"])]
-
-
-def _diagnosis(c: _Cur, d: dict) -> None:
-    # DiagnosisData: version 1.1 starts with the API (tshark dissect_DiagnosisData_block); the
-    # channel entries are not decoded here
-    if d["block_version_low"] >= 1:
-        d["api"] = c.u32()
-    d["slot_nr"] = c.u16()
-    d["subslot_nr"] = c.u16()
-
-
-def _slot_prefix(c: _Cur, d: dict) -> None:
-    # PDPortDataReal and friends start with padding, SlotNumber, SubslotNumber (the rest is not decoded)
-    c.u16()
-    d["slot_nr"] = c.u16()
-    d["subslot_nr"] = c.u16()
-
-
-def _subframe(c: _Cur, d: dict) -> None:
-    # SubframeBlock (tshark dissect_SubFrameBlock_block): FrameID first
-    d["frame_id"] = c.u16()
-
-
-def _pd_sync(c: _Cur, d: dict) -> None:
-    # PDSyncData version 1.2 (tshark dissect_PDSyncData_block): only up to the send clock here
-    if d["block_version_low"] != 2:
-        return
-    c.take(2 + 16 + 4 + 4 + 4 + 4)  # padding, PTCP subdomain UUID, interval begin/end, PLL window, sync send factor
-    d["send_clock_factor"] = c.u16()
-
-
-def _pdir_frame(c: _Cur, d: dict) -> None:
-    # PDIRFrameData (tshark dissect_PDIRFrameData_block): per frame FrameSendOffset, DataLength,
-    # ReductionRatio, Phase, FrameID, Ethertype, RxPort, FrameDetails, TxPortGroups, 4-byte alignment
-    c.u16()
-    if d["block_version_low"] >= 1:
-        d["frame_data_properties"] = c.u32()
-    frames = d["ir_frames"] = []
-    while c.end - c.o >= 17:
-        f = {"frame_send_offset": c.u32(), "data_length": c.u16(), "reduction_ratio": c.u16(),
-             "phase": c.u16(), "frame_id": c.u16(), "ethertype": c.u16(), "rx_port": c.u8(),
-             "frame_details": c.u8(), "nr_of_tx_port_groups": c.u8()}
-        c.take(f["nr_of_tx_port_groups"])
-        c.take((-(c.o - c.start)) % 4)
-        frames.append(f)
-
-
 RW_HEADERS = {0x0008: "write", 0x0009: "read", 0x8008: "write", 0x8009: "read"}
 
 
@@ -494,13 +198,10 @@ def _rw_header(c: _Cur, d: dict) -> None:
 
 
 BODIES = {
-    0x0101: _ar_req, 0x8101: _ar_res, 0x0102: _iocr_req, 0x8102: _iocr_res,
-    0x0103: _alarmcr_req, 0x8103: _alarmcr_res, 0x0104: _expected_sub, 0x8104: _module_diff,
-    0x8106: _ar_server, 0x0109: _ir_info, 0x0203: _pd_sync, 0x0207: _pdir_frame,
-    0x020F: _slot_prefix, 0x022B: _subframe, 0x0010: _diagnosis, 0x0030: _im_filter, 0x0031: _im_filter, 0x0032: _im_filter,
-    **{t: _control for t in (0x0110, 0x0111, 0x0112, 0x0113, 0x0114, 0x0116, 0x0117,
-                             0x8110, 0x8111, 0x8112, 0x8113, 0x8114, 0x8116, 0x8117)},
+    **cm_connect.BODIES,
     **{t: _rw_header for t in RW_HEADERS},
+    **pdrecords.BODIES,
+    **cmblocks.BODIES,
 }
 
 # Blocks whose body holds further blocks after a fixed prefix: (field, bytes) with None = padding.
@@ -564,6 +265,11 @@ def decode_blocks(b: bytes, off: int, end: int, out: list, depth: int = 0) -> No
                 # the record data may lie past this block's end: continue after it
                 off = d.pop("_next")
                 continue
+        elif (bt, d["block_version_low"]) in pdrecords.PREFIX_BODIES and d["block_version_high"] == 1:
+            c = _Cur(b, off + 6, bend, d["block_name"])
+            pdrecords.PREFIX_BODIES[(bt, d["block_version_low"])](c, d)
+            if depth < MAX_DEPTH:
+                decode_blocks(b, c.o, bend, out, depth + 1)  # MRP manager/client parameter blocks
         elif depth < MAX_DEPTH and (bt in CONTAINERS or (bt, d["block_version_low"]) in CONTAINERS):
             c = _Cur(b, off + 6, bend, d["block_name"])
             for name, size in CONTAINERS.get(bt) or CONTAINERS[(bt, d["block_version_low"])]:
