@@ -113,6 +113,11 @@ def _verdict(summary: dict, col: ReportCollector) -> str:
         head = f"<p class='verdict bad'>{' · '.join(parts)} — first at frame {f0}</p>"
     else:
         head = "<p class='verdict good'>No violations.</p>"
+    cyc = summary.get("cyclic", {})
+    unjudged = [f"{n} {what}" for n, what in ((cyc.get("frames_unmapped", 0), "cyclic frames not mapped to a telegram"),
+                                              (cyc.get("cycles_gated", 0), "cycles not judged")) if n]
+    if unjudged:
+        head += f"<p class='warn'>Not checked: {esc(', '.join(unjudged))} (see below).</p>"
     if col.n_violations > len(vs):
         head += f"<p>{col.n_violations} violations in all; the first {len(vs)} are counted and listed.</p>"
     counts = {}
@@ -121,7 +126,6 @@ def _verdict(summary: dict, col: ReportCollector) -> str:
     rows = [[r, v.get("severity"), v.get("side"), counts[r], v.get("frame"), v.get("message")]
             for r, v in sorted(first.items(), key=lambda kv: kv[1].get("frame") or 0)]
     acc = summary.get("accounting", {})
-    cyc = summary.get("cyclic", {})
     trust = [
         ["frames", summary.get("frames")],
         ["decoded / not PROFINET / malformed",
@@ -227,7 +231,7 @@ def _records(col: ReportCollector) -> str:
 
 CSS = ("body{font-family:sans-serif;max-width:1250px;margin:1em auto;color:#222}"
        "table{border-collapse:collapse;margin:.4em 0;font-size:13px}td,th{border:1px solid #ccc;padding:2px 6px;"
-       "text-align:left;vertical-align:top}th{background:#eee}img{max-width:100%}.none{color:#777}"
+       "text-align:left;vertical-align:top}.warn{color:#a60;font-weight:bold}th{background:#eee}img{max-width:100%}.none{color:#777}"
        ".verdict{font-size:20px;font-weight:bold;padding:.4em;border-radius:4px}.bad{background:#fde4e4}"
        ".good{background:#e4f7e4}.error{color:#c00}.warning{color:#c60}.info{color:#06c}"
        ".viol{border-left:5px solid #ccc;padding:.2em .8em;margin:.8em 0}.viol.error{border-color:#d62728}"
