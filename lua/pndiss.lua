@@ -1583,6 +1583,11 @@ function pndiss.init() reset_state() end
 -- 9. the list of every violation: tshark -z pndiss,violations, Statistics > pndiss violations -------
 -- A single pass cannot show on an earlier frame what a later one decided; this list is made at the
 -- end of the pass (finish() run first), so it holds every violation pndiss analyze reports.
+-- a message can quote the wire (a NameOfStation): control characters are shown, never obeyed
+local function visible(s)
+    return (tostring(s):gsub("%c", function(c) return string.format("\\x%02x", c:byte()) end))
+end
+
 local function violation_lines()
     if not finished then finish_all() end
     local rows = {}
@@ -1597,7 +1602,7 @@ local function violation_lines()
         local r = T.rules[v.rule] or {}
         local at = v.decided == 0 and "end" or tostring(v.decided)
         out[#out + 1] = string.format("%-7d %-29s %-8s %-10s %-7s %s", v.frame, v.rule, r.severity or "",
-            r.side or "", at, v.message or r.section or "")
+            r.side or "", at, visible(v.message or r.section or ""))
     end
     return out, #rows
 end
