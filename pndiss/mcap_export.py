@@ -460,8 +460,9 @@ class McapExporter:
                 schema)
             self.telegram_channels.append({
                 "topic": ch.topic, "station": ev.get("station") or mac, "slot": slot, "subslot": sub,
-                "telegram": tg, "side": side, "signals": list(ev.get("signals") or {}),
-                "bits": list(ev.get("bits") or {})})
+                "telegram": tg, "side": side,
+                **{part: [str(k) for k in ev[part]] if isinstance(ev.get(part), dict) else []
+                   for part in ("signals", "bits")}})
         if (self.on_change or self.decimate > 1) and not self._keep(
                 ch, (ev.get("words"), ev.get("raw"), ev.get("signals")), ev.get("ts_ns") or 0):
             return

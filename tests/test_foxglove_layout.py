@@ -9,12 +9,14 @@ import json
 import os
 import re
 
+from hypothesis import HealthCheck, given, settings as hsettings, strategies as st
 from mcap.reader import make_reader
 
 from pndiss.cli import main as cli_main
+from pndiss.foxglove_layout import build
 from pndiss.mcap_export import VIOLATIONS_TOPIC, McapExporter
 from pndiss.settings import Settings
-from test_mcap import DEV, read_back, rt, tg
+from test_mcap import DEV, _event, read_back, rt, tg
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CAPS = [os.path.join(ROOT, "captures", n) for n in (
@@ -105,3 +107,19 @@ def test_schema_names_unique(tmp_path):
     for s in schemas.values():
         assert json.loads(s.data)["title"] == s.name
     assert VIOLATIONS_TOPIC in counts
+
+
+@hsettings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.lists(_event, max_size=12))
+def test_layout_arbitrary_events(tmp_path, evs):
+    """Whatever the events hold, the layout is built and every path parses as a message path."""
+    out = str(tmp_path / "a.mcap")
+    exp = McapExporter(out, None, Settings())
+    for ev in evs:
+        exp.on_event(ev)
+    exp.close()
+    layout = json.loads(json.dumps(build(exp.telegram_channels, VIOLATIONS_TOPIC)))
+    for c in layout["configById"].values():
+        for p in c.get("paths", []):
+            m = PATH.match(p["value"])
+            assert m and unquote(m.group(1)) in {ch["topic"] for ch in exp.telegram_channels}, p["value"]
