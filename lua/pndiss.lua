@@ -1388,6 +1388,15 @@ local function add_object(tree, tvb, c)
     end
 end
 
+-- the Info column names the frame's violations (and those decided here for earlier frames), so
+-- the packet list shows them in a single pass (tshark without -2, the GUI's first look)
+local function info_rules(pinfo)
+    local parts = {}
+    for _, v in ipairs(viol[pinfo.number] or {}) do parts[#parts + 1] = v.rule end
+    for _, v in ipairs(late[pinfo.number] or {}) do parts[#parts + 1] = v.rule .. " (frame " .. v.frame .. ")" end
+    if #parts > 0 then pinfo.cols.info:append(" [pndiss: " .. table.concat(parts, ", ") .. "]") end
+end
+
 -- the violations cached for this frame: pndiss.rule + expert info pndiss.rule.<ID> each
 local function add_rules(tree, tvb, pinfo)
     local d = late[pinfo.number]
@@ -1586,6 +1595,7 @@ function pndiss.dissector(tvb, pinfo, tree)
         end
         if tree and items and #items > 0 then show_records(tree, tvb, items) end
     end
+    info_rules(pinfo)
     if tree then
         add_rules(tree, tvb, pinfo)
         if blind and pinfo.visited then   -- an expert info needs an item to hang on
@@ -1609,6 +1619,58 @@ local function reset_state()
     cyc_cache, rec_cache, cyclic_frame, blind = {}, {}, nil, false
 end
 function pndiss.init() reset_state() end
+
+-- 9. the list of every violation: tshark -z pndiss,violations, Statistics > pndiss violations -------
+-- A single pass cannot show on an earlier frame what a later one decided; this list is made at the
+-- end of the pass (finish() run first), so it holds every violation pndiss analyze reports.
+-- a message can quote the wire (a NameOfStation): control characters are shown, never obeyed
+local function visible(s)
+    return (tostring(s):gsub("%c", function(c) return string.format("\\x%02x", c:byte()) end))
+end
+
+local function violation_lines()
+    if not finished then finish_all() end
+    local rows = {}
+    for _, l in pairs(viol) do for _, v in ipairs(l) do rows[#rows + 1] = v end end
+    table.sort(rows, function(a, b)
+        if a.frame ~= b.frame then return a.frame < b.frame end
+        return a.rule < b.rule
+    end)
+    local out = {string.format("%-7s %-29s %-8s %-10s %-7s %s", "frame", "rule", "severity", "side",
+        "decided", "message")}
+    for _, v in ipairs(rows) do
+        local r = T.rules[v.rule] or {}
+        local at = v.decided == 0 and "end" or tostring(v.decided)
+        out[#out + 1] = string.format("%-7d %-29s %-8s %-10s %-7s %s", v.frame, v.rule, r.severity or "",
+            r.side or "", at, visible(v.message or r.section or ""))
+    end
+    return out, #rows
+end
+
+local function violations_text()
+    local lines, n = violation_lines()
+    local bar = string.rep("=", 72)
+    return table.concat({bar, "pndiss violations: " .. n, bar, table.concat(lines, "\n"), bar}, "\n") .. "\n"
+end
+
+-- tshark -z pndiss,violations: a tap with a filter makes tshark build the protocol tree the field
+-- extractors need; draw runs once at the end of the file
+register_stat_cmd_arg("pndiss,violations", function()
+    local tap = Listener.new(nil, "frame")
+    function tap.draw() io.write(violations_text()) end
+end)
+
+-- Wireshark: Statistics > pndiss violations (the "unsorted" group: Wireshark 4.0 shows no Lua item
+-- of the generic one); retapping redissects every frame after the load, so finish() sees the file
+if gui_enabled() then
+    register_menu("pndiss violations", function()
+        local tw = TextWindow.new("pndiss violations")
+        local tap = Listener.new(nil, "frame")
+        tw:set_atclose(function() tap:remove() end)
+        function tap.draw() tw:set(violations_text()) end
+        retap_packets()
+    end, MENU_STAT_UNSORTED)
+end
 
 reset_state()
 parse_usermap(pndiss.prefs.map)

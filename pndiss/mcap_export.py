@@ -10,7 +10,10 @@ log_time = publish_time = capture time in integer ns, sequence = frame number. T
   /pn/<station>/records                                   record / param / record_result events
   /pn/dcp  /pn/lldp  /pn/alarms  /pn/malformed            protocol events
   /pn/<kind>                                              any other event kind (rpc, ar, ptcp ...)
-  /pndiss/violations                                      violations as foxglove.Log
+  /pn/violations                                          violations as foxglove.Log
+
+One topic root (/pn/); every schema name is unique in a file (a telegram channel's schema is named
+after its telegram and direction, a second one with other fields gets a suffix).
 
 Streaming: per channel a few scalars, never a list of messages; the mcap writer keeps one
 index entry per chunk. Volume control applies to the cyclic topics (telegram + apdu):
@@ -130,6 +133,7 @@ SCHEMA_NAMES = {k: v["title"] for k, v in SCHEMAS.items()}
 # event kind -> (schema key, fixed topic) for the events that are not per-station
 _FIXED = {"dcp": ("event", "/pn/dcp"), "lldp": ("event", "/pn/lldp"), "alarm": ("event", "/pn/alarms"),
           "malformed": ("malformed", "/pn/malformed")}
+VIOLATIONS_TOPIC = "/pn/violations"
 LEVELS = {"info": 2, "warning": 3, "error": 4}  # violation severity -> foxglove.LogLevel
 _SETPOINT = {"setpoint", "output", "out", "o", "controller"}  # direction words meaning ctrl -> encoder
 
@@ -265,6 +269,8 @@ class McapExporter:
             raise
         self.w.start(profile="", library=f"pndiss {__version__}")
         self._schemas: dict[bytes, int] = {}
+        self._schema_names: set[str] = set()
+        self.telegram_channels: list[dict] = []  # topic, station, slot, subslot, telegram, side, signals, bits
         self._chans: dict[tuple, _Chan] = {}
         self._names: dict[str, str] = {}    # MAC -> NameOfStation, as learnt from the events
         self._labels: dict[str, str] = {}   # MAC -> topic label, fixed at first use
@@ -286,7 +292,14 @@ class McapExporter:
         data = json.dumps(schema, sort_keys=True).encode()
         sid = self._schemas.get(data)
         if sid is None:
-            sid = self._schemas[data] = self.w.register_schema(schema["title"], "jsonschema", data)
+            # two different schemas never share a name (Foxglove keys datatypes by it)
+            name, n = schema["title"], 1
+            while name in self._schema_names:
+                n += 1
+                name = f"{schema['title']}_{n}"
+            self._schema_names.add(name)
+            body = data if name == schema["title"] else json.dumps({**schema, "title": name}, sort_keys=True).encode()
+            sid = self._schemas[data] = self.w.register_schema(name, "jsonschema", body)
         return sid
 
     def _chan(self, ckey: tuple, topic: str, skey: str, meta: dict, schema: dict | None = None) -> _Chan:
@@ -433,6 +446,7 @@ class McapExporter:
             tgs = f"{tg:02d}" if isinstance(tg, int) else str(tg or "unknown")
             topic = f"/pn/{lab}/{slot}.{sub}/tg{tgs}/{side}"
             schema = json.loads(json.dumps(SCHEMAS["telegram"]))
+            schema["title"] = f"pndiss.Telegram{tgs}{side.capitalize()}"
             for part in ("signals", "bits"):
                 if isinstance(ev.get(part), dict):
                     props = schema["properties"][part]["properties"]
@@ -445,6 +459,11 @@ class McapExporter:
                 "subslot": sub, "telegram": tg, "direction": side,
                 "frame_id": f"0x{ev['frame_id']:04x}" if isinstance(ev.get("frame_id"), int) else ev.get("frame_id")},
                 schema)
+            self.telegram_channels.append({
+                "topic": ch.topic, "station": ev.get("station") or mac, "slot": slot, "subslot": sub,
+                "telegram": tg, "side": side,
+                **{part: [str(k) for k in ev[part]] if isinstance(ev.get(part), dict) else []
+                   for part in ("signals", "bits")}})
         if (self.on_change or self.decimate > 1) and not self._keep(
                 ch, (ev.get("words"), ev.get("raw"), ev.get("signals")), ev.get("ts_ns") or 0):
             return
@@ -466,7 +485,7 @@ class McapExporter:
 
     def _violation(self, ev: dict) -> None:
         ckey = ("violations",)
-        ch = self._chans.get(ckey) or self._chan(ckey, "/pndiss/violations", "log", {})
+        ch = self._chans.get(ckey) or self._chan(ckey, VIOLATIONS_TOPIC, "log", {})
         ts = ev.get("ts_ns") or 0
         fn, last = ev.get("frame"), ev.get("last_frame")
         where = f"frame {fn}" if last in (None, fn) else f"frames {fn}-{last}"

@@ -106,6 +106,9 @@ def read_back(path, strict=True, every=1):
                 problems.append(f"{ch.topic} frame {m.sequence}: {e.message}")
         summary = r.get_summary()
         meta = {md.name: md.metadata for md in r.iter_metadata()}
+    # Foxglove keys datatypes by schema name: two different schemas must not share one
+    by_name = Counter(sc.name for sc in summary.schemas.values())
+    problems += [f"schema name {n} names {c} schemas" for n, c in by_name.items() if c > 1]
     stats = summary.statistics.channel_message_counts
     for cid, ch in summary.channels.items():
         if stats.get(cid, 0) != counts[ch.topic]:
@@ -115,7 +118,7 @@ def read_back(path, strict=True, every=1):
 
 def family(topic):
     parts = topic.split("~")[0].split("/")
-    if topic == "/pndiss/violations":
+    if topic == "/pn/violations":
         return "violation"
     if len(parts) == 3:  # /pn/<kind>
         return {"alarms": "alarm"}.get(parts[2], parts[2])
@@ -276,12 +279,12 @@ def test_synthetic_topics_and_log(tmp_path):
     assert dict(counts) == {
         "/pn/enc-1/apdu/0x8000/output": 1, "/pn/enc-1/1.2/tg81/setpoint": 1, "/pn/enc-1/apdu/0x8001/input": 1,
         "/pn/enc-1/1.2/tg81/actual": 1, "/pn/enc-1/encoder_state": 1, "/pn/enc-1/records": 1,
-        "/pndiss/violations": 1, "/pn/dcp": 1, "/pn/malformed": 1, "/pn/ar": 1, "/pn/mystery": 1}
+        "/pn/violations": 1, "/pn/dcp": 1, "/pn/malformed": 1, "/pn/ar": 1, "/pn/mystery": 1}
     assert chans["/pn/enc-1/1.2/tg81/actual"].metadata["telegram"] == "81"
     assert chans["/pn/enc-1/apdu/0x8000/output"].metadata["device_mac"] == DEV  # named after the device, not the sender
     with open(out, "rb") as f:
         msgs = {ch.topic: (s, json.loads(m.data)) for s, ch, m in make_reader(f).iter_messages()}
-    s, log = msgs["/pndiss/violations"]
+    s, log = msgs["/pn/violations"]
     assert s.name == "foxglove.Log"
     assert log["level"] == 3 and log["name"] == "R-X" and log["line"] == 5
     assert log["timestamp"] == {"sec": 0, "nsec": 4000}
@@ -333,7 +336,7 @@ def test_time_clamped_per_channel(tmp_path):
            {"frame": 1, "ts_ns": 5_000, "kind": "violation", "rule": "R-B", "side": "encoder", "severity": "info", "message": "m"}]
     out, _ = export(tmp_path, evs)
     counts, _, _, problems = read_back(out)
-    assert problems == [] and counts["/pndiss/violations"] == 2
+    assert problems == [] and counts["/pn/violations"] == 2
     with open(out, "rb") as f:
         pub = [(m.log_time, m.publish_time) for _, ch, m in make_reader(f).iter_messages(log_time_order=False)
                if ch.topic.endswith("0x8001")]

@@ -19,6 +19,9 @@ def add_parser(sub) -> None:
                    help="cyclic topics: write every Nth sample per channel (with --on-change: also every Nth)")
     p.add_argument("--compression", choices=("none", "lz4", "zstd"), default="zstd",
                    help="chunk compression (default zstd)")
+    p.add_argument("--layout", metavar="FILE.json",
+                   help="also write a Foxglove layout for this file: position/speed plots and control/status "
+                        "words per axis, the violations log (Layouts > Import from file)")
     add_settings_args(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no summary line")
     p.set_defaults(func=run)
@@ -57,6 +60,13 @@ def run(args) -> int:
         except OSError:
             pass
         raise error
+    if args.layout:
+        from ..foxglove_layout import write as write_layout
+        from ..mcap_export import VIOLATIONS_TOPIC
+        try:
+            write_layout(args.layout, exp.telegram_channels, VIOLATIONS_TOPIC)
+        except OSError as e:
+            raise UsageError(f"cannot write {args.layout}: {e.strerror}") from None
     if error is not None:
         print(f"pndiss: error: {error} ({error.frames} frames read before it); "
               f"{args.output} holds what was read", file=sys.stderr)

@@ -1,0 +1,104 @@
+"""The Wireshark plugin in one pass (issue #16 item 6), with the real tshark and no `-2`.
+
+* `tshark -r F -q -z expert` lists the violations decided on their own frame (expert infos of
+  the first pass), rule for rule as many as a single pass shows with `-Y pndiss.rule`;
+* the Info column names them;
+* `tshark -r F -q -z pndiss,violations` lists at the end of the single pass every violation
+  (frame, rule) the Python core reports, including those decided later (deadlines,
+  controller-side rules, end of capture).
+"""
+from __future__ import annotations
+
+import collections
+import os
+import re
+import shutil
+
+import pytest
+
+from pndiss.settings import Settings
+from test_lua_plugin import (fault_captures, public_captures, python_expect, rule_rows,
+                             settings_pref, sidecar_settings, tshark)
+
+pytestmark = pytest.mark.skipif(shutil.which("tshark") is None, reason="tshark not installed")
+
+ROW = re.compile(r"^(\d+)\s+(\S+)\s+(error|warning|info)\s+(\S+)\s+(\d+|end)\s")
+EXPERT = re.compile(r"^\s*(\d+)\s+\S+\s+PNDISS\s+([A-Z0-9-]+): ")
+
+
+def tap_rows(out: str) -> set:
+    """(frame, rule) of the -z pndiss,violations table; the count line must agree."""
+    m = re.search(r"^pndiss violations: (\d+)$", out, re.M)
+    assert m, out[-2000:]
+    rows = {(int(x.group(1)), x.group(2)) for x in map(ROW.match, out.splitlines()) if x}
+    assert len(rows) == int(m.group(1))
+    return rows
+
+
+def expert_counts(out: str) -> collections.Counter:
+    """rule -> how many expert infos `-z expert` counted for it (summaries carry the message)."""
+    c = collections.Counter()
+    for line in out.splitlines():
+        m = EXPERT.match(line)
+        if m:
+            c[m.group(2)] += int(m.group(1))
+    return c
+
+
+def _settings(path):
+    st = sidecar_settings(path) if "/captures/fault-" in path else {}
+    s = Settings()
+    for k, v in st.items():
+        setattr(s, k, v)
+    return s, settings_pref(st)
+
+
+CASES = [p for p, _ in fault_captures()] + public_captures()
+
+
+@pytest.mark.parametrize("path", CASES, ids=os.path.basename)
+def test_one_pass_expert_and_tap(path):
+    s, pref = _settings(path)
+    _, viol = python_expect(path, s)
+    rc, out, err = tshark(path, "-q", "-z", "expert,note", "-z", "pndiss,violations", *pref, two_pass=False)
+    assert rc == 0 and "Lua" not in err, err
+    assert tap_rows(out) == viol
+    one = collections.Counter(r for _, r, _ in rule_rows(path, *pref, two_pass=False))
+    assert expert_counts(out) == one
+    if "/captures/fault-" in path:
+        # what -z expert lists in one pass holds every violation decided on its own frame
+        immediate = collections.Counter(r for f, r, d in rule_rows(path, *pref) if d == f)
+        assert not immediate - one, immediate - one
+
+
+def test_late_violations_only_in_tap():
+    """The tap is needed: some fault capture has a violation that -z expert cannot show in one pass
+    (decided on a later frame), and the tap still lists it."""
+    for path, _ in fault_captures():
+        s, pref = _settings(path)
+        two = rule_rows(path, *pref)
+        late = {(f, r) for f, r, d in two if d != f}
+        if late:
+            rc, out, err = tshark(path, "-q", "-z", "pndiss,violations", *pref, two_pass=False)
+            assert late <= tap_rows(out)
+            return
+    pytest.fail("no fault capture with a violation decided after its frame")
+
+
+def test_info_column_names_rules():
+    """Single-pass tshark's packet list: a frame with a violation shows its rule in the Info column;
+    a deciding frame names the rule and the earlier frame."""
+    for path, _ in fault_captures()[:40]:
+        s, pref = _settings(path)
+        rc, out, err = tshark(path, "-Y", "pndiss.rule or pndiss.late_rule", "-T", "fields", "-e", "frame.number",
+                              "-e", "pndiss.rule", "-e", "pndiss.late_rule", "-e", "pndiss.late_rule.frame",
+                              "-e", "_ws.col.Info", *pref, two_pass=False)
+        assert rc == 0 and "Lua" not in err, err
+        for line in out.splitlines():
+            fn, rules, late, late_fr, info = line.split("\t")
+            assert "[pndiss: " in info, line
+            for r in filter(None, rules.split(",")):
+                assert r in info, line
+            for r, f in zip(filter(None, late.split(",")), late_fr.split(",")):
+                assert f"{r} (frame {f})" in info, line
+
