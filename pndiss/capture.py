@@ -91,10 +91,9 @@ def open_capture(path: str, batch=None) -> Iterator[tuple[int, int, int, bytes]]
     ``batch`` (pndiss/batch.py) is offered the buffered records now and then: it may consume a
     whole steady run of them itself (those frames are then not yielded; frame numbers still count
     them) or say after how many frames to ask again."""
-    try:
-        f = open(path, "rb")
-    except OSError as e:
-        raise CaptureError(f"cannot open {path}: {e.strerror}") from None
+    from .inputs import open_input  # '-', pipes, gzip/zstd/xz (pndiss/inputs.py)
+
+    f = open_input(path)
     with f:
         b = _Buffer(f)
         if not b.need(4):
