@@ -1631,7 +1631,7 @@ end
 
 local function param(chk, ev)
   local c = chk.cfg
-  local is_change = find(tostring(ev.request_id or "None"), "change", 1, true) ~= nil
+  local is_change = find(tostring(ev.request_id_name or ev.request_id or "None"), "change", 1, true) ~= nil
   local frame = ev.response_frame or ev.frame or 0
   for _, prob in ipairs(ev.pairing or {}) do
     local words = lower(tostring(prob))

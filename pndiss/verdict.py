@@ -46,6 +46,12 @@ class ViolationLog:
         if self.on_new is not None:
             self.on_new(ev)
 
+    def summary(self) -> dict:
+        """The JSON summary's ``verdict`` entry (pndiss/data/summary.schema.json)."""
+        return {"total": self.total, "by_severity": {s: self.by_sev.get(s, 0) for s in ("error", "warning", "info")},
+                "by_severity_side": {f"{sev}/{side}": n for (sev, side), n in sorted(self.by_sev_side.items())},
+                "rows": self.as_list(), "rows_not_listed": self.overflow}
+
     def as_list(self) -> list[dict]:
         return sorted(self.rows.values(), key=lambda r: (r["first_frame"], r["rule"]))
 

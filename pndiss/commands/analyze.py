@@ -215,6 +215,7 @@ def run(args) -> int:
     summary["capture"] = args.capture
     if scope is not None:
         summary["scope"] = scope.describe()
+    summary["verdict"] = {**a.violations.summary(), "line": one_line(summary, a.violations)}
     if args.summary_json:
         out = open_out(args.summary_json)
         try:

@@ -143,7 +143,7 @@ def _bmp_request(chk, ev: dict) -> None:
 
 def _param(chk, ev: dict) -> None:
     c = chk.cfg
-    change = "change" in str(ev.get("request_id", ""))
+    change = "change" in str(ev.get("request_id_name") or ev.get("request_id", ""))
     ok = bool(ev.get("ok"))
     frame = ev.get("response_frame", ev.get("frame", 0))
     for prob in ev.get("pairing") or ():

@@ -236,7 +236,7 @@ class ParamPairer:
         rsp = decoded_response
         rid = rsp.get("response_id")
         ev = {"request_frame": None, "response_frame": frame, "request_ts_ns": None,
-              "request_ref": None, "request_id": None, "request_id_code": None,
+              "request_ref": None, "request_id": None, "request_id_name": None, "request_id_code": None,
               "response_ref": rsp.get("request_ref"), "response_id": rid,
               "response_id_name": rsp.get("response_id_name"), "axis": None,
               "response_axis": rsp.get("axis"), "no_of_parameters": None,
@@ -253,7 +253,8 @@ class ParamPairer:
             return ev
         req, rframe, rts = pending
         ev.update(request_frame=rframe, request_ts_ns=rts, request_ref=req["request_ref"],
-                  request_id=req["request_id_name"], request_id_code=req["request_id"], axis=req["axis"],
+                  request_id=req["request_id"], request_id_name=req["request_id_name"],  # a number, as response_id
+                  request_id_code=req["request_id"], axis=req["axis"],
                   no_of_parameters=req["no_of_parameters"])
         if rsp.get("request_ref") != req["request_ref"]:
             ev["pairing"].append(f"request ref mismatch (request 0x{req['request_ref']:02X}, "
