@@ -235,14 +235,14 @@ def render_png(tl: Timeline, path: str, title: str = "", window=None) -> None:
             if ts:
                 ax.plot([tl.sec(t) for t in ts], vs, color="#1f77b4", lw=1.2,
                         drawstyle="steps-post", label=e.position_name)
-            ax.set_ylabel(f"{e.position_name or 'position'}", color="#1f77b4", fontsize=8)
+            ax.set_ylabel(mathtext(e.position_name or "position"), color="#1f77b4", fontsize=8)
             ax.text(0.005, 0.97, mathtext(e.label), transform=ax.transAxes, fontsize=9, va="top", weight="bold",
                     bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none"})
             ts, vs = _series_in(e.speed, lo_t, hi_t)
             if ts:
                 ax2 = ax.twinx()
                 ax2.plot([tl.sec(t) for t in ts], vs, color="#2ca02c", lw=1.0, label=e.speed_name)
-                ax2.set_ylabel(e.speed_name, color="#2ca02c", fontsize=8)
+                ax2.set_ylabel(mathtext(e.speed_name), color="#2ca02c", fontsize=8)
                 ax2.tick_params(labelsize=7)
         elif kind == "lanes":
             lanes = tl.shown_lanes(e)
@@ -255,7 +255,7 @@ def render_png(tl: Timeline, path: str, title: str = "", window=None) -> None:
                 ax.step(xs, ys, where="post", lw=1.1, color="#444")
                 ax.fill_between(xs, y0, ys, step="post", alpha=0.25, color="#9467bd")
             ax.set_yticks([len(lanes) - 1 - i + 0.35 for i in range(len(lanes))])
-            ax.set_yticklabels([n for n, _ in lanes], fontsize=7)
+            ax.set_yticklabels([mathtext(n) for n, _ in lanes], fontsize=7)
             ax.set_ylim(-0.2, len(lanes))
         else:
             ax.text(0.5, 0.5, "no telegram samples in this capture", ha="center", va="center",
@@ -280,7 +280,7 @@ def render_png(tl: Timeline, path: str, title: str = "", window=None) -> None:
             clusters.append([xs, [rule], sev])
     for xs, rules, sev in clusters[:60]:
         text = ", ".join(rules[:3]) + (f" +{len(rules) - 3}" if len(rules) > 3 else "")
-        axes[0].annotate(text, (xs, 1.0), xycoords=("data", "axes fraction"), rotation=60,
+        axes[0].annotate(mathtext(text), (xs, 1.0), xycoords=("data", "axes fraction"), rotation=60,
                          fontsize=6, color=SEV_COLOURS.get(sev, "#d62728"), va="bottom")
     axes[-1].set_xlabel("time since the first cyclic sample [s]" if tl.t0 is not None else "time since first frame [s]")
     v = f"{tl.violation_count} violation(s)" if tl.violation_count else "no violations"

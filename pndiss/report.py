@@ -102,8 +102,9 @@ def render_violation(ev: dict, out=None) -> None:
     """One line per violation as it is decided (--follow)."""
     out = out or sys.stdout
     who = ev.get("station") or ev.get("device_mac") or ev.get("mac") or ""
-    line = (f"frame {ev.get('frame')}: {ev.get('severity', '?')} {ev.get('side', '?')} {ev.get('rule')}"
-            + (f" [{visible(who, 40)}]" if who else "") + f": {visible(ev.get('message', ''), 200)}")
+    line = (f"frame {visible(ev.get('frame'))}: {visible(ev.get('severity', '?'), 20)} {visible(ev.get('side', '?'), 20)} "
+            f"{visible(ev.get('rule'), 60)}" + (f" [{visible(who, 40)}]" if who else "")
+            + f": {visible(ev.get('message', ''), 200)}")
     print(line, file=out, flush=True)
 
 
@@ -125,11 +126,11 @@ def render_verdict(con: Console, summary: dict, log) -> None:
         return
     head = vd.headline(log)
     style = "bold red" if log.by_sev.get("error") else "bold yellow" if log.total else "bold green"
-    con.print(Text("VERDICT: " + head, style=style))
+    con.print(Text("VERDICT: " + visible(head, 300), style=style))
     for r in log.as_list()[:40]:
         line = Text("  ")
-        line.append(f"{r['severity']:<7}", style=SEV_STYLE.get(r["severity"], ""))
-        line.append(f" {r['side']:<10} {r['rule']}  ×{r['events']:,} from frame {r['first_frame']}")
+        line.append(f"{visible(r['severity'], 20):<7}", style=SEV_STYLE.get(r["severity"], ""))
+        line.append(f" {visible(r['side'], 20):<10} {visible(r['rule'], 60)}  ×{r['events']:,} from frame {r['first_frame']}")
         if r["station"]:
             line.append(f"  {visible(r['station'], 40)}")
         con.print(line)
