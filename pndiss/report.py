@@ -32,6 +32,12 @@ def _ts(ns: int | None) -> str:
         return f"{ns} ns"
 
 
+class _Console(Console):
+    def on_broken_pipe(self) -> None:
+        """rich exits with 1 on a closed stdout; the CLI ends quietly with 0 instead (cli.py)."""
+        raise BrokenPipeError
+
+
 def make_console(file) -> Console:
     """A console that never interprets text (markup, emoji, highlighting); its width is the
     terminal's, or COLUMNS (else 120) when piped."""
@@ -39,7 +45,7 @@ def make_console(file) -> Console:
     if not (hasattr(file, "isatty") and file.isatty()):
         cols = os.environ.get("COLUMNS", "")
         width = int(cols) if cols.isdigit() and int(cols) >= 40 else 120
-    return Console(file=file, width=width, markup=False, emoji=False, highlight=False)
+    return _Console(file=file, width=width, markup=False, emoji=False, highlight=False)
 
 
 def row(t: Table, *cells) -> None:
@@ -177,7 +183,7 @@ def render_report(summary: dict, analyzer, to_stderr: bool = False) -> None:
             row(t, str(m["frame"]), m["layer"], m["reason"])
         con.print(t)
     con.rule()
-    con.print(Text("pndiss: " + visible(vd.one_line(summary, log), 300), style="bold"))
+    con.print(Text("pndiss " + visible(vd.one_line(summary, log, with_name=False), 300), style="bold"))
 
 
 def lldp_ports(stations: list[dict]) -> dict[str, str]:

@@ -85,8 +85,9 @@ def no_profinet(summary: dict) -> bool:
     return summary.get("frames", 0) > 0 and acc.get("decoded", 0) == 0 and acc.get("malformed", 0) == 0
 
 
-def one_line(summary: dict, log: ViolationLog) -> str:
-    name = summary.get("capture", "")
+def one_line(summary: dict, log: ViolationLog, with_name: bool = True) -> str:
+    """The verdict in one line (the end of the report, ``-q``, the summary's verdict.line)."""
+    name = summary.get("capture", "") if with_name else "verdict"
     if summary.get("frames", 0) == 0:
         return f"{name}: no frames in the capture"
     if no_profinet(summary):
