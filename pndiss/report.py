@@ -143,6 +143,9 @@ def render_verdict(con: Console, summary: dict, log) -> None:
         con.print(Text("      " + visible(r["message"], 160), style="dim"))
     if len(log.rows) > 40 or log.overflow:
         con.print(f"  … {max(len(log.rows) - 40, 0) + log.overflow:,} more (rule, station) rows: see --jsonl")
+    if log.rows:
+        con.print(Text("  pndiss rules RULE-ID: what a rule checks, its manual sections, its settings",
+                       style="dim"))
     for title, lines in (("Trust", vd.trust(summary)), ("Not checked", vd.not_checked(summary))):
         if lines:
             con.print(Text(title + ":", style="bold"))
