@@ -173,7 +173,7 @@ def python_expect(path, settings=None):
             d = want.setdefault(ev["frame"], {})
             add(d, "pndiss.param.request_frame", ev["request_frame"])
             add(d, "pndiss.param.request_ref", ev["request_ref"])
-            add(d, "pndiss.param.request_id", ev["request_id"])
+            add(d, "pndiss.param.request_id", ev["request_id_name"])  # the plugin shows the words
             add(d, "pndiss.param.axis", ev["axis"])
             add(d, "pndiss.param.response_id", ev["response_id"])
             add(d, "pndiss.param.ok", int(ev["ok"]))
