@@ -107,10 +107,10 @@ def _param_rows(rows: list[dict]) -> dict[int, str]:
 def encoder_views(tracker) -> dict[tuple, dict]:
     """(device MAC, slot, subslot) -> the cyclic encoder's summary: one telegram source and one
     profile reason for every table (the checker's, which is what was judged)."""
-    cyc = getattr(tracker.a, "cyclic", None)
-    if cyc is None:
+    summary = getattr(getattr(tracker.a, "cyclic", None), "summary", None)
+    if not callable(summary):  # a session tracker on its own (tests): its own view
         return {}
-    return {(e.get("device_mac"), e.get("slot"), e.get("subslot")): e for e in cyc.summary().get("encoders", [])}
+    return {(e.get("device_mac"), e.get("slot"), e.get("subslot")): e for e in summary().get("encoders", [])}
 
 
 def telegram_source(e: dict) -> str:
