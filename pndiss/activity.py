@@ -6,6 +6,8 @@ from collections import Counter
 
 from rich.table import Table
 
+from .report import row
+
 MAX_ROWS = 50
 
 
@@ -60,29 +62,29 @@ class Activity:
             t.add_column("service")
             t.add_column("frames", justify="right")
             for k, v in sorted(self.dcp.items()):
-                t.add_row(k, str(v))
+                row(t, k, str(v))
             out.append(t)
         if self.dcp_sets:
             t = Table(title="DCP Set requests")
             for c in ("frame", "target", "sets"):
                 t.add_column(c)
             for f, tgt, what in self.dcp_sets:
-                t.add_row(str(f), tgt, what)
+                row(t, str(f), tgt, what)
             out.append(t)
         if self.lldp:
             t = Table(title="LLDP neighbours")
             for c in ("source MAC", "chassis ID", "port ID", "TTL", "frames", "PROFINET TLVs"):
                 t.add_column(c)
             for (src, chassis, port), r in self.lldp.items():
-                t.add_row(src, str(chassis or ""), str(port or ""), str(r["ttl"]), str(r["frames"]),
+                row(t, src, str(chassis or ""), str(port or ""), str(r["ttl"]), str(r["frames"]),
                           ", ".join(sorted(r["pn"])) or "-")
             out.append(t)
         if self.alarms:
             t = Table(title=f"Alarms ({self.alarm_count})")
             for c in ("frame", "from", "priority", "PDU", "alarm", "slot/sub", "details"):
                 t.add_column(c)
-            for row in self.alarms:
-                t.add_row(*row)
+            for r in self.alarms:
+                row(t, *r)
             out.append(t)
         return out
 

@@ -19,6 +19,7 @@ from .proto import alarm, dcp, lldp, ptcp, rt, rtfrag
 from .proto.common import Malformed, mac
 from .proto.eth import decode_link
 from .settings import Settings
+from .verdict import ViolationLog
 
 ETH_PNRT = 0x8892
 ETH_LLDP = 0x88CC
@@ -46,6 +47,7 @@ class Analyzer:
         cap = self.settings.max_stations
         self.stations = st.Stations(self.limits.table(cap, "stations"))
         self.activity = Activity()
+        self.violations = ViolationLog()
         self.dcp_tracker = dcp.DcpTracker()
         t = self.dcp_tracker   # its per-name / per-IP / per-MAC claims: bounded like the stations
         t.name_at, t.ip_at = self.limits.table(cap, "dcp_claims"), self.limits.table(cap, "dcp_claims")
@@ -61,7 +63,10 @@ class Analyzer:
 
     # -- output ---------------------------------------------------------------------------
     def emit(self, ev: dict) -> None:
-        self.kinds[ev["kind"]] += 1
+        kind = ev["kind"]
+        self.kinds[kind] += 1
+        if kind == "violation":  # the verdict (pndiss/verdict.py) sees every one, with or without a sink
+            self.violations.add(ev)
         if self.sink is not None:
             self.sink(ev)
 
@@ -205,9 +210,11 @@ class Analyzer:
         }
 
 
-def analyze_file(path: str, settings: Settings | None = None, sink=None, progress=None) -> Analyzer:
+def analyze_file(path: str, settings: Settings | None = None, sink=None, progress=None,
+                 verdict_hooks: dict | None = None) -> Analyzer:
     """Run the whole pipeline over a capture file. Raises capture.CaptureError on bad files
-    (after feeding every complete frame, so ``exc.frames`` frames were analysed)."""
+    (after feeding every complete frame, so ``exc.frames`` frames were analysed).
+    ``verdict_hooks``: ``keep`` / ``on_new`` of the ViolationLog (--station/--time, --follow)."""
     from .capture import open_capture
 
     from .capture import CaptureError
@@ -215,6 +222,13 @@ def analyze_file(path: str, settings: Settings | None = None, sink=None, progres
     from . import fast
 
     a = Analyzer(settings, sink)
+    hooks = dict(verdict_hooks or {})
+    scope = hooks.pop("scope", None)
+    if scope is not None:  # --station/--time: the verdict counts only what is in scope
+        scope.bind(a)
+        a.violations.keep = scope.keep
+    for k, v in hooks.items():
+        setattr(a.violations, k, v)
     try:
         if fast.enabled(a.settings, sink):
             fast.run_file(a, path, progress)   # same results: steady runs batched, cyclic frames without the dispatch

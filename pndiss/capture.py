@@ -168,9 +168,15 @@ def refuse_non_capture(path: str) -> None:
         return  # the caller's path check (or open_capture) says why
     if not (stat.S_ISREG(mode) or stat.S_ISCHR(mode) or stat.S_ISBLK(mode)):
         return
+    from .inputs import open_input  # a gzip/zstd/xz capture is judged by what it holds
+    head = b""
     try:
-        with open(path, "rb") as f:
-            head = f.read(4)
+        with open_input(path) as f:
+            while len(head) < 4:
+                more = f.read(4 - len(head))
+                if not more:
+                    break
+                head += more
     except OSError as e:
         raise CaptureError(f"cannot open {path}: {e.strerror}") from None
     _check_magic(path, head)
@@ -183,10 +189,9 @@ def open_capture(path: str, batch=None, info: ReadInfo | None = None) -> Iterato
     whole steady run of them itself (those frames are then not yielded; frame numbers still count
     them) or say after how many frames to ask again. ``info`` (a ReadInfo) receives the input's
     hash and the count of clamped time stamps."""
-    try:
-        f = open(path, "rb")
-    except OSError as e:
-        raise CaptureError(f"cannot open {path}: {e.strerror}") from None
+    from .inputs import open_input  # '-', pipes, gzip/zstd/xz (pndiss/inputs.py)
+
+    f = open_input(path)
     with f:
         b = _Buffer(f, info)
         b.need(4)

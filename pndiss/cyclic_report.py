@@ -5,6 +5,11 @@ Built from ``CyclicTracker.summary()`` only, so the report shows exactly what th
 from __future__ import annotations
 
 from rich.table import Table
+from rich.text import Text
+
+from .report import row
+from .session_report import profile_reason, telegram_source
+from .textsafe import visible
 
 SEV_STYLE = {"error": "red", "warning": "yellow", "info": "cyan"}
 SHOWN_SETTINGS = ("profile", "telegram", "compat", "class4", "preset_control", "xist1_preset_affected", "scaling",
@@ -17,18 +22,20 @@ def sections(summary: dict) -> list:
     encs = summary.get("encoders", [])
     if not encs:
         return out
-    t = Table(title="Encoders (cyclic telegrams, reference encoder)")
-    for col in ("station", "device", "slot/subslot", "telegram (source)", "profile (why)", "cycles", "not judged",
-                "state changes", "violations"):
-        t.add_column(col)
+    # one paragraph per encoder, not a 9-column table: readable at 80 columns
+    t = Text("Encoders (cyclic telegrams, reference encoder)\n", style="bold")
     for e in encs:
         nviol = sum(v["events"] for v in e["violations"].values())
-        t.add_row(str(e.get("station") or "-"), str(e.get("device_mac") or "-"), f"{e['slot']}/{e['subslot']}",
-                  f"{e['telegram']} ({e['telegram_source']})", f"{e['profile']} ({e['profile_reason']})",
-                  str(e["cycles"]), str(e["gated_cycles"]), str(e["state_changes"]), str(nviol))
+        t.append(visible(f"{e.get('station') or '-'} ({e.get('device_mac') or '-'}) slot {e['slot']}/{e['subslot']}"),
+                 style="bold")
+        t.append(visible(f": telegram {e['telegram']} ({telegram_source(e)}); profile {e['profile']} "
+                         f"({profile_reason(e)}); {e['cycles']:,} cycles, {e['gated_cycles']:,} not judged, "
+                         f"{e['state_changes']:,} state changes, {nviol:,} violations", 400))
+        t.append("\n")
     out.append(t)
     for e in encs:
         name = f"{e.get('station') or e.get('device_mac')} slot {e['slot']}/{e['subslot']}"
+        name = visible(name, 60)
         st = Table(title=f"Settings in force: {name}")
         st.add_column("setting")
         st.add_column("value")
@@ -36,21 +43,21 @@ def sections(summary: dict) -> list:
         for k in SHOWN_SETTINGS:
             v = e["settings"].get(k)
             if v is not None:
-                st.add_row(k, str(v["value"]), str(v["source"]))
+                row(st, k, str(v["value"]), str(v["source"]))
         out.append(st)
         if e["timeline"]:
             tl = Table(title=f"State timeline (first {len(e['timeline'])} of {e['state_changes']} changes): {name}")
             for col in ("frame", "state", "value"):
                 tl.add_column(col)
             for s in e["timeline"][:20]:
-                tl.add_row(str(s["frame"]), s["state"], str(s["value"]))
+                row(tl, str(s["frame"]), s["state"], str(s.get("value_name", s["value"])))
             out.append(tl)
         if e["violations"]:
             vt = Table(title=f"Violations: {name}")
             for col in ("rule", "side", "severity", "events", "cycles", "first frame", "first message"):
-                vt.add_column(col)
+                vt.add_column(col, no_wrap=col in ("rule", "side", "severity"))
             for rule, v in sorted(e["violations"].items(), key=lambda kv: kv[1]["first_frame"]):
-                vt.add_row(rule, v["side"], f"[{SEV_STYLE.get(v['severity'], '')}]{v['severity']}[/]", str(v["events"]),
-                           str(v["cycles"]), str(v["first_frame"]), v["message"])
+                row(vt, rule, v["side"], Text(v["severity"], style=SEV_STYLE.get(v["severity"], "")), str(v["events"]),
+                    str(v["cycles"]), str(v["first_frame"]), v["message"])
             out.append(vt)
     return out

@@ -393,7 +393,7 @@ class McapExporter:
                     self._controllers.add(ev[k])
             self._learn(ev.get("device_mac"), ev.get("station"))
             return
-        info = ev.get("station")
+        info = ev.get("station_info")
         if isinstance(info, dict):
             name = info.get("name") or info.get("name_of_station")
             # a DCP Set request names its target, every other DCP/LLDP frame its sender

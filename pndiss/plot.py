@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import html
 
+from .textsafe import mathtext, visible
+
 # Signal names that carry position / speed, first match wins (telegram tables, cyclic.md §2:
 # G1_XIST1 = position; NIST_A 16-bit / NIST_B 32-bit speed).
 # Matched without regard to case (the telegram decoder names them in lower case).
@@ -233,14 +235,14 @@ def render_png(tl: Timeline, path: str, title: str = "", window=None) -> None:
             if ts:
                 ax.plot([tl.sec(t) for t in ts], vs, color="#1f77b4", lw=1.2,
                         drawstyle="steps-post", label=e.position_name)
-            ax.set_ylabel(f"{e.position_name or 'position'}", color="#1f77b4", fontsize=8)
-            ax.text(0.005, 0.97, e.label, transform=ax.transAxes, fontsize=9, va="top", weight="bold",
+            ax.set_ylabel(mathtext(e.position_name or "position"), color="#1f77b4", fontsize=8)
+            ax.text(0.005, 0.97, mathtext(e.label), transform=ax.transAxes, fontsize=9, va="top", weight="bold",
                     bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none"})
             ts, vs = _series_in(e.speed, lo_t, hi_t)
             if ts:
                 ax2 = ax.twinx()
                 ax2.plot([tl.sec(t) for t in ts], vs, color="#2ca02c", lw=1.0, label=e.speed_name)
-                ax2.set_ylabel(e.speed_name, color="#2ca02c", fontsize=8)
+                ax2.set_ylabel(mathtext(e.speed_name), color="#2ca02c", fontsize=8)
                 ax2.tick_params(labelsize=7)
         elif kind == "lanes":
             lanes = tl.shown_lanes(e)
@@ -253,7 +255,7 @@ def render_png(tl: Timeline, path: str, title: str = "", window=None) -> None:
                 ax.step(xs, ys, where="post", lw=1.1, color="#444")
                 ax.fill_between(xs, y0, ys, step="post", alpha=0.25, color="#9467bd")
             ax.set_yticks([len(lanes) - 1 - i + 0.35 for i in range(len(lanes))])
-            ax.set_yticklabels([n for n, _ in lanes], fontsize=7)
+            ax.set_yticklabels([mathtext(n) for n, _ in lanes], fontsize=7)
             ax.set_ylim(-0.2, len(lanes))
         else:
             ax.text(0.5, 0.5, "no telegram samples in this capture", ha="center", va="center",
@@ -278,11 +280,11 @@ def render_png(tl: Timeline, path: str, title: str = "", window=None) -> None:
             clusters.append([xs, [rule], sev])
     for xs, rules, sev in clusters[:60]:
         text = ", ".join(rules[:3]) + (f" +{len(rules) - 3}" if len(rules) > 3 else "")
-        axes[0].annotate(text, (xs, 1.0), xycoords=("data", "axes fraction"), rotation=60,
+        axes[0].annotate(mathtext(text), (xs, 1.0), xycoords=("data", "axes fraction"), rotation=60,
                          fontsize=6, color=SEV_COLOURS.get(sev, "#d62728"), va="bottom")
     axes[-1].set_xlabel("time since the first cyclic sample [s]" if tl.t0 is not None else "time since first frame [s]")
     v = f"{tl.violation_count} violation(s)" if tl.violation_count else "no violations"
-    fig.suptitle(f"{title}  —  {v}" if title else v, fontsize=10)
+    fig.suptitle(f"{mathtext(title)}  —  {v}" if title else v, fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -295,7 +297,7 @@ def render_html(tl: Timeline, path: str, title: str = "", window=None) -> None:
     span = hi_t - lo_t
     x = lambda t: LEFT + (t - lo_t) * (W - LEFT - RIGHT) / span  # noqa: E731
     parts, y = [], 30
-    esc = html.escape
+    esc = lambda s: html.escape(visible(s, None))  # noqa: E731  wire strings: inert and visible
 
     def line(s: Series, y0, h, colour):
         ts, vs = _series_in(s, lo_t, hi_t)

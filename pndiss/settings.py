@@ -52,7 +52,9 @@ class Settings:
         known = {f.name for f in fields(cls)}
         unknown = set(data) - known
         if unknown:
-            raise ValueError(f"unknown setting(s) in {path}: {', '.join(sorted(unknown))}")
+            from .errors import did_you_mean
+            raise ValueError(f"unknown setting(s) in {path}: {', '.join(sorted(unknown))}"
+                             + did_you_mean(sorted(unknown)[0], sorted(known)))
         return cls(**data)
 
     @classmethod

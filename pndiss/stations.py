@@ -30,7 +30,7 @@ class Stations:
     def from_dcp(self, ev: dict, src: str, dst: str) -> None:
         """A DCP response or Hello describes its sender; a Set request describes its target."""
         self.seen(src)
-        info = ev.get("station")  # the DCP module collects name/ip/vendor/device/role here
+        info = ev.get("station_info")  # the DCP module collects name/ip/vendor/device/role here
         if not info:
             return
         target = dst if ev.get("service") == "Set" and ev.get("service_type") == 0 else src
@@ -38,7 +38,7 @@ class Stations:
 
     def from_lldp(self, ev: dict, src: str) -> None:
         self.seen(src)
-        info = ev.get("station")
+        info = ev.get("station_info")
         if info:
             self.update(src, **info)
 

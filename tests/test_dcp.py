@@ -136,7 +136,7 @@ def test_header_fields():
 
 def test_hello_station_and_fields():
     d = dec(SYNTH["hello"])
-    st = d["station"]
+    st = d["station_info"]
     assert st["name"] == "enc-1" and st["alias"] == "port-001.enc-1"
     assert (st["vendor_id"], st["device_id"]) == (0x012A, 0x0011)
     assert (st["oem_vendor_id"], st["oem_device_id"]) == (0x002A, 0x0313)
@@ -155,7 +155,7 @@ def test_get_request_selectors_and_response():
     d = dec(SYNTH["get_req"])
     assert [(s["option"], s["suboption"]) for s in d["selectors"]] == [
         (1, 2), (2, 2), (5, 4), (255, 255), (128, 1), (4, 0), (7, 1), (3, 61)]
-    assert "station" not in d and d["blocks"] == []
+    assert "station_info" not in d and d["blocks"] == []
     r = dec(SYNTH["get_rsp"])
     suite = r["blocks"][0]
     assert [suite["ip"], suite["netmask"], suite["gateway"]] + suite["dns"] == SUITE
@@ -165,7 +165,7 @@ def test_get_request_selectors_and_response():
     assert cid[0]["client_id_kind"] == "MAC address" and cid[1]["dhcp_client_id"] == "abcd"
     assert r["blocks"][4]["dhcp_control"].startswith("Use DHCP")
     assert r["blocks"][6]["undecoded"] == b"xy".hex()
-    assert r["station"]["ip"] == SUITE[0]
+    assert r["station_info"]["ip"] == SUITE[0]
 
 
 def test_set_request_control_blocks():
@@ -174,12 +174,12 @@ def test_set_request_control_blocks():
     assert kinds == [(5, 1), (2, 2), (1, 2), (5, 3), (5, 5), (5, 6), (5, 2)]
     assert d["blocks"][1]["block_qualifier"] == 1 and d["blocks"][3]["signal"] == "Flash once"
     assert d["blocks"][5]["reset"] == dcp.RESET_QUALIFIER[8]
-    assert d["station"] == {"name": "encoder-7", "ip": "10.0.0.2", "netmask": "255.0.0.0", "gateway": "0.0.0.0"}
+    assert d["station_info"] == {"name": "encoder-7", "ip": "10.0.0.2", "netmask": "255.0.0.0", "gateway": "0.0.0.0"}
     m = dec(SYNTH["set_misc"])
     assert m["blocks"][4].get("erroneous") is True
     r = dec(SYNTH["set_rsp"])
     assert [b["block_error_text"] for b in r["blocks"]] == [dcp.BLOCK_ERRORS[0], dcp.BLOCK_ERRORS[6], dcp.BLOCK_ERRORS[0]]
-    assert "station" not in r
+    assert "station_info" not in r
 
 
 def test_identify_request_filters_are_no_station_facts():
@@ -307,7 +307,7 @@ def test_no_duplicate_after_rename_or_for_same_device():
 
 def test_ip_assign_occupied():
     v = _run([_ident_rsp("enc-1", "10.0.0.5", DEV), _set(DEV2, ip="10.0.0.5")])
-    assert [x["rule"] for x in v] == ["IP-ASSIGN-OCCUPIED"] and v[0]["ip"] == "10.0.0.5"
+    assert [x["rule"] for x in v] == ["IP-ASSIGN-OCCUPIED"] and v[0]["ip_address"] == "10.0.0.5"
     assert _run([_ident_rsp("enc-1", "10.0.0.5", DEV), _set(DEV, ip="10.0.0.5")]) == []
     assert _run([_ident_rsp("enc-1", "0.0.0.0", DEV), _set(DEV2, ip="0.0.0.0")]) == []
     # DEV moved to another address first

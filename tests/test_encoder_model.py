@@ -51,7 +51,7 @@ def test_model_conforms_through_preset_park_and_error(profile, telegram):
     out += chk.finish()
     bad = [(e["rule"], e["message"]) for e in out if e["kind"] == "violation" and e["side"] == "encoder"]
     assert bad == []
-    states = {(e["state"], e["value"]) for e in out if e["kind"] == "state"}
+    states = {(e["state"], e.get("value_name", e["value"])) for e in out if e["kind"] == "state"}
     assert ("preset", "done") in states and ("parked", 1) in states and ("sensor_error", 0x1001) in states
 
 

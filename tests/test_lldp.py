@@ -80,21 +80,21 @@ def test_profinet_tlvs_decoded():
 
 
 def test_station_facts_profinet_name():
-    st_ = lldp.decode(FRAMES[0], 0)["station"]
+    st_ = lldp.decode(FRAMES[0], 0)["station_info"]
     assert st_["name"] == "encoder-1" and st_["port_id"] == "port-001"
     assert st_["mgmt_ip"] == "192.168.0.51" and st_["chassis_mac"] == "00:02:a2:11:22:33"
     assert st_["system_name"] == "ENC-1"
     # no PNO TLV: a locally assigned chassis ID is not taken as a NameOfStation
-    assert "name" not in lldp.decode(FRAMES[4], 0)["station"]
+    assert "name" not in lldp.decode(FRAMES[4], 0)["station_info"]
     # MAC chassis ID: no name either, but the chassis ID is kept
-    st2 = lldp.decode(FRAMES[1], 0)["station"]
+    st2 = lldp.decode(FRAMES[1], 0)["station_info"]
     assert "name" not in st2 and st2["chassis_id"] == "00:02:a2:00:00:01"
 
 
 def test_station_name_from_older_port_id_style():
     # older netX style: descriptive chassis text, "port-xxx.<NameOfStation>" as port ID
     raw = lldpdu(name=b"netX controller", port=b"port-002.controller-nick", extra=org(OUI_PN, 5, bytes(6)))
-    assert lldp.decode(raw, 0)["station"]["name"] == "controller-nick"
+    assert lldp.decode(raw, 0)["station_info"]["name"] == "controller-nick"
 
 
 def test_analyzer_station_table():

@@ -12,14 +12,21 @@ SEVERITY_ORDER = {"info": 0, "warning": 1, "error": 2}
 
 def add_parser(sub) -> None:
     p = sub.add_parser("analyze", help="decode a capture and report stations, telegrams and violations")
-    p.add_argument("capture", help="pcap or pcapng file")
+    p.add_argument("capture", help="pcap or pcapng file, also .gz/.zst/.xz; '-' = stdin (a pipe from dumpcap -w -)")
     p.add_argument("--jsonl", metavar="PATH", help="write one JSON event per line to PATH ('-' = stdout)")
     p.add_argument("--summary-json", metavar="PATH", help="write the summary as JSON to PATH ('-' = stdout)")
     add_settings_args(p)
     p.add_argument("--fail-on", choices=("info", "warning", "error"),
                    help="exit 1 when violations at or above this severity exist")
     p.add_argument("--mcap", metavar="PATH", help="also write an MCAP timeline to PATH")
-    p.add_argument("-q", "--quiet", action="store_true", help="no terminal report")
+    p.add_argument("--station", metavar="NAME|MAC",
+                   help="only this station's violations and events (verdict, JSONL, exit code)")
+    p.add_argument("--time", metavar="FROM..TO",
+                   help="only violations and events in this range: seconds since the first frame "
+                        "(e.g. 1.5..3, ..2, 10..) or UTC times (2026-01-01T08:00:00..2026-01-01T08:05:00)")
+    p.add_argument("--follow", action="store_true",
+                   help="print each violation as soon as it is decided (for live pipes)")
+    p.add_argument("-q", "--quiet", action="store_true", help="only the one-line verdict")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -37,11 +44,15 @@ def add_settings_args(p) -> None:
 
 
 def settings_from_args(args) -> Settings:
-    from ..errors import UsageError
+    from ..errors import UsageError, did_you_mean
 
+    for opt, path in (("--config", getattr(args, "config", None)), ("--map", getattr(args, "map_file", None)),
+                      *(("--gsdml", g) for g in getattr(args, "gsdml", None) or ())):
+        if path is not None:
+            check_readable(path, opt)
     try:
         s = Settings.from_file(args.config) if getattr(args, "config", None) else Settings()
-    except (OSError, ValueError) as e:
+    except (OSError, ValueError, TypeError) as e:
         raise UsageError(f"cannot use config file: {e}") from None
     for name in ("profile", "map_file", "fail_on"):
         v = getattr(args, name, None)
@@ -51,14 +62,28 @@ def settings_from_args(args) -> Settings:
         s.gsdml = list(args.gsdml)
     for kv in getattr(args, "set", []) or []:
         key, sep, val = kv.partition("=")
-        if not sep or not hasattr(s, key):
-            raise UsageError(f"--set {kv!r}: expected KEY=VALUE with a known key (docs/settings.md)")
+        if not sep:
+            raise UsageError(f"--set {kv!r}: expected KEY=VALUE (docs/settings.md)")
+        if not hasattr(s, key):
+            raise UsageError(f"--set {kv!r}: unknown setting {key!r}"
+                             + did_you_mean(key, list(s.as_dict())) + " (docs/settings.md)")
         try:
             v = _coerce(Settings.field_type(key), val)
         except (KeyError, ValueError):
-            raise UsageError(f"--set {kv!r}: bad value for {key}") from None
+            raise UsageError(f"--set {kv!r}: bad value for {key} ({Settings.field_type(key)})") from None
         setattr(s, key, v)
     return s
+
+
+def check_readable(path: str, what: str) -> None:
+    """A file named on the command line: missing or unreadable is the user's to fix (exit 2)."""
+    from ..errors import UsageError
+    if not os.path.exists(path):
+        raise UsageError(f"{what} {path}: no such file")
+    if os.path.isdir(path):
+        raise UsageError(f"{what} {path}: is a directory")
+    if not os.access(path, os.R_OK):
+        raise UsageError(f"{what} {path}: permission denied")
 
 
 _BOOLS = {"1": True, "true": True, "yes": True, "on": True, "0": False, "false": False, "no": False, "off": False}
@@ -89,8 +114,26 @@ def open_out(path: str):
         raise UsageError(f"cannot write {path}: {e.strerror}") from None
 
 
+def close_out(f, path: str) -> None:
+    """Close (or flush stdout): a full disk shows here for buffered writes (exit 2, not 3)."""
+    from ..errors import UsageError
+    try:
+        if f is sys.stdout:
+            f.flush()
+        else:
+            f.close()
+    except BrokenPipeError:
+        raise
+    except OSError as e:
+        raise UsageError(f"cannot write {path}: {e.strerror}") from None
+
+
 def check_capture_path(path: str) -> None:
     from ..errors import UsageError
+    if path == "-":
+        if sys.stdin is None or sys.stdin.isatty():
+            raise UsageError("-: stdin is a terminal, not a capture (pipe one in: dumpcap -w - | pndiss analyze -)")
+        return
     if not os.path.exists(path):
         raise UsageError(f"{path}: no such file")
     if os.path.isdir(path):
@@ -100,34 +143,63 @@ def check_capture_path(path: str) -> None:
 def run(args) -> int:
     from ..analyzer import analyze_file
     from ..capture import CaptureError
-    from ..report import ProgressReporter, render_report
+    from ..errors import UsageError
+    from ..events import FrameTimes, Scope
+    from ..report import ProgressReporter, render_report, render_violation
+    from ..verdict import one_line
 
+    if args.jsonl == "-" and args.summary_json == "-":
+        raise UsageError("--jsonl - and --summary-json - would mix two formats on stdout: "
+                         "send one of them to a file")
     check_capture_path(args.capture)
     from ..capture import refuse_non_capture
     refuse_non_capture(args.capture)   # the refusal every command shares (export, plot, report)
     settings = settings_from_args(args)
+    scope = Scope.from_args(args.station, args.time)
     sinks = []
     jsonl = open_out(args.jsonl) if args.jsonl else None
     if jsonl is not None:
         dumps = json.JSONEncoder(separators=(",", ":"), default=_json_default).encode
         write = jsonl.write
-        sinks.append(lambda ev: write(dumps(ev) + "\n"))
+        fix = FrameTimes().fix  # a violation's ts_ns is its frame's time
+        where = args.jsonl
+
+        def to_jsonl(ev, keep=scope.keep if scope else None):
+            ev = fix(ev)
+            if keep is None or keep(ev):
+                try:
+                    write(dumps(ev) + "\n")
+                except BrokenPipeError:
+                    raise
+                except OSError as e:
+                    raise UsageError(f"cannot write {where}: {e.strerror}") from None
+        sinks.append(to_jsonl)
     mcap_writer = None
     if args.mcap:
         from ..mcap_export import McapExporter
-        mcap_writer = McapExporter(args.mcap, args.capture, settings)
+        try:
+            mcap_writer = McapExporter(args.mcap, args.capture, settings)
+        except OSError as e:
+            raise UsageError(f"cannot write {args.mcap}: {e.strerror}") from None
         sinks.append(mcap_writer.on_event)
     sink = sinks[0] if len(sinks) == 1 else (lambda ev: [s(ev) for s in sinks]) if sinks else None
     # the terminal report goes to stderr when stdout carries data
     to_stderr = args.jsonl == "-" or args.summary_json == "-"
-    progress = None if args.no_progress or args.quiet else ProgressReporter(args.capture, to_stderr)
+    progress = None if args.no_progress or args.quiet or args.follow else ProgressReporter(args.capture, to_stderr)
+    report_out = sys.stderr if to_stderr else sys.stdout
+    hooks = {}
+    if scope is not None:
+        hooks["scope"] = scope
+    if args.follow:
+        hooks["on_new"] = lambda ev: render_violation(ev, report_out)
     error = None
     try:
         try:
-            if mcap_writer is not None and len(sinks) == 1:  # the exporter alone: its fast path, same file
+            if mcap_writer is not None and len(sinks) == 1 and not hooks:  # the exporter alone: its fast path
                 a = mcap_writer.run(args.capture, settings, progress.update if progress else None)
             else:
-                a = analyze_file(args.capture, settings, sink, progress.update if progress else None)
+                a = analyze_file(args.capture, settings, sink, progress.update if progress else None,
+                                 **_hooks(hooks))
         except CaptureError as e:
             error = e
             a = e.analyzer if hasattr(e, "analyzer") else None
@@ -136,29 +208,44 @@ def run(args) -> int:
             progress.close()
         if mcap_writer is not None:
             mcap_writer.close()
-        if jsonl is not None and jsonl is not sys.stdout:
-            jsonl.close()
+    if jsonl is not None:
+        close_out(jsonl, args.jsonl)
     if error is not None:
         print(f"pndiss: error: {error} ({error.frames} frames read before it)", file=sys.stderr)
         return 2
     summary = a.summary()
     summary["capture"] = args.capture
+    if scope is not None:
+        summary["scope"] = scope.describe()
+    summary["verdict"] = {**a.violations.summary(), "line": one_line(summary, a.violations)}
     if args.summary_json:
         out = open_out(args.summary_json)
-        json.dump(summary, out, indent=2, default=_json_default)
-        out.write("\n")
-        if out is not sys.stdout:
-            out.close()
-    if not args.quiet:
+        try:
+            json.dump(summary, out, indent=2, default=_json_default)
+            out.write("\n")
+        except OSError as e:
+            if isinstance(e, BrokenPipeError):
+                raise
+            raise UsageError(f"cannot write {args.summary_json}: {e.strerror}") from None
+        close_out(out, args.summary_json)
+    if args.quiet:
+        print("pndiss: " + one_line(summary, a.violations), file=report_out)
+    else:
         render_report(summary, a, to_stderr)
-    return exit_code(summary, settings.fail_on)
+    return exit_code(a.violations, settings.fail_on)
 
 
-def exit_code(summary: dict, fail_on: str | None) -> int:
+def _hooks(hooks: dict) -> dict:
+    """Only pass the verdict hooks when set (keeps other callers' signatures untouched)."""
+    return {"verdict_hooks": hooks} if hooks else {}
+
+
+def exit_code(log, fail_on: str | None) -> int:
+    """1 when a violation at or above ``fail_on`` was counted (in --station/--time scope)."""
     if not fail_on:
         return 0
     floor = SEVERITY_ORDER[fail_on]
-    for sev, n in summary.get("cyclic", {}).get("violations_by_severity", {}).items():
+    for sev, n in log.by_sev.items():
         if n and SEVERITY_ORDER.get(sev, 2) >= floor:
             return 1
     return 0

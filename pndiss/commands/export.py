@@ -24,6 +24,7 @@ def add_parser(sub) -> None:
                         "words per axis, the violations log (Layouts > Import from file)")
     add_settings_args(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no summary line")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
 
@@ -47,12 +48,16 @@ def run(args) -> int:
         raise UsageError(f"cannot write {args.output}: {e.strerror}") from None
     except UnsupportedCompression as e:  # lz4 is not a hard dependency
         raise UsageError(f"--compression {args.compression}: module {e} is not installed") from None
+    from ..report import ProgressReporter
+    progress = None if args.no_progress or args.quiet else ProgressReporter(args.capture, True, "exporting")
     error = None
     try:
-        exp.run(args.capture, settings)
+        exp.run(args.capture, settings, progress.update if progress else None)
     except CaptureError as e:
         error = e
     finally:
+        if progress:
+            progress.close()
         exp.close()
     if isinstance(error, NotACapture):   # a FIFO that carried no capture: nothing worth keeping
         try:

@@ -17,6 +17,7 @@ def add_parser(sub) -> None:
     p.add_argument("--window", metavar="START:END",
                    help="show only this time range, in seconds on the plot's axis (e.g. 0.74:0.77)")
     add_settings_args(p)
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
 
@@ -25,6 +26,7 @@ def run(args) -> int:
     from ..capture import CaptureError, NotACapture, refuse_non_capture
     from ..errors import UsageError
     from ..plot import PlotUnavailable, Timeline, render_html, render_png
+    from ..report import ProgressReporter
 
     check_capture_path(args.capture)
     refuse_non_capture(args.capture)   # the same refusal as every command, before any work
@@ -50,13 +52,17 @@ def run(args) -> int:
         window = (a, b)
     settings = settings_from_args(args)
     tl = Timeline(args.max_points)
+    progress = None if args.no_progress else ProgressReporter(args.capture, True, "reading for the plot")
     try:
-        analyze_file(args.capture, settings, tl.on_event)
+        analyze_file(args.capture, settings, tl.on_event, progress.update if progress else None)
     except NotACapture:
         raise   # a FIFO that carried no capture: exit 2, no picture
     except CaptureError as e:
         print(f"pndiss: error: {e} ({e.frames} frames read before it); plotting what was read",
               file=sys.stderr)
+    finally:
+        if progress:
+            progress.close()
     title = os.path.basename(args.capture)
     try:
         (render_png if ext == ".png" else render_html)(tl, args.output, title, window)

@@ -29,6 +29,16 @@ PRESET_TELEGRAMS = {86: "g1_xist_preset_b", 87: "g1_xist_preset_b", 100: "g1_xis
 BF00_INDEXES = (0xBF00, 0xFFFF)                  # PS/PSM uses 0xFFFF (behaviour.md §5.1)
 
 
+STATE_CODES = {"idle": 0, "requested": 1, "done": 2}  # the preset handshake's states as numbers
+
+
+def _coded(key: str, v) -> dict:
+    """{key: number} for a state value, plus {key_name: word} when the checker keeps a word."""
+    if isinstance(v, str):
+        return {key: STATE_CODES.get(v, -1), f"{key}_name": v}
+    return {key: v}
+
+
 class Checker:
     def __init__(self, cfg: EncoderConfig, info: dict | None = None):
         self.cfg = cfg
@@ -161,10 +171,12 @@ class Checker:
         if old is None and not value:
             return  # the initial 'off' is not a change
         self.state_changes += 1
-        ev = {"frame": self.f, "ts_ns": self.ts, "kind": "state", "state": name, "value": value, "previous": old}
+        # 'value' is a number in every state event (JSON: one type per field); words go to *_name
+        ev = {"frame": self.f, "ts_ns": self.ts, "kind": "state", "state": name, **_coded("value", value),
+              **_coded("previous", old)}
         ev.update(self.info)
         if len(self.timeline) < 200:
-            self.timeline.append({"frame": self.f, "state": name, "value": value})
+            self.timeline.append({"frame": self.f, "state": name, **_coded("value", value)})
         self.out.append(ev)
 
     # -- one cycle -------------------------------------------------------------------------------

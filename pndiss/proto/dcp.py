@@ -381,8 +381,10 @@ def decode(data: bytes, off: int, frame_id: int) -> dict:
         b, o = _decode_block(data, o, end, prefix, sid)
         blocks.append(b)
     station = _station(d, sid, response)
-    if station:
-        d["station"] = station
+    if station:  # the object under its own name: 'station' is a NameOfStation string in every event kind
+        d["station_info"] = station
+        if isinstance(station.get("name"), str):
+            d["station"] = station["name"]
     events = _name_events(d, sid, response)
     if events:
         d["events"] = events
@@ -500,7 +502,7 @@ class DcpTracker:
         self.reported: set = set()
 
     def on_dcp(self, ev: dict, src: str, dst: str) -> list[dict]:
-        st = ev.get("station")
+        st = ev.get("station_info")
         if not st:
             return []
         assign = ev.get("service_id") == SET and ev.get("service_type") == 0
@@ -541,7 +543,8 @@ class DcpTracker:
             key = (rule, value, frozenset((mac_, other)))
             if (what == "name" or assign) and key not in self.reported:
                 self.reported.add(key)
-                out.append(rules.violation(rule, fn, ts, msg, **{what: value, "mac": mac_,
+                # 'ip' is the IPv4 header object in rpc events: the address claimed is 'ip_address'
+                out.append(rules.violation(rule, fn, ts, msg, **{"ip_address" if what == "ip" else what: value, "mac": mac_,
                                                                  "other_mac": other, "other_frame": seen}))
         old = by_mac.get(mac_)
         if old is not None and old != value and at.get(old, ("",))[0] == mac_:

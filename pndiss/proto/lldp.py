@@ -421,7 +421,9 @@ def decode(data: bytes, off: int) -> dict:
     for mandatory, idx in (("chassis", 0), ("port", 1), ("ttl", 2)):
         if mandatory not in ev or len(ev["tlv_type"]) <= idx or ev["tlv_type"][idx] != idx + 1:
             raise Malformed(L, f"mandatory TLV {TLV_NAMES[idx + 1]} missing or out of order")
-    ev["station"] = _station(ev)
+    ev["station_info"] = _station(ev)  # 'station' is a NameOfStation string in every event kind
+    if isinstance(ev["station_info"].get("name"), str):
+        ev["station"] = ev["station_info"]["name"]
     return ev
 
 

@@ -1,0 +1,128 @@
+"""Event stream helpers for the machine sinks: a violation stamped with its frame's time, and the
+--station / --time scope.
+
+A violation is often decided frames after the frame it names (deadlines, the controller's earlier
+setpoint frame); its checker stamps the deciding time. ``FrameTimes`` remembers the time of the
+last 65,536 frame numbers it saw (a fixed ring: constant memory) and puts the named frame's time on
+the violation, so ``ts_ns`` always belongs to ``frame``.
+"""
+from __future__ import annotations
+
+import calendar
+import re
+import time
+
+RING = 1 << 16
+
+
+class FrameTimes:
+    def __init__(self):
+        self.frames = [0] * RING
+        self.times = [0] * RING
+
+    def fix(self, ev: dict) -> dict:
+        fn = ev.get("frame")
+        if fn.__class__ is not int:
+            return ev
+        i = fn & (RING - 1)
+        if ev["kind"] == "violation":
+            if self.frames[i] == fn and ev.get("ts_ns") != self.times[i]:
+                ev = dict(ev)
+                ev["ts_ns"] = self.times[i]
+        elif self.frames[i] != fn:
+            self.frames[i] = fn
+            self.times[i] = ev["ts_ns"]
+        return ev
+
+
+def _mac(s: str) -> str | None:
+    s = s.strip().lower().replace("-", ":")
+    return s if re.fullmatch(r"([0-9a-f]{2}:){5}[0-9a-f]{2}", s) else None
+
+
+_MAC_FIELDS = ("device_mac", "controller_mac", "src", "dst", "mac")
+
+
+def _when(text: str, what: str):
+    """Seconds (relative, float) or an absolute UTC time (ns)."""
+    from .errors import UsageError
+    text = text.strip()
+    if not text:
+        return None
+    try:
+        return ("rel", float(text))
+    except ValueError:
+        pass
+    m = re.fullmatch(r"(\d{4}-\d{2}-\d{2})[T ](\d{2}:\d{2}:\d{2})(\.\d+)?Z?", text)
+    if not m:
+        raise UsageError(f"--time: {what} {text!r} is neither seconds since the first frame nor a UTC time "
+                         "like 2026-01-01T08:00:00.5")
+    sec = calendar.timegm(time.strptime(f"{m.group(1)} {m.group(2)}", "%Y-%m-%d %H:%M:%S"))
+    frac = m.group(3) or ".0"
+    return ("abs", sec * 1_000_000_000 + int(round(float(frac) * 1e9)))
+
+
+class Scope:
+    """--station NAME|MAC and --time FROM..TO: which events and violations are in scope."""
+
+    def __init__(self, station: str | None, span):
+        self.station = station
+        self.mac = _mac(station) if station else None
+        self.macs: set[str] = {self.mac} if self.mac else set()
+        self.span = span
+        self.a = None
+
+    @classmethod
+    def from_args(cls, station: str | None, time_range: str | None) -> "Scope | None":
+        from .errors import UsageError
+        if station is None and time_range is None:
+            return None
+        span = None
+        if time_range is not None:
+            lo, sep, hi = time_range.partition("..")
+            if not sep:
+                raise UsageError(f"--time {time_range!r}: expected FROM..TO (either side may be empty)")
+            span = (_when(lo, "FROM"), _when(hi, "TO"))
+        return cls(station, span)
+
+    def bind(self, analyzer) -> None:
+        self.a = analyzer
+
+    def describe(self) -> dict:
+        d = {}
+        if self.station:
+            d["station"] = self.station
+        if self.span:
+            d["time"] = [None if w is None else {"relative_s" if w[0] == "rel" else "utc_ns": w[1]}
+                         for w in self.span]
+        return d
+
+    def _ns(self, w) -> int:
+        if w[0] == "abs":
+            return w[1]
+        t0 = self.a.first_ts if self.a is not None and self.a.first_ts is not None else 0
+        return t0 + int(w[1] * 1e9)
+
+    def keep(self, ev: dict) -> bool:
+        if self.span is not None:
+            ts = ev.get("ts_ns")
+            lo, hi = self.span
+            if ts.__class__ is int and ((lo is not None and ts < self._ns(lo)) or (hi is not None and ts > self._ns(hi))):
+                return False
+        if self.station is None:
+            return True
+        st = ev.get("station")
+        if st.__class__ is str and st == self.station:
+            mac = ev.get("device_mac")
+            if mac and mac not in self.macs:
+                self.macs.add(mac)  # the name's MAC: frames that carry only MACs are in scope too
+            return True
+        for k in _MAC_FIELDS:
+            v = ev.get(k)
+            if v is not None and v in self.macs:
+                return True
+        if not self.mac and self.a is not None and not self.macs:
+            for mac, s in self.a.stations.by_mac.items():
+                if s.get("name") == self.station:
+                    self.macs.add(mac)
+        return False

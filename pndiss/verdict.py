@@ -1,0 +1,165 @@
+"""The verdict: what a commissioning engineer reads first (and last, and alone with ``-q``).
+
+``ViolationLog`` sees every violation event the analyzer emits (one dict update per violation, no
+per-frame work) and keeps one row per (rule, side, station): bounded by the catalogue times the
+stations. ``build`` joins it with the summary into counts by severity and side, the first frame
+of each rule, the capture's trust signals and what was not checked and why.
+"""
+from __future__ import annotations
+
+from collections import Counter
+
+MAX_ROWS = 2000  # (rule, side, station) rows kept; more are counted, not listed
+SEV_ORDER = {"error": 2, "warning": 1, "info": 0}
+
+
+class ViolationLog:
+    def __init__(self):
+        self.rows: dict[tuple, dict] = {}
+        self.total = 0
+        self.by_sev: Counter = Counter()
+        self.by_sev_side: Counter = Counter()
+        self.overflow = 0
+        self.keep = None  # optional filter (--station/--time): ev -> bool
+        self.on_new = None  # optional callback (--follow): called with each counted violation
+
+    def add(self, ev: dict) -> None:
+        if self.keep is not None and not self.keep(ev):
+            return
+        sev, side = ev.get("severity", "error"), ev.get("side", "?")
+        self.total += 1
+        self.by_sev[sev] += 1
+        self.by_sev_side[(sev, side)] += 1
+        key = (ev.get("rule"), side, ev.get("station") or ev.get("device_mac") or ev.get("mac") or "")
+        r = self.rows.get(key)
+        frame = ev.get("frame", 0)
+        if r is None:
+            if len(self.rows) >= MAX_ROWS:
+                self.overflow += 1
+            else:
+                self.rows[key] = {"rule": key[0], "side": side, "severity": sev, "station": key[2], "events": 1,
+                                  "first_frame": frame, "message": ev.get("message", "")}
+        else:
+            r["events"] += 1
+            if frame < r["first_frame"]:
+                r["first_frame"], r["message"] = frame, ev.get("message", r["message"])
+        if self.on_new is not None:
+            self.on_new(ev)
+
+    def summary(self) -> dict:
+        """The JSON summary's ``verdict`` entry (pndiss/data/summary.schema.json)."""
+        return {"total": self.total, "by_severity": {s: self.by_sev.get(s, 0) for s in ("error", "warning", "info")},
+                "by_severity_side": {f"{sev}/{side}": n for (sev, side), n in sorted(self.by_sev_side.items())},
+                "rows": self.as_list(), "rows_not_listed": self.overflow}
+
+    def as_list(self) -> list[dict]:
+        return sorted(self.rows.values(), key=lambda r: (r["first_frame"], r["rule"]))
+
+
+def _plural(n: int, word: str) -> str:
+    return f"{n:,} {word}" + ("" if n == 1 else "s")
+
+
+def headline(log: ViolationLog) -> str:
+    """'2 errors (1 controller, 1 encoder), 1 warning — first at frame 1419' or 'no violations'."""
+    if not log.total:
+        return "no violations"
+    parts = []
+    for sev in ("error", "warning", "info"):
+        n = log.by_sev.get(sev, 0)
+        if not n:
+            continue
+        sides = [f"{log.by_sev_side[(sev, s)]:,} {s}" for s in ("controller", "encoder")
+                 if log.by_sev_side.get((sev, s))]
+        other = n - sum(log.by_sev_side.get((sev, s), 0) for s in ("controller", "encoder"))
+        if other:
+            sides.append(f"{other:,} other")
+        parts.append(_plural(n, sev) + (f" ({', '.join(sides)})" if sides else ""))
+    rows = log.as_list()
+    first = f" — first at frame {rows[0]['first_frame']} ({rows[0]['rule']})" if rows else ""
+    return ", ".join(parts) + first
+
+
+def no_profinet(summary: dict) -> bool:
+    acc = summary.get("accounting", {})
+    return summary.get("frames", 0) > 0 and acc.get("decoded", 0) == 0 and acc.get("malformed", 0) == 0
+
+
+def one_line(summary: dict, log: ViolationLog, with_name: bool = True) -> str:
+    """The verdict in one line (the end of the report, ``-q``, the summary's verdict.line)."""
+    name = summary.get("capture", "") if with_name else "verdict"
+    if summary.get("frames", 0) == 0:
+        return f"{name}: no frames in the capture"
+    if no_profinet(summary):
+        return f"{name}: no PROFINET frames found ({summary['frames']:,} frames, none of them PROFINET)"
+    return f"{name}: {headline(log)} in {summary['frames']:,} frames"
+
+
+def trust(summary: dict) -> list[str]:
+    """Signals on how far the capture can be trusted: gaps, unmapped streams, malformed frames."""
+    out = []
+    acc = summary.get("accounting", {})
+    gaps = summary.get("capture_gaps")
+    ngap_ev = summary.get("events", {}).get("capture_gap", 0)
+    if gaps or ngap_ev:
+        n = ngap_ev
+        if isinstance(gaps, dict):
+            n = gaps.get("count", gaps.get("gaps", n))
+            lost = gaps.get("cycles_lost", gaps.get("lost_cycles"))
+            extra = f", {lost:,} cycles lost" if isinstance(lost, int) else ""
+        else:
+            n = len(gaps) if isinstance(gaps, list) and not n else n
+            extra = ""
+        out.append(f"capture gaps: {n:,} (frames the capture missed, seen in the cycle counter{extra}); "
+                   "rules over those cycles are not judged")
+    cyc = summary.get("cyclic", {})
+    if cyc.get("frames_unmapped"):
+        out.append(f"unmapped streams: {cyc['frames_unmapped']:,} cyclic frames whose telegram is unknown "
+                   "(no Connect in the capture): give it with --map or --set telegram=N")
+    if acc.get("malformed"):
+        out.append(f"malformed frames: {acc['malformed']:,} (listed below)")
+    for e in cyc.get("encoders", []):
+        who = f"{e.get('station') or e.get('device_mac')} {e['slot']}/{e['subslot']}"
+        tsrc = _source(e, "telegram", e.get("telegram_source"))
+        if "length" in str(tsrc) or "settings" in str(tsrc) or "default" in str(tsrc):
+            out.append(f"assumed: {who} telegram {e.get('telegram')} ({tsrc})")
+        psrc = _source(e, "profile", e.get("profile_reason"))
+        if "not a known" in str(psrc) or "default" in str(psrc):
+            out.append(f"assumed: {who} profile {e.get('profile')} ({psrc})")
+    return out
+
+
+def _source(e: dict, key: str, fallback):
+    s = (e.get("settings") or {}).get(key)
+    return s.get("source") if isinstance(s, dict) and s.get("source") else fallback
+
+
+def _value(e: dict, key: str):
+    s = (e.get("settings") or {}).get(key)
+    return s.get("value") if isinstance(s, dict) else None
+
+
+def not_checked(summary: dict) -> list[str]:
+    """What the reference encoder did not judge, and the setting that would make it."""
+    out = []
+    encs = summary.get("cyclic", {}).get("encoders", [])
+    no_sol = [e for e in encs if _value(e, "SOLMON") is False and not _value(e, "iso")
+              and not _value(e, "sol_monitor_rt")]
+    if no_sol:
+        out.append(f"sign-of-life: not checked for {_names(no_sol)} (RT AR, not isochronous; "
+                   "monitoring is optional there): --set sol_monitor_rt=1 to check it")
+    no_range = [e for e in encs if "st_phys" in (e.get("settings") or {}) and _value(e, "st_phys") is None]
+    if no_range:
+        out.append(f"position range against the hardware: not checked for {_names(no_range)} (steps and "
+                   "revolutions unknown): --set st_phys=N --set mt_phys=N")
+    gated = sum(e.get("gated_cycles", 0) for e in encs)
+    if gated:
+        out.append(f"{gated:,} cycles not judged (provider stopped, DataValid 0 or IOPS bad)")
+    if summary.get("frames") and not encs and not no_profinet(summary):
+        out.append("cyclic data: no encoder telegram found (no Connect, --map or --set telegram)")
+    return out
+
+
+def _names(encs: list[dict]) -> str:
+    names = [str(e.get("station") or e.get("device_mac")) for e in encs]
+    return ", ".join(names[:4]) + (f" and {len(names) - 4} more" if len(names) > 4 else "")
