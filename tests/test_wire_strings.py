@@ -16,7 +16,8 @@ import struct
 import sys
 
 import pytest
-from hypothesis import HealthCheck, given, settings as hsettings, strategies as st
+from hypothesis import HealthCheck, example, given, settings as hsettings, strategies as st
+from rich.cells import cell_len
 
 from pndiss import textsafe
 from pndiss.capture import open_capture
@@ -98,6 +99,7 @@ def work(tmp_path_factory):
 
 @hsettings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(h=hostile_bytes, name=hostile_text)
+@example(h="पन्ह त्र र्च कृकृ ड्ड न्हृे إلا بسم الله".encode(), name="\x00\x01\x7f\x9b$\\qq$[link=http://x]y[/link]")
 def test_capture_with_hostile_strings_every_sink(work, capsys, monkeypatch, h, name):
     cap = str(work / "hostile.pcap")
     capture_with(cap, h)
@@ -112,7 +114,7 @@ def test_capture_with_hostile_strings_every_sink(work, capsys, monkeypatch, h, n
         assert "VERDICT" in out and "internal error" not in err
         assert_inert(out)
         assert_inert(err)
-        assert max(len(x) for x in out.splitlines()) <= cols
+        assert max(cell_len(x) for x in out.splitlines()) <= cols  # terminal cells, not code points
     events = [json.loads(x) for x in jsonl.read_text(encoding="utf-8").splitlines()]
     assert any(e["kind"] == "dcp" for e in events)
     _read_mcap(str(mcap))
