@@ -46,7 +46,7 @@ def feed_time(path: str, settings=None) -> tuple[float, Analyzer]:
 
 # ---------------------------------------------------------------- #17.3: every command refuses a non-capture
 @pytest.mark.parametrize("src", ["/dev/zero", "/dev/urandom", "text"])
-@pytest.mark.parametrize("cmd", ["analyze", "export", "plot"])
+@pytest.mark.parametrize("cmd", ["analyze", "export", "plot", "report"])
 def test_non_capture_refused_at_once(tmp_path, cmd, src):
     if src == "text":
         src = str(tmp_path / "notes.txt")
@@ -74,7 +74,7 @@ def _fifo_feeder(path: str, data: bytes):
     return th
 
 
-@pytest.mark.parametrize("cmd", ["export", "plot"])
+@pytest.mark.parametrize("cmd", ["export", "plot", "report"])
 def test_fifo_non_capture_refused(tmp_path, cmd):
     fifo = str(tmp_path / "in.fifo")
     os.mkfifo(fifo)

@@ -18,10 +18,11 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     from ..analyzer import analyze_file
-    from ..capture import CaptureError
+    from ..capture import CaptureError, NotACapture, refuse_non_capture
     from ..errors import UsageError
 
     check_capture_path(args.capture)
+    refuse_non_capture(args.capture)   # the same refusal as every command, before any work
     if os.path.splitext(args.output)[1].lower() not in (".html", ".htm"):
         raise UsageError(f"{args.output}: the report is HTML: name it .html")
     try:  # fail before the analysis, not after it
@@ -35,6 +36,8 @@ def run(args) -> int:
     col = ReportCollector()
     try:
         a = analyze_file(args.capture, settings, col.on_event)
+    except NotACapture:
+        raise   # a FIFO that carried no capture: exit 2, no report
     except CaptureError as e:
         print(f"pndiss: error: {e} ({e.frames} frames read before it); reporting what was read", file=sys.stderr)
         a = getattr(e, "analyzer", None)
