@@ -140,7 +140,7 @@ _SETPOINT = {"setpoint", "output", "out", "o", "controller"}  # direction words 
 # fields that are constant per channel: they go to channel metadata, not into every message
 _TG_CONST = frozenset(("kind", "ts_ns", "station", "device_mac", "controller_mac", "api", "slot",
                        "subslot", "telegram", "direction", "frame_id"))
-_RT_CONST = frozenset(("kind", "ts_ns", "src", "dst", "frame_id", "frame_class"))
+_RT_CONST = frozenset(("kind", "ts_ns", "src", "dst", "frame_id", "frame_class", "iodata"))  # iodata: per-frame IOxS detail (pndiss/iodata.py), not on the timeline
 _UNSAFE = re.compile(r"[^A-Za-z0-9._-]")
 
 
