@@ -94,7 +94,7 @@ def test_same_seed_same_bytes_other_seed_differs(tmp_path):
 
 
 def test_duration_and_cycle_time(tmp_path):
-    p = sim(tmp_path, "d.pcapng", "--duration", "0.5", "--cycle-time", "2")
+    p = sim(tmp_path, "d.pcapng", "--duration", "0.5", "--cycle-time", "2", "--startup", "tidy")
     exp = json.loads((tmp_path / "d.expected.json").read_text())
     assert exp["config"]["cycles"] == 250
     iocr = exp["stations"][0]["iocrs"][0]
@@ -110,21 +110,26 @@ def test_duration_and_cycle_time(tmp_path):
 def test_tshark_decodes_every_frame_type(tmp_path):
     p = sim(tmp_path, "s.pcapng", "--cycles", "400", "--scenario", "sensor-error", "--profile", "lika")
     assert tshark(p, "-Y", BAD_FILTER) == ""
+    kinds = json.loads((tmp_path / "s.expected.json").read_text())["frame_kinds"]
+    pre_in, pre_out = kinds["cyclic.in.startup"], kinds["cyclic.out.startup"]
+    assert pre_in > pre_out > 0       # the device's frames start before the Connect response
     checks = {
         "pn_dcp.service_id == 5 && pn_dcp.service_type == 0": 2,      # Identify all + by name
         "pn_dcp.service_id == 5 && pn_dcp.service_type == 1": 2,      # Identify responses
         "pn_dcp.service_id == 4 && pn_dcp.service_type == 0": 2,      # Set name, Set IP
         "lldp.tlv.type == 1": 3,                                       # controller + 2 encoder ports
         "dcerpc.opnum == 0 && dcerpc.pkt_type == 0": 1,               # Connect
-        "pn_io.index == 0xbf00 && dcerpc.pkt_type == 0": 1,           # Write 0xBF00
+        "pn_io.index == 0xbf00 && dcerpc.pkt_type == 0": 1,           # Write 0xBF00 ...
+        "pn_io.index == 0xe040 && dcerpc.pkt_type == 0": 1,           # ... inside one MultipleWrite
+        "pn_rt.frame_id == 0x8001 && pn_rt.ds == 0x25": pre_out,      # ProviderState STOP at start-up
         "pn_io.index == 0xaff0 && dcerpc.pkt_type == 2": 1,           # Read I&M0 response
         "pn_io.index == 0xb02e": 4 * 5,                                # 5 parameter reads (w+r, req+res)
         "pn_io.control_command.prmend == 1": 1,
         "pn_io.control_command.applready == 1": 1,
         "pn_io.control_command.release == 1": 1,
         "pn_io.alarm_type": 4,                                         # appears/disappears + their acks
-        "pn_rt.frame_id == 0x8000": 400,
-        "pn_rt.frame_id == 0x8001": 400,
+        "pn_rt.frame_id == 0x8000": 400 + pre_in,
+        "pn_rt.frame_id == 0x8001": 400 + pre_out,
     }
     for flt, n in checks.items():
         got = len(tshark(p, "-Y", flt).splitlines())
@@ -165,8 +170,11 @@ def test_sign_of_life_and_preset_handshake(tmp_path):
     st0 = exp["stations"][0]
     inp, out = st0["iocrs"]
     off_in = 20 + inp["objects"][-1]["offset"]
-    sp = [T.decode(81, "setpoint", d, off=20) for _, d in _cyclic(p, out["frame_id"])]
-    ac = [T.decode(81, "actual", d, off=off_in) for _, d in _cyclic(p, inp["frame_id"])]
+    iops_in = off_in + inp["objects"][-1]["length"]
+    # data exchange only: DataStatus RUN from the controller, IOPS GOOD from the device
+    sp = [T.decode(81, "setpoint", d, off=20) for _, d in _cyclic(p, out["frame_id"]) if d[-2] == 0x35]
+    ac = [T.decode(81, "actual", d, off=off_in) for _, d in _cyclic(p, inp["frame_id"]) if d[iops_in] == 0x80]
+    assert len(sp) == len(ac) == 400
     cls = [s["stw2_enc"] >> 12 for s in sp]
     dls = [a["zsw2_enc"] >> 12 for a in ac]
     assert all(b == sol_next(a) for a, b in zip(cls, cls[1:]))
@@ -220,11 +228,13 @@ def test_fast_path_matches_layout_and_is_deterministic(tmp_path):
     st0 = exp["stations"][1]
     inp = st0["iocrs"][0]
     off = 20 + inp["objects"][-1]["offset"]
-    rows = [(d, T.decode(81, "actual", d, off=off)) for fn, ts, lt, d in frames
-            if len(d) > 20 and int.from_bytes(d[18:20], "big") == inp["frame_id"]]
-    assert len(rows) == n
-    cc = [int.from_bytes(d[-4:-2], "big") for d, _ in rows]
+    iops = 20 + inp["objects"][-1]["offset"] + inp["objects"][-1]["length"]
+    every = [(d, T.decode(81, "actual", d, off=off)) for fn, ts, lt, d in frames
+             if len(d) > 20 and int.from_bytes(d[18:20], "big") == inp["frame_id"]]
+    cc = [int.from_bytes(d[-4:-2], "big") for d, _ in every]   # start-up frames and data exchange: one count
     assert all((y - x) % 65536 == 32 for x, y in zip(cc, cc[1:]))
+    rows = [r for r in every if r[0][iops] == 0x80]
+    assert len(rows) == n and 0 < len(every) - n < 100 and all(d[iops] == 0 for d, _ in every[:len(every) - n])
     pos = [a["g1_xist1"] for _, a in rows]
     assert all((y - x) % (8192 * 4096) == STEPS for x, y in zip(pos, pos[1:]))
     dls = [a["zsw2_enc"] >> 12 for _, a in rows]
@@ -304,3 +314,35 @@ def test_telegram_words_round_trip(tel, raw):
         assert len(raw) < lay.length
         return
     assert lay.encode(vals) == raw[:lay.length]
+
+
+# ------------------------------------------------------------------------------------- start-up
+
+@pytest.mark.skipif(not HAVE_TSHARK, reason="tshark not installed")
+@pytest.mark.parametrize("mode", [(), ("--records", "plain"), ("--good-before-prmend",),
+                                  ("--good-before-prmend", "--records", "plain", "--encoders", "2")])
+def test_startup_modes_order_and_tshark(tmp_path, mode):
+    p = sim(tmp_path, "u.pcapng", "--cycles", "60", *mode)
+    assert tshark(p, "-Y", BAD_FILTER) == ""
+    rows = [r.split("\t") for r in tshark(
+        p, "-Y", "pn_rt.frame_id == 0x8000 || pn_rt.frame_id == 0x8001 || pn_io.index || pn_io.control_command",
+        "-T", "fields", "-e", "frame.number", "-e", "pn_rt.frame_id", "-e", "pn_io.index", "-e", "dcerpc.pkt_type",
+        "-e", "pn_io.control_command.prmend", "-e", "pn_io.control_command.applready", "-e", "pn_io.ioxs",
+        "-E", "occurrence=f").splitlines()]
+    first_in = next(int(r[0]) for r in rows if r[1] == "32768")
+    first_out = next(int(r[0]) for r in rows if r[1] == "32769")
+    bf00 = int(tshark(p, "-Y", "pn_io.index == 0xbf00 && dcerpc.pkt_type == 0", "-T", "fields",
+                      "-e", "frame.number").split()[0])
+    prm_end = next(int(r[0]) for r in rows if r[4] == "1")
+    app_ready = next(int(r[0]) for r in rows if r[5] == "1")
+    conn_res = int(tshark(p, "-Y", "dcerpc.opnum == 0 && dcerpc.pkt_type == 2", "-T", "fields",
+                          "-e", "frame.number").split()[0])
+    assert first_in < conn_res < first_out < bf00 < prm_end < app_ready
+    good = [int(r[0]) for r in rows if r[1] == "32768" and r[6] == "0x80"]
+    if "--good-before-prmend" in mode:
+        assert good[0] == first_in                      # GOOD from the device's first frame
+        assert sum(1 for r in rows if r[1] and first_out <= int(r[0]) < bf00) >= 3
+    else:
+        assert good[0] > app_ready                      # GOOD only after ApplicationReady
+    mw = tshark(p, "-Y", "pn_io.index == 0xe040 && dcerpc.pkt_type == 0")
+    assert bool(mw) == ("plain" not in mode)

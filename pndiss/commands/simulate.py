@@ -38,6 +38,16 @@ def add_parser(sub) -> None:
     p.add_argument("--encoders", type=int, default=1, metavar="N", help="number of encoders (default 1, max 16)")
     p.add_argument("--inject", action="append", default=[], metavar="RULE_ID[@CYCLE]",
                    help="break one catalogue rule (repeatable); CYCLE defaults to half-way")
+    p.add_argument("--startup", default="realistic", choices=("realistic", "tidy"),
+                   help="realistic (default): cyclic frames from the Connect on with IOPS BAD / ProviderState "
+                        "STOP, records, PrmEnd, ApplicationReady, then GOOD; tidy: cyclic data only after "
+                        "PrmEnd, GOOD from the first frame (the simulator's old start-up)")
+    p.add_argument("--records", default="multiplewrite", choices=("multiplewrite", "plain"),
+                   help="start-up records in one MultipleWrite (index 0xE040, as S7 controllers do; default) "
+                        "or as plain writes")
+    p.add_argument("--good-before-prmend", action="store_true",
+                   help="the device sends GOOD data from its first frame and 0xBF00 is written a few cycles "
+                        "after the Connect response, before PrmEnd")
     p.add_argument("--seed", type=int, default=1, metavar="N", help="seed for timestamps, UUIDs, counters (default 1)")
     p.add_argument("--no-expected", action="store_true", help="do not write <name>.expected.json")
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="pcapng file to write")
@@ -89,10 +99,13 @@ def run(args) -> int:
             raise UsageError("--inject: these faults need different scenarios: "
                              + ", ".join(f"{k} ({v})" for k, v in sorted(needs.items())))
     args.scenario = args.scenario or next(iter(needs.values()), "startup")
+    if args.good_before_prmend and args.startup == "tidy":
+        raise UsageError("--good-before-prmend needs --startup realistic")
     cfg = Config(scenario=args.scenario, profile=args.profile, telegram=args.telegram, cycle_ms=args.cycle_ms,
-                 cycles=cycles, encoders=args.encoders, injects=injects, seed=args.seed)
+                 cycles=cycles, encoders=args.encoders, injects=injects, seed=args.seed,
+                 startup=args.startup, records=args.records, good_before_prmend=args.good_before_prmend)
     try:
-        if cycles >= FAST_THRESHOLD and not injects and args.scenario == "startup":
+        if cycles >= FAST_THRESHOLD and not injects and args.scenario == "startup" and not cfg.good_before_prmend:
             truth = write_fast(cfg, args.output, expected=not args.no_expected)
         else:
             truth = write_capture(cfg, args.output, expected=not args.no_expected)

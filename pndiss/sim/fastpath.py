@@ -78,8 +78,8 @@ class _Stream:
                     for n in ("g1_xist1", "g1_xist2", "g1_xist3") if n in names_i]
         self.cc_out = len(out_t) - 4
         self.cc_in = len(in_t) - 4
-        self.cc0 = (sess.rng.randrange(1 << 16), sess.rng.randrange(1 << 16))
-        self.sol0 = 1 + sess.rng.randrange(15)
+        self.cc0 = st.cc0                                     # the start-up cycles' counters go on
+        self.sol0 = st.sol0
         self.ctrl_hi = 0x04                                   # STW2_ENC high byte: bit 10
         self.creq_hi = (1 << ctrl_bit) >> 8 if ctrl_bit else 0
         self.tmr = sess.params["tmr"]

@@ -257,6 +257,32 @@ def write_res(seq, ar_uuid, api, slot, subslot, index, length, status=0):
                          RWPadding=b"\0" * 16)
 
 
+def multiple_write_req(seq, ar_uuid, writes: list):
+    """Index 0xE040 (wire.md §6.10): writes = [(seq, api, slot, subslot, index, data)]. Outer header
+    API/slot/subslot 0xFFFFFFFF/0xFFFF/0xFFFF as an S7-1500 sends it; each inner IODWriteReqHeader +
+    data, padded to 4 bytes from the stub start (the body starts at stub offset 20 + 64, aligned), the
+    last record not padded."""
+    body = b""
+    for j, (sq, api, slot, subslot, index, data) in enumerate(writes):
+        body += bytes(R.IODWriteReq(seqNum=sq, ARUUID=ar_uuid, API=api, slotNumber=slot, subslotNumber=subslot,
+                                    padding=b"\0\0", index=index, recordDataLength=len(data),
+                                    RWPadding=b"\0" * 24)) + data
+        if j < len(writes) - 1:
+            body += bytes(-len(body) % 4)
+    return R.IODWriteReq(seqNum=seq, ARUUID=ar_uuid, API=0xFFFFFFFF, slotNumber=0xFFFF, subslotNumber=0xFFFF,
+                         padding=b"\0\0", index=0xE040, recordDataLength=len(body), RWPadding=b"\0" * 24) / Raw(body)
+
+
+def multiple_write_res(seq, ar_uuid, writes: list, statuses: list):
+    """Outer IODWriteResHeader (index 0xE040, RecordDataLength n x 64), then one per inner write."""
+    out = [R.IODWriteRes(seqNum=seq, ARUUID=ar_uuid, API=0xFFFFFFFF, slotNumber=0xFFFF, subslotNumber=0xFFFF,
+                         padding=b"\0\0", index=0xE040, recordDataLength=64 * len(writes),
+                         status=max(statuses, default=0), RWPadding=b"\0" * 16)]
+    for (sq, api, slot, subslot, index, data), stat in zip(writes, statuses):
+        out.append(write_res(sq, ar_uuid, api, slot, subslot, index, len(data), stat))
+    return out
+
+
 def read_req(seq, ar_uuid, api, slot, subslot, index, max_len):
     return R.IODReadReq(seqNum=seq, ARUUID=ar_uuid, API=api, slotNumber=slot, subslotNumber=subslot,
                         padding=b"\0\0", index=index, recordDataLength=max_len, RWPadding=b"\0" * 24)

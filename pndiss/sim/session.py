@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 from .. import telegrams as T
 from . import frames as F
-from . import recdata
+from . import recdata, startup
 from .model import Encoder, Plc, Shaft, PROFILE_TELEGRAMS
 
 EPOCH_NS = 1_767_225_600 * 10**9   # 2026-01-01T00:00:00Z, the simulator's fixed epoch
@@ -67,6 +67,9 @@ class Config:
     compat: int = 1
     class4: int = 1
     velocity_unit: int = 0
+    startup: str = "realistic"        # "realistic" (plant-like, sim/startup.py) or "tidy" (cyclic after PrmEnd)
+    records: str = "multiplewrite"    # start-up records: one 0xE040 MultipleWrite or "plain" writes
+    good_before_prmend: bool = False  # device GOOD from its first frame, records a few cycles later
 
 
 class Frame:
@@ -111,6 +114,7 @@ class Station:
         self.out_iocs = [(API_DAP, 0, ss, sp + 1 + o) for o, ss in enumerate(DAP_SUBSLOTS)] + \
             [(API_ENC, SLOT_ENC, SUB_MAP, sp + 1 + n), (API_ENC, SLOT_ENC, SUB_TEL, sp + 2 + n)]
         self.out_csdu = max(40, sp + 3 + n)
+        self.first_in = self.first_out = self.good_from = 0   # first cycles on the wire (startup.py)
 
 
 CTRL_MAC = mac(1, 0)
@@ -129,6 +133,7 @@ def cyclic_header(src: str, dst: str, frame_id: int) -> bytes:
 # APDU status (wire.md §2.3): DataStatus 0x35 = primary, valid, run, station ok; transfer status 0
 DATA_STATUS = 0x35
 IOXS_GOOD = 0x80
+IOXS_BAD = 0x00    # bad, detected by subslot (wire.md §2.5)
 
 
 # start-up run: still, ramp to 60 rpm, constant, ramp down, still (fractions of the run)
@@ -181,6 +186,14 @@ class SimSession:
 
     def cyc_ts(self, k: int) -> int:
         return self.cyc_start_ns + k * self.cycle_ns
+
+    def out_ts(self, st, k: int) -> int:
+        """When the controller's output frame of cycle k for station st is on the wire."""
+        return self.cyc_start_ns + k * self.cycle_ns + 20_000 * st.i
+
+    def in_ts(self, st, k: int) -> int:
+        """When station st's input frame of cycle k is on the wire."""
+        return self.cyc_start_ns + k * self.cycle_ns + self.cycle_ns // 2 + 20_000 * st.i
 
     # ------------------------------------------------------------------ RPC
     def rpc_call(self, ts, st: Station, opnum: int, req_blocks, res_blocks, *, from_device=False,
@@ -276,31 +289,22 @@ class SimSession:
                 self.add(ts + 400_000, F.dcp_set_ip(CTRL_MAC, st.mac, x, st.ip, "255.255.255.0", "0.0.0.0"),
                          "dcp.set_ip")
                 self.add(ts + 450_000, F.dcp_set_res(st.mac, CTRL_MAC, x, 1, 2), "dcp.set_res")
-        # --- Connect, 0xBF00, PrmEnd per station
+        # --- Connect, records, PrmEnd, ApplicationReady per station
         t = 10 + 10 * n + 5
+        if cfg.startup == "tidy":
+            self.startup_tidy(params, t)
+        else:
+            startup.realistic(self, params, t)
         for st in self.stations:
-            self.connect(self.ms(t), st)
-            if not (sc and sc.skip_bf00):
-                bf = recdata.bf00(cfg.profile, **params) if not (sc and sc.bf00_bytes) else sc.bf00_bytes
-                self.write_record(self.ms(t + 3), st, self.ident["bf00_index"], bf, what="bf00",
-                                  tags=sc.bf00_tags if sc else ())
-                self.facts["records"].append({"station": st.name, "op": "write", "index": self.ident["bf00_index"],
-                                              "length": len(bf)})
-            self.rpc_call(self.ms(t + 6), st, 4, [F.control_req(st.ar_uuid, st.session_key, prm_end=True)],
-                          [F.control_res(st.ar_uuid, st.session_key, block_type=0x8110)], what="prm_end")
-            t += 10
-        self.cyc_start_ns = self.ms(t)
-        # --- ApplicationReady from each device once its IO data run (legacy start-up)
-        for st in self.stations:
-            self.rpc_call(self.cyc_ts(5 + 2 * st.i), st, 4,
-                          [F.control_req(st.ar_uuid, st.session_key, app_ready=True)],
-                          [F.control_res(st.ar_uuid, st.session_key, block_type=0x8112)],
-                          from_device=True, what="app_ready")
+            st.cc0 = (self.rng.randrange(1 << 16), self.rng.randrange(1 << 16))
+            st.sol0 = 1 + self.rng.randrange(15)
         # --- I&M0 and the profile parameters (P922, P964, P965, P979, P65001)
         encs = {}
         for st in self.stations:
             k = 20 + 3 * st.i
-            self.read_record(self.cyc_ts(k), st, 0xAFF0,
+            # in units of max(cycle, 1 ms): one parameter access is over before the next (records.md §3.5)
+            unit = max(self.cycle_ns, 1_000_000)
+            self.read_record(self.cyc_start_ns + k * unit, st, 0xAFF0,
                              recdata.im0(self.ident["vendor_id"], self.ident["order_id"], f"SIM{cfg.seed:04d}{st.i:04d}"),
                              what="im0")
             self.facts["records"].append({"station": st.name, "op": "read", "index": 0xAFF0})
@@ -310,12 +314,15 @@ class SimSession:
             encs[st.i] = dev
             for j, pnu in enumerate((922, 964, 965, 979, 65001)):
                 fn, tags = sc.param_override.get(pnu, (None, ())) if sc and st.i == 0 else (None, ())
-                self.read_param(self.cyc_ts(k + 10 + 5 * j), st, pnu, fn(dev) if fn else dev, tags=tags)
+                self.read_param(self.cyc_start_ns + (k + 10 + 5 * j) * unit, st, pnu, fn(dev) if fn else dev,
+                                tags=tags)
             for inj in (sc.bmp_extra if sc and st.i == 0 else ()):
                 inj.access(self, st, self.cyc_ts(inj.k), dev)
         # --- cyclic (the fast path writes it itself), LLDP again every 5 s (802.1AB msgTxInterval)
         if self.with_cyclic:
             self.run_cyclic(params, encs)
+        else:   # the fast path writes cycles 0.. itself; the start-up cycles come from here
+            self.run_startup_cycles()
         t_lldp = 5000.0
         while self.ms(t_lldp) < self.cyc_ts(cfg.cycles):
             self.lldp_round(t_lldp + 0.2)
@@ -330,6 +337,28 @@ class SimSession:
             sc.finish(self)
         self.frames.sort(key=lambda f: (f.ts, f.order))
         return self.frames, self.truth()
+
+    def startup_tidy(self, params, t: float) -> None:
+        """The old tidy start-up: Connect, 0xBF00, PrmEnd per station; cyclic data from cycle 0 after
+        the last PrmEnd, GOOD from the first frame; ApplicationReady once the IO data run."""
+        sc = self.scenario
+        for st in self.stations:
+            self.connect(self.ms(t), st)
+            if not (sc and sc.skip_bf00):
+                bf = recdata.bf00(self.cfg.profile, **params) if not (sc and sc.bf00_bytes) else sc.bf00_bytes
+                self.write_record(self.ms(t + 3), st, self.ident["bf00_index"], bf, what="bf00",
+                                  tags=sc.bf00_tags if sc else ())
+                self.facts["records"].append({"station": st.name, "op": "write", "index": self.ident["bf00_index"],
+                                              "length": len(bf)})
+            self.rpc_call(self.ms(t + 6), st, 4, [F.control_req(st.ar_uuid, st.session_key, prm_end=True)],
+                          [F.control_res(st.ar_uuid, st.session_key, block_type=0x8110)], what="prm_end")
+            t += 10
+        self.cyc_start_ns = self.ms(t)
+        for st in self.stations:
+            self.rpc_call(self.cyc_ts(5 + 2 * st.i), st, 4,
+                          [F.control_req(st.ar_uuid, st.session_key, app_ready=True)],
+                          [F.control_res(st.ar_uuid, st.session_key, block_type=0x8112)],
+                          from_device=True, what="app_ready")
 
     def lldp_round(self, t_ms):
         self.add(self.ms(t_ms), F.lldp_frame(CTRL_PORT_MAC, chassis=CTRL_NAME, port_id=f"port-001.{CTRL_NAME}",
@@ -418,6 +447,23 @@ class SimSession:
                                      "channel_error_type": channel_error})
 
     # ------------------------------------------------------------------ cyclic
+    def run_startup_cycles(self) -> None:
+        """Start-up cycles (k < 0) with IOxS BAD, zero data (realistic start-up, not GOOD before PrmEnd)."""
+        if self.cfg.good_before_prmend or self.cfg.startup == "tidy":
+            return
+        step = (self.scf * self.rr) & 0xFFFF
+        for st in self.stations:
+            o_t, i_t = frame_templates(st, IOXS_BAD, startup.DATA_STATUS_STOP, DATA_STATUS)
+            for k in range(min(st.first_in, st.first_out), 0):
+                if k >= st.first_out:
+                    o = bytearray(o_t)
+                    struct.pack_into(">H", o, len(o) - 4, (st.cc0[0] + k * step) & 0xFFFF)
+                    self.add(self.out_ts(st, k), bytes(o), "cyclic.out.startup")
+                if k >= st.first_in:
+                    i = bytearray(i_t)
+                    struct.pack_into(">H", i, len(i) - 4, (st.cc0[1] + k * step) & 0xFFFF)
+                    self.add(self.in_ts(st, k), bytes(i), "cyclic.in.startup")
+
     def run_cyclic(self, params, devs):
         cfg, sc = self.cfg, self.scenario
         cyc_s = self.cycle_ns / 1e9
@@ -427,43 +473,34 @@ class SimSession:
         run_s = cfg.cycles * cyc_s
         shaft_segs = tuple((f * run_s, r0, r1) for f, r0, r1 in frac)
         out_l, in_l = T.layout(cfg.telegram, "setpoint"), T.layout(cfg.telegram, "actual")
+        self.run_startup_cycles()
         per = []
         for st in self.stations:
             enc = Encoder(cfg.profile, cfg.telegram, params=params, shaft=Shaft(shaft_segs), cycle_s=cyc_s)
-            plc = Plc(cfg.telegram, sol_start=1 + self.rng.randrange(15))
-            out_t = bytearray(cyclic_header(CTRL_MAC, st.mac, st.out_fid) + bytes(st.out_csdu) + bytes(4))
-            in_t = bytearray(cyclic_header(st.mac, CTRL_MAC, st.in_fid) + bytes(st.in_csdu) + bytes(4))
-            h = 20  # dst, src, 802.1Q, type, FrameID
-            for _a, _s, _ss, o in st.out_objs:
-                out_t[h + o + st.out_len] = IOXS_GOOD
-            for _a, _s, _ss, o in st.out_iocs:
-                out_t[h + o] = IOXS_GOOD
-            for _a, s, ss, o in st.in_objs:
-                out_len = st.in_len if (s, ss) == (SLOT_ENC, SUB_TEL) else 0
-                in_t[h + o + out_len] = IOXS_GOOD
-            for _a, _s, _ss, o in st.in_iocs:
-                in_t[h + o] = IOXS_GOOD
-            out_t[-2], in_t[-2] = DATA_STATUS, DATA_STATUS
+            plc = Plc(cfg.telegram, sol_start=st.sol0)
+            out_t, in_t = frame_templates(st, IOXS_GOOD, DATA_STATUS, DATA_STATUS)
             if sc is not None and sc.reject_bf00:
                 # a conforming device refuses a bad 0xBF00: parameterisation error 0x1002 in G1_XIST2
                 # and a 0x9011 channel diagnosis (cyclic.md §9; 000_37bf2397999f1108.txt:2605-2639)
                 enc.error_code = 0x1002
                 self.alarm(self.cyc_ts(2) + 300_000, st, appears=True, channel_error=0x9011,
                            tags=sc.bf00_tags)
-            cc0 = (self.rng.randrange(1 << 16), self.rng.randrange(1 << 16))
-            per.append((st, enc, plc, out_t, in_t, cc0))
+            per.append((st, enc, plc, out_t, in_t, st.cc0))
         last_in = {st.i: None for st in self.stations}
-        for k in range(cfg.cycles):
-            t = self.cyc_ts(k)
+        # GOOD before PrmEnd: the model runs from the first start-up frame (hooks from cycle 0)
+        k0 = min([0] + [min(st.good_from, st.first_in, st.first_out) for st in self.stations
+                        if st.good_from < 0])
+        for k in range(k0, cfg.cycles):
             for st, enc, plc, out_t, in_t, cc0 in per:
                 tags_o, tags_i = set(), set()
-                if sc is not None:
+                hooks = sc is not None and k >= 0
+                if hooks:
                     sc.before_cycle(self, k, st, plc, enc, last_in[st.i])
                 out = plc.step(k, last_in[st.i])
-                if sc is not None:
+                if hooks:
                     sc.after_plc(self, k, st, out, tags_o)
                 actual = enc.step(k, out)
-                if sc is not None:
+                if hooks:
                     sc.after_enc(self, k, st, actual, tags_i)
                 last_in[st.i] = actual
                 ob = out_l.encode(out)
@@ -474,12 +511,14 @@ class SimSession:
                 i[20 + st.in_data_off:20 + st.in_data_off + len(ib)] = ib
                 struct.pack_into(">H", o, len(o) - 4, (cc0[0] + k * step) & 0xFFFF)
                 struct.pack_into(">H", i, len(i) - 4, (cc0[1] + k * step) & 0xFFFF)
-                if sc is not None:
+                if hooks:
                     sc.patch(self, k, st, o, i, tags_o, tags_i)
                     if k == 0 and st.i == 0:
                         tags_o |= set(sc.first_cyclic_tags)
-                self.add(t + 20_000 * st.i, bytes(o), "cyclic.out", tags_o)
-                self.add(t + self.cycle_ns // 2 + 20_000 * st.i, bytes(i), "cyclic.in", tags_i)
+                if k >= st.first_out:
+                    self.add(self.out_ts(st, k), bytes(o), "cyclic.out", tags_o)
+                if k >= st.first_in:
+                    self.add(self.in_ts(st, k), bytes(i), "cyclic.in", tags_i)
 
     # ------------------------------------------------------------------ ground truth
     def truth(self) -> dict:
@@ -534,6 +573,24 @@ class SimSession:
             "faults": faults,
             "clean": not faults,
         }
+
+
+def frame_templates(st: Station, ioxs: int, ds_out: int, ds_in: int) -> tuple[bytes, bytes]:
+    """(output, input) cyclic frames of a station with zero data, every IOPS/IOCS = ioxs, the
+    DataStatus bytes given and cycle counter 0 (wire.md §2.3-2.6)."""
+    out_t = bytearray(cyclic_header(CTRL_MAC, st.mac, st.out_fid) + bytes(st.out_csdu) + bytes(4))
+    in_t = bytearray(cyclic_header(st.mac, CTRL_MAC, st.in_fid) + bytes(st.in_csdu) + bytes(4))
+    h = 20  # dst, src, 802.1Q, type, FrameID
+    for _a, _s, _ss, o in st.out_objs:
+        out_t[h + o + st.out_len] = ioxs
+    for _a, _s, _ss, o in st.out_iocs:
+        out_t[h + o] = ioxs
+    for _a, s, ss, o in st.in_objs:
+        in_t[h + o + (st.in_len if (s, ss) == (SLOT_ENC, SUB_TEL) else 0)] = ioxs
+    for _a, _s, _ss, o in st.in_iocs:
+        in_t[h + o] = ioxs
+    out_t[-2], in_t[-2] = ds_out, ds_in
+    return bytes(out_t), bytes(in_t)
 
 
 def send_clock(cycle_ms: float) -> tuple[int, int]:

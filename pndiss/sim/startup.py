@@ -1,0 +1,101 @@
+"""The AR start-up as a plant does it (issue #12 item 6): Connect, cyclic frames from the Connect on,
+records (one S7-style MultipleWrite or plain writes), PrmEnd, ApplicationReady, then data exchange.
+
+What the wire shows, per station (facts: an ET200S start-up from an S7 controller, issue #12):
+* the device's provider sends input frames even before the Connect response: IOPS/IOCS BAD (0x00),
+  DataStatus 0x35 (primary, valid, run, station ok);
+* the controller's output frames start right after the Connect response: ProviderState STOP
+  (DataStatus 0x25), IOPS/IOCS BAD;
+* records, PrmEnd, ApplicationReady from the device; from cycle 0 on both sides run GOOD.
+``good_before_prmend``: the device runs GOOD data (and the controller its outputs) from the first
+frame, and the record write comes a few cycles after the Connect response, before PrmEnd.
+
+Cycle numbers: cycle 0 is the first cycle of data exchange; start-up cycles are negative, so the
+scenarios and injections (which count from 0) are the same in every start-up mode.
+"""
+from __future__ import annotations
+
+from . import frames as F
+from . import recdata
+
+MS = 1_000_000
+# a manufacturer-specific parameter record of the DAP written with 0xBF00 (index < 0x8000 is
+# user-specific, wire.md §6.12); [sim choice]: 4 bytes, so the MultipleWrite holds two records
+DAP_RECORD = (0, 0, 1, 0x0064, b"\x00\x01\x00\x00")
+DATA_STATUS_STOP = 0x25   # primary, valid, ProviderState STOP, station ok (wire.md §2.3)
+
+
+def records(sess, st, params) -> list:
+    """[(api, slot, subslot, index, data, tags)] the controller writes before PrmEnd."""
+    from .session import API_ENC, SLOT_ENC, SUB_MAP
+    sc = sess.scenario
+    out = [DAP_RECORD + ((),)]
+    if not (sc and sc.skip_bf00):
+        bf = sc.bf00_bytes if sc and sc.bf00_bytes else recdata.bf00(sess.cfg.profile, **params)
+        out.insert(0, (API_ENC, SLOT_ENC, SUB_MAP, sess.ident["bf00_index"], bf, tuple(sc.bf00_tags) if sc else ()))
+    return out
+
+
+def write_records(sess, ts, st, recs) -> int:
+    """One MultipleWrite (index 0xE040) or one plain write per record, 1 ms apart. Returns the end."""
+    mw = sess.cfg.records == "multiplewrite"
+    for api, slot, sub, index, data, _tags in recs:
+        sess.facts["records"].append({"station": st.name, "op": "write", "index": index, "length": len(data),
+                                      **({"via": "multiplewrite"} if mw else {})})
+    if mw:
+        tags = set().union(*(r[5] for r in recs))
+        sess.seq_rw = getattr(sess, "seq_rw", 0) + 1
+        outer = sess.seq_rw
+        writes = []
+        for api, slot, sub, index, data, _tags in recs:
+            sess.seq_rw += 1
+            writes.append((sess.seq_rw, api, slot, sub, index, data))
+        sess.rpc_call(ts, st, 3, [F.multiple_write_req(outer, st.ar_uuid, writes)],
+                      F.multiple_write_res(outer, st.ar_uuid, writes, [0] * len(writes)),
+                      tags=tags, what="multiple_write")
+        return ts + MS
+    for j, (api, slot, sub, index, data, tags) in enumerate(recs):
+        what = "bf00" if index == sess.ident["bf00_index"] else "write"
+        sess.write_record(ts + j * MS, st, index, data, api=api, slot=slot, subslot=sub, tags=tags, what=what)
+    return ts + len(recs) * MS
+
+
+def realistic(sess, params, t_connect_ms: float) -> None:
+    """Schedule Connect, records, PrmEnd and ApplicationReady of every station; set cycle 0
+    (``sess.cyc_start_ns``) after the last ApplicationReady and each station's first cycles."""
+    cfg, sc = sess.cfg, sess.scenario
+    T = sess.cycle_ns
+    gbp = cfg.good_before_prmend
+    plans = []
+    t = sess.ms(t_connect_ms)
+    for st in sess.stations:
+        recs = records(sess, st, params)
+        n_rec = 1 if cfg.records == "multiplewrite" else len(recs)
+        t_rec = t + max(3 * T, 2 * MS)
+        t_prm = t_rec + n_rec * MS + 2 * MS
+        plans.append((st, recs, t, t_rec, t_prm, t_prm + 2 * MS))
+        t += 3 * MS
+    # cycle 0 after every ApplicationReady; T of margin for moving each Connect onto the cycle grid
+    sess.cyc_start_ns = max(p[5] for p in plans) + 2 * MS + T
+    for st, recs, t_c, t_rec, t_prm, t_app in plans:
+        # the Connect goes out 150 us before one of the device's input frames: that frame lies
+        # between the request and its response (300 us later)
+        k = -((sess.cyc_start_ns - t_c) // T) - 2
+        while sess.in_ts(st, k) < t_c:
+            k += 1
+        shift = sess.in_ts(st, k) - 150_000 - t_c
+        t_c, t_rec, t_prm, t_app = (x + shift for x in (t_c, t_rec, t_prm, t_app))
+        st.first_in = k
+        while sess.out_ts(st, k) < t_c + 350_000:
+            k += 1
+        st.first_out = k
+        sess.connect(t_c, st)
+        write_records(sess, t_rec, st, recs)
+        prm_tags = tuple(sc.first_cyclic_tags) if sc and st.i == 0 and sc.skip_bf00 else ()
+        sess.rpc_call(t_prm, st, 4, [F.control_req(st.ar_uuid, st.session_key, prm_end=True)],
+                      [F.control_res(st.ar_uuid, st.session_key, block_type=0x8110)], what="prm_end",
+                      tags=prm_tags)
+        sess.rpc_call(t_app, st, 4, [F.control_req(st.ar_uuid, st.session_key, app_ready=True)],
+                      [F.control_res(st.ar_uuid, st.session_key, block_type=0x8112)],
+                      from_device=True, what="app_ready")
+        st.good_from = min(st.first_in, st.first_out) if gbp else 0
