@@ -346,3 +346,26 @@ def test_startup_modes_order_and_tshark(tmp_path, mode):
         assert good[0] > app_ready                      # GOOD only after ApplicationReady
     mw = tshark(p, "-Y", "pn_io.index == 0xe040 && dcerpc.pkt_type == 0")
     assert bool(mw) == ("plain" not in mode)
+
+
+@pytest.mark.skipif(not HAVE_TSHARK, reason="tshark not installed")
+def test_restart_new_ar_new_scaling_and_silence(tmp_path):
+    p = sim(tmp_path, "r.pcapng", "--cycles", "500", "--restart", "200", "--restart-scaling", "mupr=4096,direction=1")
+    assert tshark(p, "-Y", BAD_FILTER) == ""
+    exp = json.loads((tmp_path / "r.expected.json").read_text())
+    ar1, ar2 = exp["stations"][0]["ars"]
+    assert ar1["ar_uuid"] != ar2["ar_uuid"] and ar2["session_key"] == ar1["session_key"] + 1
+    assert (ar1["params"]["mupr"], ar2["params"]["mupr"], ar2["params"]["direction"]) == (8192, 4096, 1)
+    uuids = tshark(p, "-Y", "dcerpc.opnum == 0 && dcerpc.pkt_type == 0", "-T", "fields", "-e", "pn_io.ar_uuid",
+                   "-E", "occurrence=f").split()
+    assert uuids == [ar1["ar_uuid"], ar2["ar_uuid"]]
+    # the second AR's 0xBF00 carries the new MUPR (bytes 1-8, records.md §5.1)
+    data = tshark(p, "-Y", "pn_io.index == 0xbf00 && dcerpc.pkt_type == 0", "-T", "fields", "-e", "frame.number")
+    assert len(data.split()) == 2
+    # silence: no cyclic frame of the station between the Release response and the new Connect
+    rel = int(tshark(p, "-Y", "pn_io.control_command.release == 1", "-T", "fields",
+                     "-e", "frame.number").split()[0])         # the request; its response follows
+    assert ar1["last_frame"] <= rel + 2 and ar2["first_frame"] > rel + 2
+    ts = {fn: t for fn, t, _, _ in open_capture(str(p))}
+    assert ts[ar2["first_frame"]] - ts[ar1["last_frame"]] >= 200_000_000
+    assert main(["simulate", "-o", str(tmp_path / "x.pcapng"), "--cycles", "300", "--restart", "290"]) == 2

@@ -48,6 +48,14 @@ def add_parser(sub) -> None:
     p.add_argument("--good-before-prmend", action="store_true",
                    help="the device sends GOOD data from its first frame and 0xBF00 is written a few cycles "
                         "after the Connect response, before PrmEnd")
+    p.add_argument("--restart", type=int, metavar="CYCLE",
+                   help="release encoder 1's AR at this data-exchange cycle and, after a silence, connect again "
+                        "(new AR UUID, records, PrmEnd, ApplicationReady)")
+    p.add_argument("--restart-scaling", metavar="KEY=VALUE[,...]", default="",
+                   help="0xBF00 values of the second AR: mupr, tmr, direction, velocity_unit "
+                        "(e.g. mupr=4096,tmr=16777216,direction=1); needs --restart")
+    p.add_argument("--restart-gap", type=float, default=200.0, metavar="MS",
+                   help="silence between the Release and the new Connect (default 200 ms)")
     p.add_argument("--seed", type=int, default=1, metavar="N", help="seed for timestamps, UUIDs, counters (default 1)")
     p.add_argument("--no-expected", action="store_true", help="do not write <name>.expected.json")
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="pcapng file to write")
@@ -101,11 +109,29 @@ def run(args) -> int:
     args.scenario = args.scenario or next(iter(needs.values()), "startup")
     if args.good_before_prmend and args.startup == "tidy":
         raise UsageError("--good-before-prmend needs --startup realistic")
+    scaling = {}
+    for item in filter(None, args.restart_scaling.split(",")):
+        key, _, val = item.partition("=")
+        key = key.strip().lower()
+        if key not in ("mupr", "tmr", "direction", "velocity_unit"):
+            raise UsageError(f"--restart-scaling {item}: KEY must be mupr, tmr, direction or velocity_unit")
+        try:
+            scaling[key] = int(val, 0)
+        except ValueError:
+            raise UsageError(f"--restart-scaling {item}: VALUE must be an integer") from None
+    if scaling and args.restart is None:
+        raise UsageError("--restart-scaling needs --restart CYCLE")
+    if args.restart is not None and not 1 <= args.restart < cycles:
+        raise UsageError(f"--restart must be within 1..{cycles - 1}")
+    if args.restart_gap < 0:
+        raise UsageError("--restart-gap must not be negative")
     cfg = Config(scenario=args.scenario, profile=args.profile, telegram=args.telegram, cycle_ms=args.cycle_ms,
                  cycles=cycles, encoders=args.encoders, injects=injects, seed=args.seed,
-                 startup=args.startup, records=args.records, good_before_prmend=args.good_before_prmend)
+                 startup=args.startup, records=args.records, good_before_prmend=args.good_before_prmend,
+                 restart=args.restart, restart_scaling=scaling, restart_gap_ms=args.restart_gap)
     try:
-        if cycles >= FAST_THRESHOLD and not injects and args.scenario == "startup" and not cfg.good_before_prmend:
+        if cycles >= FAST_THRESHOLD and not injects and args.scenario == "startup" and not cfg.good_before_prmend \
+                and cfg.restart is None:
             truth = write_fast(cfg, args.output, expected=not args.no_expected)
         else:
             truth = write_capture(cfg, args.output, expected=not args.no_expected)

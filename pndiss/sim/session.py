@@ -70,6 +70,9 @@ class Config:
     startup: str = "realistic"        # "realistic" (plant-like, sim/startup.py) or "tidy" (cyclic after PrmEnd)
     records: str = "multiplewrite"    # start-up records: one 0xE040 MultipleWrite or "plain" writes
     good_before_prmend: bool = False  # device GOOD from its first frame, records a few cycles later
+    restart: int | None = None        # cycle at which encoder 1's AR is released and set up again
+    restart_scaling: dict = field(default_factory=dict)   # 0xBF00 values of the second AR (mupr, tmr, direction, ...)
+    restart_gap_ms: float = 200.0     # silence between Release and the new Connect
 
 
 class Frame:
@@ -298,6 +301,10 @@ class SimSession:
         for st in self.stations:
             st.cc0 = (self.rng.randrange(1 << 16), self.rng.randrange(1 << 16))
             st.sol0 = 1 + self.rng.randrange(15)
+            st.ars = [{"ar_uuid": str(st.ar_uuid), "session_key": st.session_key, "params": dict(params),
+                       "first_cycle": min(st.first_in, st.first_out), "tag": f"ar1:{st.i}"}]
+        if cfg.restart is not None:
+            startup.restart(self, self.stations[0], params)
         # --- I&M0 and the profile parameters (P922, P964, P965, P979, P65001)
         encs = {}
         for st in self.stations:
@@ -458,11 +465,11 @@ class SimSession:
                 if k >= st.first_out:
                     o = bytearray(o_t)
                     struct.pack_into(">H", o, len(o) - 4, (st.cc0[0] + k * step) & 0xFFFF)
-                    self.add(self.out_ts(st, k), bytes(o), "cyclic.out.startup")
+                    self.add(self.out_ts(st, k), bytes(o), "cyclic.out.startup", {st.ars[0]["tag"]})
                 if k >= st.first_in:
                     i = bytearray(i_t)
                     struct.pack_into(">H", i, len(i) - 4, (st.cc0[1] + k * step) & 0xFFFF)
-                    self.add(self.in_ts(st, k), bytes(i), "cyclic.in.startup")
+                    self.add(self.in_ts(st, k), bytes(i), "cyclic.in.startup", {st.ars[0]["tag"]})
 
     def run_cyclic(self, params, devs):
         cfg, sc = self.cfg, self.scenario
@@ -485,14 +492,26 @@ class SimSession:
                 enc.error_code = 0x1002
                 self.alarm(self.cyc_ts(2) + 300_000, st, appears=True, channel_error=0x9011,
                            tags=sc.bf00_tags)
-            per.append((st, enc, plc, out_t, in_t, st.cc0))
+            per.append([st, enc, plc, out_t, in_t, st.cc0, st.ars[0]["tag"]])
         last_in = {st.i: None for st in self.stations}
         # GOOD before PrmEnd: the model runs from the first start-up frame (hooks from cycle 0)
         k0 = min([0] + [min(st.good_from, st.first_in, st.first_out) for st in self.stations
                         if st.good_from < 0])
         for k in range(k0, cfg.cycles):
-            for st, enc, plc, out_t, in_t, cc0 in per:
-                tags_o, tags_i = set(), set()
+            for row in per:
+                st, enc, plc, out_t, in_t, cc0, ar_tag = row
+                rs = getattr(st, "restart", None)
+                if rs is not None and k >= rs["end"]:
+                    # Release, silence, the second AR's start-up, then its data exchange (a new model)
+                    if k < rs["first"] or (k < rs["good_from"] and not self.restart_cycle(st, k, rs)):
+                        continue
+                    if k == rs["good_from"]:
+                        enc = row[1] = Encoder(cfg.profile, cfg.telegram, params=rs["params"],
+                                               shaft=Shaft(shaft_segs), cycle_s=cyc_s)
+                        plc = row[2] = Plc(cfg.telegram, sol_start=rs["sol0"])
+                        ar_tag = row[6] = rs["tag"]
+                        last_in[st.i] = None
+                tags_o, tags_i = {ar_tag}, {ar_tag}
                 hooks = sc is not None and k >= 0
                 if hooks:
                     sc.before_cycle(self, k, st, plc, enc, last_in[st.i])
@@ -515,12 +534,41 @@ class SimSession:
                     sc.patch(self, k, st, o, i, tags_o, tags_i)
                     if k == 0 and st.i == 0:
                         tags_o |= set(sc.first_cyclic_tags)
-                if k >= st.first_out:
+                if k >= st.first_out and (rs is None or k < rs["end"] or k >= rs["first_out"]):
                     self.add(self.out_ts(st, k), bytes(o), "cyclic.out", tags_o)
-                if k >= st.first_in:
+                if k >= st.first_in and (rs is None or k < rs["end"] or k >= rs["first_in"]):
                     self.add(self.in_ts(st, k), bytes(i), "cyclic.in", tags_i)
 
+    def restart_cycle(self, st, k, rs) -> bool:
+        """A start-up cycle of the second AR: BAD frames (False), or GOOD already (True, model runs)."""
+        if self.cfg.good_before_prmend:
+            return True
+        step = (self.scf * self.rr) & 0xFFFF
+        o_t, i_t = rs.setdefault("bad", frame_templates(st, IOXS_BAD, startup.DATA_STATUS_STOP, DATA_STATUS))
+        if k >= rs["first_out"]:
+            o = bytearray(o_t)
+            struct.pack_into(">H", o, len(o) - 4, (st.cc0[0] + k * step) & 0xFFFF)
+            self.add(self.out_ts(st, k), bytes(o), "cyclic.out.startup", {rs["tag"]})
+        if k >= rs["first_in"]:
+            i = bytearray(i_t)
+            struct.pack_into(">H", i, len(i) - 4, (st.cc0[1] + k * step) & 0xFFFF)
+            self.add(self.in_ts(st, k), bytes(i), "cyclic.in.startup", {rs["tag"]})
+        return False
+
     # ------------------------------------------------------------------ ground truth
+    def ar_truth(self, st) -> list:
+        """Each AR of a station: UUID, session key, its 0xBF00 values, cycles and cyclic frames."""
+        out = []
+        for ar in st.ars:
+            tagged = [n for n, f in enumerate(self.frames, 1) if ar["tag"] in f.tags]
+            d = {k: v for k, v in ar.items() if k != "tag"}
+            d["params"] = {k: v for k, v in ar["params"].items()
+                           if k in ("mupr", "tmr", "direction", "velocity_unit", "class4", "compat")}
+            d["first_frame"] = tagged[0] if tagged else None
+            d["last_frame"] = tagged[-1] if tagged else None
+            out.append(d)
+        return out
+
     def truth(self) -> dict:
         cfg = self.cfg
         num = {id(f): n for n, f in enumerate(self.frames, 1)}
@@ -543,7 +591,7 @@ class SimSession:
             stations.append({
                 "name": st.name, "mac": st.mac, "ip": st.ip, "profile": cfg.profile,
                 "vendor_id": self.ident["vendor_id"], "device_id": self.ident["device_id"],
-                "ar_uuid": str(st.ar_uuid), "telegram": cfg.telegram,
+                "ar_uuid": st.ars[0]["ar_uuid"], "telegram": cfg.telegram, "ars": self.ar_truth(st),
                 "telegram_slot": SLOT_ENC, "telegram_subslot": SUB_TEL,
                 "module_ident": module_ident(cfg.telegram), "submodule_ident": submodule_ident(cfg.telegram),
                 "iocrs": [
@@ -562,7 +610,10 @@ class SimSession:
             "generator": "pndiss simulate",
             "config": {"scenario": cfg.scenario, "profile": cfg.profile, "telegram": cfg.telegram,
                        "cycle_ms": cfg.cycle_ms, "cycles": cfg.cycles, "encoders": cfg.encoders,
-                       "seed": cfg.seed, "inject": [f"{r}@{c}" if c is not None else r for r, c in cfg.injects]},
+                       "seed": cfg.seed, "inject": [f"{r}@{c}" if c is not None else r for r, c in cfg.injects],
+                       "startup": cfg.startup, "records": cfg.records, "good_before_prmend": cfg.good_before_prmend,
+                       **({"restart": cfg.restart, "restart_scaling": cfg.restart_scaling}
+                          if cfg.restart is not None else {})},
             "frames": len(self.frames),
             "frame_kinds": dict(sorted(whats.items())),
             "controller": {"name": CTRL_NAME, "mac": CTRL_MAC, "ip": CTRL_IP},

@@ -25,10 +25,11 @@ DAP_RECORD = (0, 0, 1, 0x0064, b"\x00\x01\x00\x00")
 DATA_STATUS_STOP = 0x25   # primary, valid, ProviderState STOP, station ok (wire.md §2.3)
 
 
-def records(sess, st, params) -> list:
-    """[(api, slot, subslot, index, data, tags)] the controller writes before PrmEnd."""
+def records(sess, st, params, fresh=False) -> list:
+    """[(api, slot, subslot, index, data, tags)] the controller writes before PrmEnd (``fresh``: as a
+    conforming controller would, without the scenario's record faults)."""
     from .session import API_ENC, SLOT_ENC, SUB_MAP
-    sc = sess.scenario
+    sc = None if fresh else sess.scenario
     out = [DAP_RECORD + ((),)]
     if not (sc and sc.skip_bf00):
         bf = sc.bf00_bytes if sc and sc.bf00_bytes else recdata.bf00(sess.cfg.profile, **params)
@@ -63,39 +64,83 @@ def write_records(sess, ts, st, recs) -> int:
 def realistic(sess, params, t_connect_ms: float) -> None:
     """Schedule Connect, records, PrmEnd and ApplicationReady of every station; set cycle 0
     (``sess.cyc_start_ns``) after the last ApplicationReady and each station's first cycles."""
-    cfg, sc = sess.cfg, sess.scenario
     T = sess.cycle_ns
-    gbp = cfg.good_before_prmend
+    gbp = sess.cfg.good_before_prmend
     plans = []
     t = sess.ms(t_connect_ms)
     for st in sess.stations:
         recs = records(sess, st, params)
-        n_rec = 1 if cfg.records == "multiplewrite" else len(recs)
-        t_rec = t + max(3 * T, 2 * MS)
-        t_prm = t_rec + n_rec * MS + 2 * MS
-        plans.append((st, recs, t, t_rec, t_prm, t_prm + 2 * MS))
+        d_rec, d_prm, d_app = timing(sess, len(recs))
+        plans.append((st, recs, t, t + d_rec, t + d_prm, t + d_app))
         t += 3 * MS
     # cycle 0 after every ApplicationReady; T of margin for moving each Connect onto the cycle grid
     sess.cyc_start_ns = max(p[5] for p in plans) + 2 * MS + T
     for st, recs, t_c, t_rec, t_prm, t_app in plans:
-        # the Connect goes out 150 us before one of the device's input frames: that frame lies
-        # between the request and its response (300 us later)
-        k = -((sess.cyc_start_ns - t_c) // T) - 2
-        while sess.in_ts(st, k) < t_c:
-            k += 1
-        shift = sess.in_ts(st, k) - 150_000 - t_c
-        t_c, t_rec, t_prm, t_app = (x + shift for x in (t_c, t_rec, t_prm, t_app))
-        st.first_in = k
-        while sess.out_ts(st, k) < t_c + 350_000:
-            k += 1
-        st.first_out = k
-        sess.connect(t_c, st)
-        write_records(sess, t_rec, st, recs)
-        prm_tags = tuple(sc.first_cyclic_tags) if sc and st.i == 0 and sc.skip_bf00 else ()
-        sess.rpc_call(t_prm, st, 4, [F.control_req(st.ar_uuid, st.session_key, prm_end=True)],
-                      [F.control_res(st.ar_uuid, st.session_key, block_type=0x8110)], what="prm_end",
-                      tags=prm_tags)
-        sess.rpc_call(t_app, st, 4, [F.control_req(st.ar_uuid, st.session_key, app_ready=True)],
-                      [F.control_res(st.ar_uuid, st.session_key, block_type=0x8112)],
-                      from_device=True, what="app_ready")
+        st.first_in, st.first_out = schedule(sess, st, recs, t_c, t_rec - t_c, t_prm - t_c, t_app - t_c,
+                                             station0_tags=True)
         st.good_from = min(st.first_in, st.first_out) if gbp else 0
+
+
+def schedule(sess, st, recs, t_c, d_rec, d_prm, d_app, station0_tags=False) -> tuple[int, int]:
+    """Connect, records, PrmEnd, ApplicationReady of one AR from about t_c on (relative times d_*),
+    the Connect moved onto the cycle grid: it goes out 150 us before one of the device's input
+    frames, so that frame lies between the request and its response (300 us later).
+    Returns (first input cycle, first output cycle) of the AR."""
+    sc = sess.scenario
+    T = sess.cycle_ns
+    k = (t_c - sess.cyc_start_ns) // T - 2
+    while sess.in_ts(st, k) < t_c:
+        k += 1
+    t_c = sess.in_ts(st, k) - 150_000
+    first_in = k
+    while sess.out_ts(st, k) < t_c + 350_000:
+        k += 1
+    sess.connect(t_c, st)
+    write_records(sess, t_c + d_rec, st, recs)
+    prm_tags = tuple(sc.first_cyclic_tags) if sc and station0_tags and st.i == 0 and sc.skip_bf00 else ()
+    sess.rpc_call(t_c + d_prm, st, 4, [F.control_req(st.ar_uuid, st.session_key, prm_end=True)],
+                  [F.control_res(st.ar_uuid, st.session_key, block_type=0x8110)], what="prm_end", tags=prm_tags)
+    sess.rpc_call(t_c + d_app, st, 4, [F.control_req(st.ar_uuid, st.session_key, app_ready=True)],
+                  [F.control_res(st.ar_uuid, st.session_key, block_type=0x8112)],
+                  from_device=True, what="app_ready")
+    return first_in, k
+
+
+def timing(sess, n_records: int) -> tuple[int, int, int]:
+    """(records, PrmEnd, ApplicationReady) after the Connect request, in ns."""
+    T = sess.cycle_ns
+    n_rec = 1 if sess.cfg.records == "multiplewrite" else n_records
+    d_rec = max(3 * T, 2 * MS)
+    d_prm = d_rec + n_rec * MS + 2 * MS
+    return d_rec, d_prm, d_prm + 2 * MS
+
+
+def restart(sess, st, params) -> None:
+    """AR restart of one station at cycle ``cfg.restart``: the controller releases the AR, a silence
+    of ``cfg.restart_gap_ms``, then a new Connect (new AR UUID, next session key, same frame IDs)
+    with the 0xBF00 values of ``cfg.restart_scaling``, PrmEnd, ApplicationReady, data exchange."""
+    cfg = sess.cfg
+    T = sess.cycle_ns
+    R = cfg.restart
+    sess.rpc_call(sess.out_ts(st, R - 1) + 300_000, st, 1,
+                  [F.control_req(st.ar_uuid, st.session_key, release=True)],
+                  [F.control_res(st.ar_uuid, st.session_key, block_type=0x8114)], what="release")
+    params2 = dict(params, **cfg.restart_scaling)
+    st.ar_uuid = sess.uuid()
+    st.session_key += 1
+    recs = records(sess, st, params2, fresh=True)
+    d_rec, d_prm, d_app = timing(sess, len(recs))
+    t_c = sess.out_ts(st, R - 1) + int(cfg.restart_gap_ms * MS)
+    first_in, first_out = schedule(sess, st, recs, t_c, d_rec, d_prm, d_app)
+    good = max(first_in, first_out) + -(-(d_app + 2 * MS) // T) + 1
+    if cfg.good_before_prmend:
+        good = min(first_in, first_out)
+    if good >= cfg.cycles - 1:
+        raise ValueError(f"--restart {R}: the second AR would start data exchange at cycle {good}, "
+                         f"after the last cycle ({cfg.cycles - 1}); restart earlier or run more cycles")
+    tag = f"ar2:{st.i}"
+    st.restart = {"end": R, "first": min(first_in, first_out), "first_in": first_in, "first_out": first_out,
+                  "good_from": good, "params": params2, "sol0": 1 + sess.rng.randrange(15), "tag": tag}
+    st.ars.append({"ar_uuid": str(st.ar_uuid), "session_key": st.session_key, "params": params2,
+                   "first_cycle": min(first_in, first_out), "data_exchange_cycle": good, "tag": tag})
+    st.ars[0]["last_cycle"] = R - 1
