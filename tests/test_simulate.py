@@ -369,3 +369,52 @@ def test_restart_new_ar_new_scaling_and_silence(tmp_path):
     ts = {fn: t for fn, t, _, _ in open_capture(str(p))}
     assert ts[ar2["first_frame"]] - ts[ar1["last_frame"]] >= 200_000_000
     assert main(["simulate", "-o", str(tmp_path / "x.pcapng"), "--cycles", "300", "--restart", "290"]) == 2
+
+
+def test_capture_loss_gaps_come_from_what_was_dropped(tmp_path):
+    p = sim(tmp_path, "l.pcapng", "--cycles", "800", "--capture-loss", "0.02", "--inject", "SOL-DEVICE-SKIP")
+    exp = json.loads((tmp_path / "l.expected.json").read_text())
+    assert exp["needs"] == ["capture_gap"] and exp["capture_gaps"]
+    full = sim(tmp_path, "f.pcapng", "--cycles", "800", "--inject", "SOL-DEVICE-SKIP")
+    n_full = json.loads((tmp_path / "f.expected.json").read_text())["frames"]
+    assert n_full - exp["frames"] == exp["capture_loss"]["frames_dropped"] == sum(
+        g["cycles_missing"] for g in exp["capture_gaps"])
+    frames = {fn: d for fn, _, _, d in open_capture(str(p))}
+    step = 32
+    for g in exp["capture_gaps"]:
+        a, b = frames[g["prev_frame"]], frames[g["next_frame"]]
+        for d in (a, b):
+            assert int.from_bytes(d[18:20], "big") == g["frame_id"] and d[6:12].hex(":") == g["src"]
+        # the cycle counter says how many cycles passed (wire.md §2.3)
+        cc = (int.from_bytes(b[-4:-2], "big") - int.from_bytes(a[-4:-2], "big")) % 65536
+        assert cc == step * (g["cycles_missing"] + 1)
+        between = [d for fn, d in frames.items() if g["prev_frame"] < fn < g["next_frame"]
+                   and len(d) > 20 and d[18:20] == a[18:20] and d[6:12] == a[6:12]]
+        assert not between
+    # the injected fault's frames are all there
+    f = exp["faults"][0]
+    assert f["first_frame"] is not None and frames[f["first_frame"]]
+    assert sha(p) == sha(sim(tmp_path, "l2.pcapng", "--cycles", "800", "--capture-loss", "0.02",
+                             "--inject", "SOL-DEVICE-SKIP"))
+    del full
+
+
+def test_mid_session_capture_has_no_startup(tmp_path):
+    p = sim(tmp_path, "m.pcapng", "--cycles", "600", "--telegram", "83", "--start-mid-session", "300")
+    exp = json.loads((tmp_path / "m.expected.json").read_text())
+    assert exp["needs"] == ["mid_session"]
+    frames = list(open_capture(str(p)))
+    ms = exp["mid_session"]
+    assert all(t >= ms["start_ns"] for _, t, _, _ in frames)
+    # no DCP, no Connect: PN-RT frames are cyclic only, UDP only the parameter reads' successors / Release
+    fids = {int.from_bytes(d[18:20] if d[12:14] == b"\x81\x00" else d[14:16], "big")
+            for _, _, _, d in frames if b"\x88\x92" in (d[12:14], d[16:18])}
+    assert fids and all(f < 0xFC00 for f in fids)
+    assert tshark(p, "-Y", "dcerpc.opnum == 0 || pn_io.index == 0xbf00 || pn_io.index == 0xe040") == "" \
+        if HAVE_TSHARK else True
+    inp = next(s for s in ms["streams"] if s["direction"] == "input")
+    assert (inp["telegram"], inp["data_length"]) == (83, T.length(83, "actual"))
+    rows = [d for _, _, _, d in frames if len(d) > 20 and int.from_bytes(d[18:20], "big") == inp["frame_id"]]
+    assert len(rows) == 300
+    first = T.decode(83, "actual", rows[0], off=20 + inp["data_offset"])
+    assert first["zsw2_enc"] >> 12 != 0            # sign-of-life already running

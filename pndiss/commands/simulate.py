@@ -56,6 +56,14 @@ def add_parser(sub) -> None:
                         "(e.g. mupr=4096,tmr=16777216,direction=1); needs --restart")
     p.add_argument("--restart-gap", type=float, default=200.0, metavar="MS",
                    help="silence between the Release and the new Connect (default 200 ms)")
+    p.add_argument("--capture-loss", type=float, default=0.0, metavar="RATE",
+                   help="share of cyclic frames lost at the capture point, 0..0.5 (seeded; never a frame that "
+                        "carries an injected fault); the sidecar lists each gap in capture_gaps")
+    m = p.add_mutually_exclusive_group()
+    m.add_argument("--start-mid-session", type=int, metavar="CYCLE",
+                   help="the capture starts at this data-exchange cycle: no DCP, Connect or records in it")
+    m.add_argument("--start-mid-session-s", type=float, metavar="S", dest="start_mid_s",
+                   help="the same in seconds after the start of data exchange")
     p.add_argument("--seed", type=int, default=1, metavar="N", help="seed for timestamps, UUIDs, counters (default 1)")
     p.add_argument("--no-expected", action="store_true", help="do not write <name>.expected.json")
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="pcapng file to write")
@@ -125,13 +133,19 @@ def run(args) -> int:
         raise UsageError(f"--restart must be within 1..{cycles - 1}")
     if args.restart_gap < 0:
         raise UsageError("--restart-gap must not be negative")
+    if not 0 <= args.capture_loss <= 0.5:
+        raise UsageError("--capture-loss must be within 0..0.5")
+    mid = args.start_mid_session if args.start_mid_s is None else int(round(args.start_mid_s * 1000 / args.cycle_ms))
+    if mid is not None and not 0 <= mid < cycles - 10:
+        raise UsageError(f"--start-mid-session must leave at least 10 cycles: within 0..{cycles - 11}")
     cfg = Config(scenario=args.scenario, profile=args.profile, telegram=args.telegram, cycle_ms=args.cycle_ms,
                  cycles=cycles, encoders=args.encoders, injects=injects, seed=args.seed,
                  startup=args.startup, records=args.records, good_before_prmend=args.good_before_prmend,
-                 restart=args.restart, restart_scaling=scaling, restart_gap_ms=args.restart_gap)
+                 restart=args.restart, restart_scaling=scaling, restart_gap_ms=args.restart_gap,
+                 capture_loss=args.capture_loss, start_mid_session=mid)
     try:
         if cycles >= FAST_THRESHOLD and not injects and args.scenario == "startup" and not cfg.good_before_prmend \
-                and cfg.restart is None:
+                and cfg.restart is None and not cfg.capture_loss and cfg.start_mid_session is None:
             truth = write_fast(cfg, args.output, expected=not args.no_expected)
         else:
             truth = write_capture(cfg, args.output, expected=not args.no_expected)

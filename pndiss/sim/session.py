@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 from .. import telegrams as T
 from . import frames as F
-from . import recdata, startup
+from . import capture_point, recdata, startup
 from .model import Encoder, Plc, Shaft, PROFILE_TELEGRAMS
 
 EPOCH_NS = 1_767_225_600 * 10**9   # 2026-01-01T00:00:00Z, the simulator's fixed epoch
@@ -73,6 +73,8 @@ class Config:
     restart: int | None = None        # cycle at which encoder 1's AR is released and set up again
     restart_scaling: dict = field(default_factory=dict)   # 0xBF00 values of the second AR (mupr, tmr, direction, ...)
     restart_gap_ms: float = 200.0     # silence between Release and the new Connect
+    capture_loss: float = 0.0         # share of cyclic frames the capture point drops (seeded)
+    start_mid_session: int | None = None   # the capture starts at this data-exchange cycle
 
 
 class Frame:
@@ -343,6 +345,7 @@ class SimSession:
         if sc is not None:
             sc.finish(self)
         self.frames.sort(key=lambda f: (f.ts, f.order))
+        self.frames, self.capture_extra = capture_point.apply(self, self.frames)
         return self.frames, self.truth()
 
     def startup_tidy(self, params, t: float) -> None:
@@ -613,7 +616,10 @@ class SimSession:
                        "seed": cfg.seed, "inject": [f"{r}@{c}" if c is not None else r for r, c in cfg.injects],
                        "startup": cfg.startup, "records": cfg.records, "good_before_prmend": cfg.good_before_prmend,
                        **({"restart": cfg.restart, "restart_scaling": cfg.restart_scaling}
-                          if cfg.restart is not None else {})},
+                          if cfg.restart is not None else {}),
+                       **({"capture_loss": cfg.capture_loss} if cfg.capture_loss else {}),
+                       **({"start_mid_session": cfg.start_mid_session} if cfg.start_mid_session is not None
+                          else {})},
             "frames": len(self.frames),
             "frame_kinds": dict(sorted(whats.items())),
             "controller": {"name": CTRL_NAME, "mac": CTRL_MAC, "ip": CTRL_IP},
@@ -623,6 +629,7 @@ class SimSession:
             "alarms": self.facts["alarms"],
             "faults": faults,
             "clean": not faults,
+            **getattr(self, "capture_extra", {"capture_gaps": []}),
         }
 
 
