@@ -187,6 +187,9 @@ local usermap = {}     -- fid -> {direction, telegram, offset} (preference, not 
 local profiles         -- device MAC -> profile (I&M0 / DCP)
 local ar_devs          -- AR UUID -> {device, controller} (session.ars: records name their AR)
 local p922_of          -- "device|api|slot|subslot" -> telegram read from P922 (session.telegram_p922)
+local ar_keys          -- AR UUID -> {{fid, src, dst}, ...} of its frame maps (session.frame_keys)
+local ar_phase         -- AR UUID -> phase (session.set_phase; only what changes the verdict is tracked)
+local ar_order         -- AR UUIDs in the order of their Connects (session.ars, for an abort)
 local DRIVE_APIS = {[0x3A00] = true, [0x3D00] = true}   -- spec/network.md §1.7
 
 local function tg_len(t, dir)
@@ -347,6 +350,7 @@ for _, n in ipairs({"pn_io.opnum", "pn_io.block_type", "pn_io.ar_uuid", "pn_io.c
                     "pn_io.order_id", "dcerpc.pkt_type", "dcerpc.dg_act_id", "dcerpc.dg_seqnum",
                     "pn_rt.frame_id", "pn_rt.ds", "pn_io.send_clock_factor", "pn_io.reduction_ratio",
                     "pn_io.error_code", "pn_io.error_decode", "pn_io.error_code1", "pn_io.error_code2",
+                    "pn_io.control_command", "pn_io.pdu_type.type",
                     "pn_dcp.service_id",
                     "pn_dcp.suboption_vendor_id", "pn_dcp.suboption_device_id", "pn_dcp.suboption_device_devicevendorvalue"}) do
     X[n] = Field.new(n)
@@ -457,6 +461,11 @@ local function connect_response(key, pinfo)
     end
     if req.ar and (ok or ar_devs[req.ar] == nil) then ar_devs[req.ar] = {device, req.controller} end
     if not ok then return end
+    local keys = {}
+    if req.ar then
+        if ar_phase[req.ar] == nil then ar_order[#ar_order + 1] = req.ar end
+        ar_keys[req.ar], ar_phase[req.ar] = keys, "parameterisation"
+    end
     for _, cr in ipairs(req.iocrs) do
         local direction = ({[1] = "input", [2] = "output", [3] = "input"})[cr.type]
         if direction then
@@ -465,7 +474,7 @@ local function connect_response(key, pinfo)
             if direction == "output" then s, d = req.controller, device end
             if cr.type == 3 and cr.mcast then d = tostring(cr.mcast) end
             local fm = {direction = direction, device = device, controller = req.controller, ar = req.ar, frame_id = fid,
-                        source = "connect", objects = {},
+                        source = "connect", objects = {}, phase = "parameterisation",
                         -- armap.FrameMap.cycle_time_ns: SendClockFactor x ReductionRatio x 31.25 us
                         cycle_ns = (cr.scf and cr.scf > 0 and cr.rr and cr.rr > 0) and cr.scf * cr.rr * 31250 or nil}
             for _, o in ipairs(cr.objects) do
@@ -483,6 +492,7 @@ local function connect_response(key, pinfo)
                 fm.objects[#fm.objects + 1] = obj
             end
             maps[fid .. "|" .. s .. "|" .. d] = fm
+            keys[#keys + 1] = {fid, s, d, fm}
         end
     end
 end
@@ -1106,7 +1116,7 @@ local function new_axis(o, fr, fn)
     local fm, d = fr.fm, o.d
     local info = {station = fm.station, device_mac = fm.device, api = d.api, slot = d.slot, subslot = d.subslot}
     local ax = {key = o.key, info = info, sp = nil, sp_frame = nil, sp_ok = false, telegram = o.telegram,
-                source = o.source, startup_checked = false, fm = fm, ambiguous = nil}
+                source = o.source, fm = fm, ambiguous = nil}
     ax.profile, ax.reason = profile_for(fm.device)
     local iso = nil
     if fm.frame_id ~= nil then iso = fm.frame_id >= 0x0100 and fm.frame_id < 0x1000 end   -- RT_CLASS_3 = IRT
@@ -1179,13 +1189,81 @@ local function length_check(o, fr, fn)
     end
 end
 
--- cyclic.py _startup: #66, 0xBF00 (PS/PSM 0xFFFF) is written before cyclic data exchange starts
+-- cyclic.py _startup: #66, 0xBF00 (PS/PSM 0xFFFF) is written since the Connect, decided at PrmEnd
+-- (an ambiguous length guess is not judged: cyclic.py _unsure)
 local function startup(ax, fn)
-    ax.startup_checked = true
-    if ax.fm.source == "connect" and is_std(ax.checker.cfg.telegram) and not ax.checker.bf00_seen then
-        note_violation(ax.sp_frame or fn, "STARTUP-NO-PARAM-RECORD", fn, false,
-            "cyclic data exchange started without a write of 0xBF00" .. (ax.profile == "psm" and " / 0xFFFF" or "")
-            .. " in this AR")
+    if ax.fm.source == "connect" and is_std(ax.checker.cfg.telegram) and not ax.checker.bf00_seen
+            and not ambiguous(ax, {source = ax.source}) then
+        note_violation(fn, "STARTUP-NO-PARAM-RECORD", fn, false,
+            "PrmEnd without a write of 0xBF00" .. (ax.profile == "psm" and " / 0xFFFF" or "")
+            .. " since the Connect of this AR")
+    end
+end
+
+-- session.set_phase + cyclic.on_phase, as far as they change a verdict: PrmEnd or ApplicationReady
+-- ends the AR's parameterisation (its cycles are judged from then on), Release / abort ends the AR
+-- (cyclic.py NOT_JUDGED_PHASES); at PrmEnd #66 is decided for every encoder axis of the AR
+-- (cyclic.py _ar_axes creates them). Phases only move forward.
+local PHASE_RANK = {parameterisation = 0, judged = 1, released = 2, aborted = 3}
+local function ar_moves(ar, phase, fn)
+    local cur = ar ~= nil and ar_phase[ar] or nil
+    local to = (phase == "prm_end" or phase == "application_ready") and "judged" or phase
+    if cur == nil or PHASE_RANK[to] <= PHASE_RANK[cur] then return end
+    ar_phase[ar] = to
+    for _, k in ipairs(ar_keys[ar]) do k[4].phase = to end
+    if phase ~= "prm_end" then return end
+    local list, seen = {}, {}
+    for _, k in ipairs(ar_keys[ar]) do
+        if maps[k[1] .. "|" .. k[2] .. "|" .. k[3]] == k[4] then
+            local fr = lookup(k[1], k[2], k[3])
+            if fr ~= nil and fr.fm == k[4] then
+                for _, o in ipairs(fr.objs) do
+                    local ax = o.ax or axes[o.key]
+                    if ax == nil then ax = new_axis(o, fr, fn) end
+                    o.ax = ax
+                    if ax.checker.io_len[fr.dir] == nil then
+                        ax.checker.io_len[fr.dir] = o.d.length
+                        refine_profile(ax, fn)
+                    end
+                    if not seen[ax] then seen[ax] = true; list[#list + 1] = ax end
+                end
+            end
+        end
+    end
+    for _, ax in ipairs(list) do startup(ax, fn) end
+end
+
+-- PNIO-CM Control / Release of an AR (session._control, session._release)
+local function control(op, pt, fn)
+    local want = (op == 4 and pt == 0) and "control" or ((op == 1 and pt == 2) and "release" or nil)
+    if want == nil then return end
+    for _, b in ipairs(blocks()) do
+        local u = inside(all("pn_io.ar_uuid"), b)[1]
+        local ar = u and tostring(u)
+        if want == "release" and b.type == 0x8114 then
+            ar_moves(ar, "released", fn)
+        elseif want == "control" and b.type >= 0x0110 and b.type <= 0x0117 and b.type ~= 0x0115 then
+            local c = inside(all("pn_io.control_command"), b)[1]
+            if c and bit.band(c.value, 1) ~= 0 then ar_moves(ar, "prm_end", fn) end
+            if c and bit.band(c.value, 2) ~= 0 then ar_moves(ar, "application_ready", fn) end
+        end
+    end
+end
+
+-- session.on_rta_error: an ERR-RTA-PDU between an AR's controller and device aborts the latest such AR
+local function rta_error(pinfo)
+    local t = X["pn_io.pdu_type.type"]()
+    if t == nil or t.value ~= 4 then return end
+    local src, dst = tostring(pinfo.dl_src), tostring(pinfo.dl_dst)
+    for i = #ar_order, 1, -1 do
+        local ar = ar_order[i]
+        local d = ar_devs[ar]
+        local ph = ar_phase[ar]
+        if d and ((d[1] == src and d[2] == dst) or (d[1] == dst and d[2] == src))
+                and ph ~= "released" and ph ~= "aborted" then
+            ar_moves(ar, "aborted", pinfo.number)
+            return
+        end
     end
 end
 
@@ -1265,7 +1343,6 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok)
                     if not (ok and ax.sp_ok) or ax.ambiguous then
                         note(chk:gap(fn, ts, "not valid"), fn)
                     else
-                        if not ax.startup_checked then startup(ax, fn) end
                         note(chk:cycle(fn, ts, ax.sp, o.sig, ax.sp_frame), fn)
                     end
                 end
@@ -1387,6 +1464,8 @@ local function heuristic(tvb, pinfo, tree)
         -- DataStatus: DataValid (bit 2) and ProviderState RUN (bit 4), wire.md §2.3
         local ds = X["pn_rt.ds"]()
         local ok_ds = ds ~= nil and bit.band(ds.value, 0x14) == 0x14
+        local ph = fr.fm.phase   -- before PrmEnd or after the AR's end: not judged (cyclic.py NOT_JUDGED_PHASES)
+        if ph == "parameterisation" or ph == "released" or ph == "aborted" then ok_ds = false end
         cached = on_cyclic(pinfo, tvb, fr, ok_ds)
         cyc_cache[pinfo.number] = cached
     end
@@ -1506,6 +1585,7 @@ local function first_pass(pinfo)
             f.dcp = {v.value, dv and dv.value}
         end
         on_dcp(pinfo)
+        rta_error(pinfo)
         return nil
     end
     local items
@@ -1516,6 +1596,7 @@ local function first_pass(pinfo)
         if op.value == 0 and pt and key then
             if pt.value == 0 then connect_request(key) elseif pt.value == 2 then connect_response(key, pinfo) end
         end
+        if pt then control(op.value, pt.value, pinfo.number) end
         items = record_items(pinfo, records_of_frame())
     end)
     if not ok then items = {{error = tostring(err)}} end
@@ -1562,6 +1643,7 @@ local function reset_state()
     maps, map_cache, misses = {}, {}, {}
     map_generation, cache_generation = 0, 0
     profiles, facts, ar_devs, p922_of, im0_seen = {}, {}, {}, {}, {}
+    ar_keys, ar_phase, ar_order = {}, {}, {}
     pending_connects, pairer, superseded = {}, {}, {}
     axes, axis_list, dev_records, bf00_last, prev_bf00 = {}, {}, {}, {}, {}
     viol, viol_seen, late, finished = {}, {}, {}, false

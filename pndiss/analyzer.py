@@ -36,6 +36,9 @@ class Analyzer:
         self.sink = sink
         self.counts = {"decoded": 0, "not_profinet": 0, "malformed": 0}
         self.kinds: Counter = Counter()
+        # every violation, whatever emitted it (encoder checker, DCP, records): the one counting point of
+        # the summary's violations_by_severity, the report and --fail-on (issue #12 item 5)
+        self.violations: dict[str, dict] = {}
         self.frame_classes: Counter = Counter()
         self.malformed: list[dict] = []
         self.frames = 0
@@ -53,8 +56,30 @@ class Analyzer:
     # -- output ---------------------------------------------------------------------------
     def emit(self, ev: dict) -> None:
         self.kinds[ev["kind"]] += 1
+        if ev["kind"] == "violation":
+            self._count_violation(ev)
         if self.sink is not None:
             self.sink(ev)
+
+    def _count_violation(self, ev: dict) -> None:
+        v = self.violations.get(ev["rule"])
+        if v is None:
+            v = self.violations[ev["rule"]] = {"events": 0, "cycles": 0, "first_frame": ev["frame"],
+                                               "severity": ev["severity"], "side": ev.get("side"),
+                                               "message": ev.get("message"), "not_axis": 0}
+        v["events"] += 1
+        v["cycles"] += ev.get("cycles") or 1
+        v["first_frame"] = min(v["first_frame"], ev["frame"])
+        if ev.get("slot") is None:  # no encoder axis names it (DCP, ...): the report lists it on its own
+            if not v["not_axis"]:
+                v["not_axis_first"] = (ev["frame"], ev.get("side"), ev.get("message"))
+            v["not_axis"] += 1
+
+    def violations_by_severity(self) -> dict:
+        sev = {"error": 0, "warning": 0, "info": 0}
+        for v in self.violations.values():
+            sev[v["severity"]] = sev.get(v["severity"], 0) + v["events"]
+        return sev
 
     def event(self, kind: str, **fields) -> dict:
         """Emit an event stamped with the current frame and time."""
@@ -138,6 +163,8 @@ class Analyzer:
             d = alarm.decode(pdu, body, frame_id)
             d.update(frame=fn, ts_ns=ts, kind="alarm", src=src, dst=dst, frame_id=frame_id)
             self.emit(d)
+            if d.get("pdu_type", {}).get("type") == alarm.ERR:
+                self.session.on_rta_error(fn, ts, src, dst)   # the AR is aborted
             self.activity.on_event(d)
             self.stations.seen(src)
         elif cls in rt.PTCP_CLASSES:
@@ -162,6 +189,11 @@ class Analyzer:
         return "decoded"
 
     # -- results ----------------------------------------------------------------------------
+    def report_sections(self) -> list:
+        """The report's table of violations not tied to an encoder (DCP, records, ...)."""
+        from .violation_report import sections
+        return sections(self.violations)
+
     def summary(self) -> dict:
         return {
             "frames": self.frames,
@@ -173,6 +205,9 @@ class Analyzer:
             "stations": self.stations.as_list(),
             "activity": self.activity.summary(),
             "malformed": self.malformed,
+            "violations": {"by_severity": self.violations_by_severity(),
+                           "by_rule": {r: dict(v) for r, v in sorted(self.violations.items(),
+                                                                      key=lambda kv: kv[1]["first_frame"])}},
             "session": self.session.summary(),
             "cyclic": self.cyclic.summary(),
             "settings": self.settings.as_dict(),

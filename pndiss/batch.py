@@ -29,7 +29,7 @@ import numpy as np
 
 from . import telegrams as tg
 from .capture import MAX_RECORD
-from .cyclic import IOPS_GOOD, RELOOKUP_EVERY
+from .cyclic import IOPS_GOOD, NOT_JUDGED_PHASES, RELOOKUP_EVERY
 from .proto.common import Malformed
 
 MAX_PERIOD = 8       # streams in one repeating pattern (setpoint + actual of up to 4 devices)
@@ -339,7 +339,7 @@ class _Run:
         return out
 
     def _ok(self, c: _Col, o):
-        if o.iops_at >= c.n_csdu:
+        if o.iops_at >= c.n_csdu or c.fr.fm.phase in NOT_JUDGED_PHASES:   # before PrmEnd / after the AR: cyclic.py
             return np.zeros(self.m, dtype=bool)
         return c.ds & ((self.f(c.csdu + o.iops_at, "u1") & IOPS_GOOD) != 0)
 
@@ -422,7 +422,7 @@ class _Run:
                 bad = x.ok[r:end] & (not ax.ambiguous)
             else:
                 if chk.prev_ac is None or chk.prev_sp is None or chk._open or chk.steady_n <= chk.L + 1 \
-                        or chk._pending_steady() or not ax.startup_checked:
+                        or chk._pending_steady():
                     return r
                 v = x.v
                 key = (int(v["stw2"][r]) & 0x0FFF, int(v["g1stw"][r]), int(v["zsw2"][r]) & 0x0FFF, int(v["g1zsw"][r]))

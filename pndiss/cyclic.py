@@ -5,7 +5,11 @@ For every cyclic frame the tracker finds the frame's layout (``session.lookup``,
 pndiss.telegrams and pairs the controller's setpoint (output frame) with the device's actual
 value (input frame) of the same cycle: each input frame closes a cycle with the latest setpoint.
 IOPS and DataStatus gate what is judged: data from a provider in STOP, with DataValid = 0 or IOPS
-bad is reported (telegram event, ``judged`` false) but not fed to the checker.
+bad is reported (telegram event, ``judged`` false) but not fed to the checker. So does the AR's phase
+(pndiss.session PHASES): an AR whose Connect was seen is judged from its PrmEnd on, whatever its
+IOxS said before (devices that send GOOD data during parameterisation are not judged on it), until
+its Release / abort, and
+STARTUP-NO-PARAM-RECORD is decided at the PrmEnd (on_phase), not from cyclic timing.
 
 Hot path: an unchanged C_SDU reuses the previous decode (same dict objects), and the checker
 skips identical cycles when no rule has anything pending; ``telegram`` events are built only when
@@ -22,6 +26,11 @@ from .proto.common import Malformed
 IOPS_GOOD = 0x80          # IOxS DataState bit (wire.md §2.3, IEC 61158-6-10)
 RELOOKUP_EVERY = 1024     # frames between lookups of a still unmapped frame ID
 BF00_INDEXES = (0xBF00, 0xFFFF)
+# AR phases whose cyclic data is not judged: Connect seen but no PrmEnd yet (the settings are not final), or
+# the AR ended (released / aborted: frames still mapped to it belong to no data exchange, e.g. the next
+# AR's device sending before its Connect response; nothing is judged in the silence between two ARs)
+NOT_JUDGED_PHASES = ("parameterisation", "released", "aborted")
+JUDGED_FIRST = ("prm_end", "application_ready")  # phases the first judged cycle moves to data_exchange
 _MISSING = object()
 
 
@@ -63,7 +72,7 @@ class _Axis:
     """One encoder (AR/submodule): its checker, latest setpoint and identity."""
 
     __slots__ = ("key", "info", "checker", "sp", "sp_frame", "sp_ok", "telegram", "source", "profile", "reason",
-                 "startup_checked", "fm", "ambiguous")
+                 "fm", "ambiguous")
 
     def __init__(self, key, info):
         self.key = key
@@ -76,7 +85,6 @@ class _Axis:
         self.source = None
         self.profile = "generic"
         self.reason = ""
-        self.startup_checked = False
         self.fm = None
         self.ambiguous = None     # telegram guessed from a length that fits several: report, don't judge
 
@@ -157,6 +165,8 @@ class CyclicTracker:
             self.unmapped += 1
             return
         self.mapped += 1
+        if ds_ok and fr.fm.phase in NOT_JUDGED_PHASES:
+            ds_ok = False   # before PrmEnd or after the AR's end: reported, not judged
         csdu = pdu[csdu_off:len(pdu) - 4]
         same = csdu == fr.last_csdu
         fr.last_csdu = csdu
@@ -212,8 +222,8 @@ class CyclicTracker:
                 self.gated += 1
                 self._out(chk.gap(fn, ts, "not valid"))
                 continue
-            if not ax.startup_checked:
-                self._startup(ax, fn, ts)
+            if fr.fm.phase in JUDGED_FIRST:
+                self._exchange(fr.fm, fn, ts)
             evs = chk.cycle(fn, ts, ax.sp, o.sig, ax.sp_frame)
             if evs:
                 self._out(evs)
@@ -336,17 +346,68 @@ class CyclicTracker:
                 self._out(ax.checker.on_record(ev))  # a 0xBF00 among them configures the checker
         return ax
 
+    # -- AR phases (pndiss.session.set_phase) --------------------------------------------------------
+    def on_phase(self, ar: dict, phase: str, fn: int, ts: int) -> None:
+        if phase == "prm_end":
+            for ax in self._ar_axes(ar):
+                self._startup(ax, fn, ts)
+
+    def _exchange(self, fm, fn: int, ts: int) -> None:
+        """The AR's first judged cycle: its phase becomes data_exchange."""
+        ar = self.a.session.ars.get(fm.ar_uuid)
+        if ar is not None and any(m is fm for m in ar["maps"]):
+            self.a.session.set_phase(ar, "data_exchange", fn, ts, "first judged cycle")
+        else:
+            fm.phase = "data_exchange"
+
+    def _ar_axes(self, ar: dict) -> list:
+        """The encoder axes of an AR, created now if no cyclic frame of them came yet (like on_cyclic would)."""
+        gen = self.a.session.map_generation
+        if gen != self.map_generation:
+            self.map_generation = gen
+            self.frames.clear()
+            self.misses.clear()
+        out = []
+        for key, fm in self.a.session.frame_keys(ar):
+            fr = self.frames.get(key)
+            if fr is None:
+                fr = self._frame(key, None)
+            if fr is None or fr.fm is not fm:
+                continue
+            for o in fr.objs:
+                ax = o.ax or self.axes.get(o.key)
+                if ax is None:
+                    ax = self._axis(o, fr)
+                o.ax = ax
+                if fr.direction not in ax.checker.io_len:
+                    ax.checker.io_len[fr.direction] = o.do.length
+                    self._refine_profile(ax)
+                if ax not in out:
+                    out.append(ax)
+        return out
+
     def _startup(self, ax: _Axis, fn: int, ts: int) -> None:
-        ax.startup_checked = True
-        if ax.fm is not None and ax.fm.source == "connect" and ax.checker.cfg.std and not ax.checker.bf00_seen:
-            # 66: 0xBF00 is written at every start-up (000_37bf2397999f1108.txt:1162-1163)
-            ev = rules.violation("STARTUP-NO-PARAM-RECORD", ax.sp_frame or fn, ts,
-                                 "cyclic data exchange started without a write of 0xBF00"
-                                 + (" / 0xFFFF" if ax.profile == "psm" else "") + " in this AR", **ax.info)
-            ax.checker.counts["STARTUP-NO-PARAM-RECORD"] = {"events": 1, "cycles": 1, "first_frame": ev["frame"],
-                                                            "severity": ev["severity"], "side": ev["side"],
-                                                            "message": ev["message"]}
-            self.a.emit(ev)
+        """66: 0xBF00 (PS/PSM 0xFFFF) is written at every start-up, before PrmEnd (000_37bf2397999f1108.txt:
+        1162-1163), on its own or inside a MultipleWrite (0xE040: pndiss.session emits the inner writes)."""
+        chk = ax.checker
+        if ax.fm is None or ax.fm.source != "connect" or not chk.cfg.std or chk.bf00_seen or self._unsure(ax):
+            return
+        ev = rules.violation("STARTUP-NO-PARAM-RECORD", fn, ts,
+                             "PrmEnd without a write of 0xBF00" + (" / 0xFFFF" if ax.profile == "psm" else "")
+                             + " since the Connect of this AR", **ax.info)
+        chk.counts["STARTUP-NO-PARAM-RECORD"] = {"events": 1, "cycles": 1, "first_frame": ev["frame"],
+                                                 "severity": ev["severity"], "side": ev["side"],
+                                                 "message": ev["message"]}
+        self.a.emit(ev)
+
+    def _unsure(self, ax: _Axis) -> bool:
+        """A telegram only guessed from lengths that fit several is not judged (cyclic.md §14): nor is #66."""
+        if "length" not in str(ax.source):
+            return False
+        io = ax.checker.io_len
+        cands = [t for t in tg.telegrams_for_length(io.get("actual"), io.get("setpoint"))
+                 if ax.profile in tg.TELEGRAMS[t]["profiles"] or (ax.profile == "generic" and t in tg.STANDARD)]
+        return len(cands) > 1 and ax.telegram not in tg.STANDARD
 
     # -- records -----------------------------------------------------------------------------------
     def on_record(self, ev: dict) -> None:
@@ -372,17 +433,15 @@ class CyclicTracker:
                 self._out(ax.checker.finish())
 
     def summary(self) -> dict:
-        sev = {"error": 0, "warning": 0, "info": 0}
         encs = []
         for ax in self.axes.values():
             chk = ax.checker
             s = chk.summary()
-            for r in s["violations"].values():
-                sev[r["severity"]] += r["events"]
             encs.append({**ax.info, "telegram": ax.telegram, "telegram_source": ax.source, "profile": ax.profile,
                          "profile_reason": ax.reason, **s})
         return {"frames_mapped": self.mapped, "frames_unmapped": self.unmapped, "cycles_gated": self.gated,
-                "encoders": encs, "violations_by_severity": sev}
+                # every violation, not only the encoders' (DCP, ...): one counting point (Analyzer.violations)
+                "encoders": encs, "violations_by_severity": self.a.violations_by_severity()}
 
     def report_sections(self) -> list:
         from .cyclic_report import sections

@@ -83,7 +83,7 @@ def render_report(summary: dict, analyzer, to_stderr: bool = False) -> None:
             t.add_row(k, f"{v:,}")
         con.print(t)
     _stations(con, summary["stations"])
-    for tracker in (analyzer.activity, analyzer.session, analyzer.cyclic):
+    for tracker in (analyzer.activity, analyzer.session, analyzer.cyclic, analyzer):
         for section in getattr(tracker, "report_sections", lambda: [])():
             con.print(section)
     if summary["malformed"]:

@@ -21,7 +21,10 @@ ABOUT = {
     "alarm": "an RTA alarm PDU: header, DATA/ACK/NACK/ERR, AlarmNotification with diagnosis items",
     "ip_fragment": "an IPv4 fragment of a PNIO datagram (reassembled later)",
     "rpc": "one DCE/RPC PDU: header, operation, request/response pairing, PNIO-CM blocks, PNIO status",
-    "ar": "an application relationship completed by a Connect response: IOCRs, data objects, telegrams and their source",
+    "ar": "an application relationship completed by a Connect response: IOCRs, data objects, telegrams and their "
+          "source; `phase` (parameterisation, or refused) and `phases` (phase, frame) so far",
+    "ar_phase": "an AR moves on: parameterisation -> prm_end (PrmEnd) -> application_ready -> data_exchange (first "
+                "judged cycle) -> released / aborted (ERR-RTA-PDU); cyclic data is judged from prm_end on",
     "record": "record data on the frame that carries it (write request / read response): index, name, decoded content",
     "record_result": "the response to a record write/read: PNIO status in words",
     "param": "a paired PROFIdrive parameter access (0xB02E/0xB02F): request + response, parameters named",
