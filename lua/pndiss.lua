@@ -1166,7 +1166,7 @@ local function relabel(o, fr, fn)
     o.length_checked = false
     if ax == nil then return end
     ax.telegram, ax.source, ax.ambiguous = t, o.source, false
-    ax.sp = nil   -- decoded with the old layout
+    ax.sp, ax.sp_before = nil, nil   -- decoded with the old layout
     local chk = ax.checker
     local c = chk.cfg
     if c.telegram ~= t or tostring(c.sources.telegram):find("length", 1, true) then
@@ -1336,6 +1336,7 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok)
             end
             out.objs[#out.objs + 1] = v
             if dir == "setpoint" then
+                if ax.sp_ok then ax.sp_before = ax.sp else ax.sp_before = nil end
                 ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, ok
             else
                 if ax.ambiguous == nil then ax.ambiguous = ambiguous(ax, o) end
@@ -1343,7 +1344,7 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok)
                     if not (ok and ax.sp_ok) or ax.ambiguous then
                         note(chk:gap(fn, ts, "not valid"), fn)
                     else
-                        note(chk:cycle(fn, ts, ax.sp, o.sig, ax.sp_frame), fn)
+                        note(chk:cycle(fn, ts, ax.sp, o.sig, ax.sp_frame, ax.sp_before), fn)
                     end
                 end
             end

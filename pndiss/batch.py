@@ -593,6 +593,7 @@ class _Run:
             ax = x.ax
             if x.sp is not None:
                 ax.sp = x.sp.sig
+                ax.sp_before = None   # only sign-of-life monitoring reads it, and those axes never run in bulk
                 ax.sp_frame = self.n + last * P + x.sp_col + 1
                 ax.sp_ok = bool(self._ok(self.cols[x.sp_col], x.sp)[last])
             if x.ac is None or ax.sp is None:

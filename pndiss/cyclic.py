@@ -72,7 +72,7 @@ class _Axis:
     """One encoder (AR/submodule): its checker, latest setpoint and identity."""
 
     __slots__ = ("key", "info", "checker", "sp", "sp_frame", "sp_ok", "telegram", "source", "profile", "reason",
-                 "fm", "ambiguous")
+                 "fm", "ambiguous", "sp_before")
 
     def __init__(self, key, info):
         self.key = key
@@ -81,6 +81,7 @@ class _Axis:
         self.sp = None
         self.sp_frame = None
         self.sp_ok = False
+        self.sp_before = None     # the setpoint frame before sp (the controller's sign-of-life is judged on them)
         self.telegram = None
         self.source = None
         self.profile = "generic"
@@ -211,6 +212,7 @@ class CyclicTracker:
                 else:
                     self.telegram_sink(o, fr, key[0], fn, ts, iops, bool(ok))
             if direction == "setpoint":
+                ax.sp_before = ax.sp if ax.sp_ok else None
                 ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, bool(ok)
                 continue
             if ax.ambiguous is None:
@@ -224,7 +226,7 @@ class CyclicTracker:
                 continue
             if fr.fm.phase in JUDGED_FIRST:
                 self._exchange(fr.fm, fn, ts)
-            evs = chk.cycle(fn, ts, ax.sp, o.sig, ax.sp_frame)
+            evs = chk.cycle(fn, ts, ax.sp, o.sig, ax.sp_frame, ax.sp_before)
             if evs:
                 self._out(evs)
 
@@ -241,7 +243,7 @@ class CyclicTracker:
         if ax is None:
             return
         ax.telegram, ax.source, ax.ambiguous = t, o.source, False
-        ax.sp = None  # decoded with the old layout
+        ax.sp = ax.sp_before = None  # decoded with the old layout
         c = ax.checker.cfg
         if c.telegram != t or "length" in str(c.sources.get("telegram")):
             c.telegram = t

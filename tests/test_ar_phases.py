@@ -202,7 +202,8 @@ def drift(src: str, dst: str, stretch: int = 40) -> int:
 
 
 @pytest.mark.parametrize("stem", ["startup-t81-generic-3enc", "preset-t81-lika", "fault-preset-ack-missing",
-                                  "fault-ackip-stuck", "fault-position-discontinuity", "sensor-error-t81-lika"])
+                                  "fault-ackip-stuck", "fault-position-discontinuity", "sensor-error-t81-lika",
+                                  "fault-sol-master-skip", "fault-sol-device-skip", "fault-sol-master-stall"])
 def test_drifting_frame_order_keeps_the_verdict(tmp_path, stem):
     cap = os.path.join(CAPS, stem + ".pcapng")
     exp = json.load(open(os.path.join(CAPS, stem + ".expected.json"), encoding="utf-8"))
@@ -220,3 +221,19 @@ def test_drifting_frame_order_keeps_the_verdict(tmp_path, stem):
     assert fast.summary()["violations"] == ref.summary()["violations"]
     if not exp["faults"]:
         assert not kinds(evs, "violation")
+
+
+@pytest.mark.parametrize("stem", ["fault-sol-master-skip", "fault-sol-device-early-start"])
+def test_drifting_frame_order_plugin_equal(tmp_path, stem):
+    """The controller's sign-of-life judged on its own stream (Checker.cycle sp_before) in the plugin too."""
+    lp = pytest.importorskip("test_lua_plugin")
+    cap = os.path.join(CAPS, stem + ".pcapng")
+    out = str(tmp_path / "drift.pcapng")
+    assert drift(cap, out) > 50
+    st = lp.sidecar_settings(cap)
+    s = Settings()
+    for k, v in st.items():
+        setattr(s, k, v)
+    n, bad, lua_viol, viol = lp.compare(out, s, lp.settings_pref(st)[1:])
+    assert not bad, bad[:5]
+    assert lua_viol == viol and viol

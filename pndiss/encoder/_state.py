@@ -35,6 +35,9 @@ class Checker:
         self.info = info or {}
         self.n = 0                     # judged cycles so far
         self.f = self.fc = 0           # frame of the actual value / of the setpoint
+        self.last_fc = None            # setpoint frame of the previous judged cycle
+        self.sp_new = True             # this cycle's setpoint frame was not judged before
+        self.sp_before = None          # the controller's setpoint frame before this one (RT drift)
         self.ts = 0
         self.out: list[dict] = []      # events produced by the current call
         self._open: dict[str, dict] = {}   # coalescing runs of per-cycle conditions
@@ -168,11 +171,20 @@ class Checker:
         self.out.append(ev)
 
     # -- one cycle -------------------------------------------------------------------------------
-    def cycle(self, frame: int, ts: int, sp: dict, ac: dict, sp_frame: int | None = None) -> list[dict]:
-        """Judge one cycle: setpoint ``sp`` and actual value ``ac`` (signal dicts) of the same cycle."""
+    def cycle(self, frame: int, ts: int, sp: dict, ac: dict, sp_frame: int | None = None,
+              sp_before: dict | None = None) -> list[dict]:
+        """Judge one cycle: setpoint ``sp`` and actual value ``ac`` (signal dicts) of the same cycle.
+
+        In RT controller and device run on their own clocks: an actual value may be paired with the same
+        setpoint frame as the cycle before, or one setpoint frame may pass unpaired. ``sp_before`` is the
+        setpoint frame before ``sp`` in the controller's own stream: the controller's sign-of-life is judged
+        on that stream (once per new setpoint frame, against its predecessor), not on the pairing."""
         self.out = []
         self.f, self.ts = frame, ts
         self.fc = frame if sp_frame is None else sp_frame
+        self.sp_new = self.fc != self.last_fc
+        self.last_fc = self.fc
+        self.sp_before = sp_before
         if self.first_frame is None:
             self.first_frame = frame
         # Fast path: identical inputs, nothing pending, history saturated -> nothing can change.
@@ -600,7 +612,9 @@ class Checker:
     # -- sign-of-life (§3) -----------------------------------------------------------------------
     def _sign_of_life(self, CLS, pCLS, DLS, pDLS, SERR, X2, first) -> None:
         c, k = self.cfg, self.cfg.k
-        if self.started_C:
+        if self.started_C and self.sp_new:   # one judgement per controller frame (RT drift: see cycle())
+            if not first and self.sp_before is not None:
+                pCLS = self.sp_before.get("stw2_enc", 0) >> 12
             if CLS == 0:
                 # 1: C-LS 0 is never sent once started (001_9461bb7bc8c2767b.txt:484)
                 self._hit("SOL-MASTER-ZERO", "controller sign-of-life 0 after start; expected 1..15", controller=True)
