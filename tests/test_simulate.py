@@ -94,7 +94,8 @@ def test_same_seed_same_bytes_other_seed_differs(tmp_path):
 
 
 def test_duration_and_cycle_time(tmp_path):
-    p = sim(tmp_path, "d.pcapng", "--duration", "0.5", "--cycle-time", "2", "--startup", "tidy")
+    p = sim(tmp_path, "d.pcapng", "--duration", "0.5", "--cycle-time", "2", "--startup", "tidy",
+            "--drift-ppm", "0", "--jitter-us", "0")
     exp = json.loads((tmp_path / "d.expected.json").read_text())
     assert exp["config"]["cycles"] == 250
     iocr = exp["stations"][0]["iocrs"][0]
@@ -418,3 +419,65 @@ def test_mid_session_capture_has_no_startup(tmp_path):
     assert len(rows) == 300
     first = T.decode(83, "actual", rows[0], off=20 + inp["data_offset"])
     assert first["zsw2_enc"] >> 12 != 0            # sign-of-life already running
+
+
+# ------------------------------------------------------------------------------------- RT realism
+
+def _fid_order(p, lo=0x8000, hi=0x8010):
+    fids = [int.from_bytes(d[18:20], "big") for _, _, _, d in open_capture(str(p))
+            if len(d) > 20 and d[16:18] == b"\x88\x92" and lo <= int.from_bytes(d[18:20], "big") < hi]
+    return fids
+
+
+def test_drift_and_jitter_change_the_frame_order(tmp_path):
+    drift = _fid_order(sim(tmp_path, "d.pcapng", "--cycles", "3000", "--encoders", "3"))
+    fixed = _fid_order(sim(tmp_path, "f.pcapng", "--cycles", "3000", "--encoders", "3",
+                           "--drift-ppm", "0", "--jitter-us", "0"))
+    n = len(fixed)
+    assert len(drift) == n
+    orders = lambda ids: {tuple(ids[i:i + 6]) for i in range(600, n - 6, 6)}   # noqa: E731  (data exchange)
+    assert len(orders(fixed)) == 1 and len(orders(drift)) > 1
+    # each stream stays in order, its cycle counter steps by one cycle
+    frames = [(t, d) for _, t, _, d in open_capture(str(tmp_path / "d.pcapng"))]
+    assert all(a[0] <= b[0] for a, b in zip(frames, frames[1:]))
+    for fid in range(0x8000, 0x8006):
+        cc = [int.from_bytes(d[-4:-2], "big") for _, d in frames
+              if len(d) > 20 and d[16:18] == b"\x88\x92" and int.from_bytes(d[18:20], "big") == fid]
+        assert all((b - a) % 65536 == 32 for a, b in zip(cc, cc[1:]))
+
+
+def test_cycle_time_per_encoder(tmp_path):
+    p = sim(tmp_path, "c.pcapng", "--cycles", "400", "--encoders", "2", "--cycle-time", "1,4")
+    exp = json.loads((tmp_path / "c.expected.json").read_text())
+    rr = [s["iocrs"][0]["reduction_ratio"] for s in exp["stations"]]
+    assert rr == [1, 4] and {s["iocrs"][0]["send_clock_factor"] for s in exp["stations"]} == {32}
+    for st_, step, n in zip(exp["stations"], (32, 128), (400, 100)):
+        fid = st_["iocrs"][0]["frame_id"]
+        rows = [d for _, _, _, d in open_capture(str(p)) if len(d) > 20 and int.from_bytes(d[18:20], "big") == fid]
+        cc = [int.from_bytes(d[-4:-2], "big") for d in rows]
+        assert all((b - a) % 65536 == step for a, b in zip(cc, cc[1:]))
+        assert sum(1 for d in rows if d[20 + st_["iocrs"][0]["objects"][-1]["offset"]
+                                       + st_["iocrs"][0]["objects"][-1]["length"]] == 0x80) == n
+    assert main(["simulate", "-o", str(tmp_path / "x.pcapng"), "--encoders", "3", "--cycle-time", "1,2"]) == 2
+
+
+@pytest.mark.skipif(not HAVE_TSHARK, reason="tshark not installed")
+def test_irt_and_io_devices(tmp_path):
+    p = sim(tmp_path, "i.pcapng", "--cycles", "800", "--irt", "--io-devices", "2")
+    assert tshark(p, "-Y", BAD_FILTER) == ""
+    exp = json.loads((tmp_path / "i.expected.json").read_text())
+    assert exp["stations"][0]["iocrs"][0]["frame_id"] == 0x0100
+    assert exp["stations"][0]["iocrs"][0]["send_clock_factor"] == 8          # 250 us
+    rt = tshark(p, "-Y", "dcerpc.opnum == 0 && dcerpc.pkt_type == 0", "-T", "fields",
+                "-e", "pn_io.iocr_properties.rtclass").split()
+    assert len(rt) == 3 and {int(x, 16) for r in rt for x in r.split(",")} == {3}    # every IOCR RT_CLASS_3
+    names = tshark(p, "-Y", "pn_dcp.suboption_device_nameofstation", "-T", "fields",
+                   "-e", "pn_dcp.suboption_device_nameofstation").split()
+    assert {"io-device-1", "io-device-2", "encoder-1"} <= set(names)
+    io = exp["io_devices"]
+    assert [d["name"] for d in io] == ["io-device-1", "io-device-2"]
+    fid = io[0]["iocrs"][0]["frame_id"]
+    rows = [d for _, _, _, d in open_capture(str(p)) if len(d) > 20 and int.from_bytes(d[18:20], "big") == fid]
+    good = [d for d in rows if d[20 + 5] == 0x80]      # DI IOPS after 4 DAP IOPS + 1 data byte
+    assert len(good) == 800 and len({d[20 + 4] for d in good}) > 1    # the inputs change
+    assert len(rows) > len(good)                                       # start-up frames with IOPS BAD

@@ -30,8 +30,20 @@ def add_parser(sub) -> None:
                    help="device profile: " + ", ".join(PROFILE_TELEGRAMS) + " (default: generic)")
     p.add_argument("--telegram", type=int, default=81, metavar="N",
                    help="telegram: 81-84 (all), 860 (scancon, hohner, psm, generic), 86-89/100/101 (psm only)")
-    p.add_argument("--cycle-time", type=float, default=1.0, metavar="MS", dest="cycle_ms",
-                   help="IO cycle in ms: 0.25, 0.5, 1, 2, 4 ... (send clock x reduction ratio; default 1)")
+    p.add_argument("--cycle-time", default="1", metavar="MS[,MS...]", dest="cycle_ms",
+                   help="IO cycle in ms: 0.25, 0.5, 1, 2, 4 ... (send clock x reduction ratio; default 1); "
+                        "a comma list gives one per encoder")
+    p.add_argument("--drift-ppm", type=float, default=50.0, metavar="PPM",
+                   help="each clock (controller, every device) runs off by up to +-PPM (default 50): the order "
+                        "of setpoint and actual frames drifts over time; 0 with --jitter-us 0: fixed order")
+    p.add_argument("--jitter-us", type=float, default=20.0, metavar="US",
+                   help="send-time jitter of cyclic frames, +-US (default 20, at most a quarter cycle)")
+    p.add_argument("--irt", action="store_true",
+                   help="isochronous RT_CLASS_3 (frame IDs 0x0100..., default cycle 0.25 ms): one synchronised "
+                        "clock, no drift or jitter")
+    p.add_argument("--io-devices", type=int, default=0, metavar="N",
+                   help="ordinary IO devices (8 digital inputs / 8 digital outputs) with their own DCP, Connect "
+                        "and cyclic frames on the same wire (default 0, max 16)")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--cycles", type=int, metavar="N", help="number of IO cycles (default 2000)")
     g.add_argument("--duration", type=float, metavar="S", help="cyclic run in seconds")
@@ -76,17 +88,34 @@ def run(args) -> int:
     from ..sim.fastpath import FAST_THRESHOLD, write_fast
     from ..sim.model import PROFILE_TELEGRAMS
     from ..sim.scenarios import INJECTIONS, NOT_INJECTABLE, write_capture
-    from ..sim.session import Config, send_clock
+    from ..sim.session import Config, send_clock, station_clock
 
     if args.telegram not in PROFILE_TELEGRAMS[args.profile]:
         raise UsageError(f"--telegram {args.telegram} is not available with --profile {args.profile} "
                          f"(available: {', '.join(map(str, PROFILE_TELEGRAMS[args.profile]))})")
+    if args.irt and args.cycle_ms == "1":
+        args.cycle_ms = "0.25"
     try:
-        send_clock(args.cycle_ms)
-    except ValueError as e:
-        raise UsageError(f"--cycle-time: {e}") from None
+        cycle_list = [float(x) for x in args.cycle_ms.split(",")]
+    except ValueError:
+        raise UsageError(f"--cycle-time {args.cycle_ms}: one number or a comma list of numbers") from None
     if not 1 <= args.encoders <= 16:
         raise UsageError("--encoders must be 1..16")
+    if len(cycle_list) > 1 and len(cycle_list) != args.encoders:
+        raise UsageError(f"--cycle-time: {len(cycle_list)} cycle times for {args.encoders} encoder(s); "
+                         "give one, or one per encoder")
+    args.cycle_ms = cycle_list[0]
+    try:
+        for ms in cycle_list:
+            send_clock(ms)
+        for i in range(len(cycle_list)):
+            station_clock(Config(cycle_ms=cycle_list[0], cycle_list=cycle_list), i)
+    except ValueError as e:
+        raise UsageError(f"--cycle-time: {e}") from None
+    if not 0 <= args.io_devices <= 16:
+        raise UsageError("--io-devices must be 0..16")
+    if args.drift_ppm < 0 or args.drift_ppm > 1000 or args.jitter_us < 0:
+        raise UsageError("--drift-ppm must be within 0..1000 and --jitter-us not negative")
     cycles = args.cycles if args.cycles is not None else \
         int(round(args.duration * 1000 / args.cycle_ms)) if args.duration is not None else 2000
     if cycles < 1:
@@ -142,10 +171,13 @@ def run(args) -> int:
                  cycles=cycles, encoders=args.encoders, injects=injects, seed=args.seed,
                  startup=args.startup, records=args.records, good_before_prmend=args.good_before_prmend,
                  restart=args.restart, restart_scaling=scaling, restart_gap_ms=args.restart_gap,
-                 capture_loss=args.capture_loss, start_mid_session=mid)
+                 capture_loss=args.capture_loss, start_mid_session=mid,
+                 cycle_list=cycle_list if len(cycle_list) > 1 else None, drift_ppm=args.drift_ppm,
+                 jitter_us=args.jitter_us, irt=args.irt, io_devices=args.io_devices)
     try:
         if cycles >= FAST_THRESHOLD and not injects and args.scenario == "startup" and not cfg.good_before_prmend \
-                and cfg.restart is None and not cfg.capture_loss and cfg.start_mid_session is None:
+                and cfg.restart is None and not cfg.capture_loss and cfg.start_mid_session is None \
+                and cfg.cycle_list is None and not cfg.io_devices:
             truth = write_fast(cfg, args.output, expected=not args.no_expected)
         else:
             truth = write_capture(cfg, args.output, expected=not args.no_expected)

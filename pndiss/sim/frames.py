@@ -163,10 +163,10 @@ def ar_block_req(ar_uuid, session_key, ctrl_mac, ctrl_obj, station: str):
                         CMInitiatorStationName=station.encode())
 
 
-def iocr_block_req(iocr_type, ref, data_length, frame_id, scf, rr, apis, watchdog=3):
+def iocr_block_req(iocr_type, ref, data_length, frame_id, scf, rr, apis, watchdog=3, rt_class=2):
     """apis: [(api, [(slot, subslot, offset)] data objects, [(slot, subslot, offset)] iocs)]."""
     return R.IOCRBlockReq(
-        IOCRType=iocr_type, IOCRReference=ref, LT=0x8892, IOCRProperties_RTClass=2,
+        IOCRType=iocr_type, IOCRReference=ref, LT=0x8892, IOCRProperties_RTClass=rt_class,
         DataLength=data_length, FrameID=frame_id, SendClockFactor=scf, ReductionRatio=rr,
         Phase=1, Sequence=0, FrameSendOffset=0xFFFFFFFF, WatchdogFactor=watchdog,
         DataHoldFactor=watchdog, IOCRTagHeader_IOUserPriority=PCP_RT, IOCRTagHeader_IOCRVLANID=0,

@@ -75,6 +75,11 @@ class Config:
     restart_gap_ms: float = 200.0     # silence between Release and the new Connect
     capture_loss: float = 0.0         # share of cyclic frames the capture point drops (seeded)
     start_mid_session: int | None = None   # the capture starts at this data-exchange cycle
+    cycle_list: list | None = None    # one cycle time (ms) per encoder; None: cycle_ms for all
+    drift_ppm: float = 50.0           # each clock (controller, every device) runs off by up to +-this
+    jitter_us: float = 20.0           # send-time jitter of each cyclic frame, +-us (at most a quarter cycle)
+    irt: bool = False                 # isochronous RT_CLASS_3 (frame IDs 0x0100..), no drift or jitter
+    io_devices: int = 0               # ordinary IO devices (DI/DO module) on the same wire
 
 
 class Frame:
@@ -100,8 +105,16 @@ class Station:
         self.ip = f"192.168.0.{10 + i}"
         self.ar_uuid = uuid.UUID(int=rng.getrandbits(128), version=4)
         self.session_key = 1
-        self.in_fid = 0x8000 + 2 * i
-        self.out_fid = 0x8001 + 2 * i
+        # RT_CLASS_1 frame IDs 0x8000.. ; RT_CLASS_3 (IRT) 0x0100.. (wire.md §2.2)
+        self.in_fid = (0x0100 if cfg.irt else 0x8000) + 2 * i
+        self.out_fid = self.in_fid + 1
+        self.scf, self.rr = station_clock(cfg, i)
+        self.cycle_ns = self.scf * self.rr * 31_250
+        self.step = (self.scf * self.rr) & 0xFFFF   # cycle counter unit 31.25 us (wire.md §2.3)
+        # the same run time for every station, counted in its own cycles
+        self.cycles = max(1, round(cfg.cycles * (cfg.cycle_list[0] if cfg.cycle_list else cfg.cycle_ms)
+                                   * 1_000_000 / self.cycle_ns))
+        self.ppb = self.phase = 0
         self.rpc_port = 0xC000 + i           # controller's RPC port for this AR
         self.dev_port = 0xC100 + i           # device's port for its own requests (ApplicationReady)
         sp, ac = T.length(cfg.telegram, "setpoint"), T.length(cfg.telegram, "actual") + extra_in
@@ -155,8 +168,8 @@ class SimSession:
         self.cfg = cfg
         self.rng = random.Random(cfg.seed)
         self.t0 = EPOCH_NS + cfg.seed * 10**9
-        self.cycle_ns = int(round(cfg.cycle_ms * 1_000_000))
-        self.scf, self.rr = send_clock(cfg.cycle_ms)
+        self.scf, self.rr = station_clock(cfg, 0)
+        self.cycle_ns = self.scf * self.rr * 31_250
         self.ident = PROFILES[cfg.profile]
         self.stations = [Station(i, cfg, self.rng) for i in range(cfg.encoders)]
         self.frames: list[Frame] = []
@@ -193,12 +206,45 @@ class SimSession:
         return self.cyc_start_ns + k * self.cycle_ns
 
     def out_ts(self, st, k: int) -> int:
-        """When the controller's output frame of cycle k for station st is on the wire."""
-        return self.cyc_start_ns + k * self.cycle_ns + 20_000 * st.i
+        """When the controller's output frame of cycle k for station st is on the wire: the
+        controller's clock (drift), its cycle start jitters, the frames go out 20 us apart."""
+        T = st.cycle_ns
+        return (self.cyc_start_ns + k * T + (k * T * self.ctrl_ppb) // 10**9 + 20_000 * st.i
+                + self.jitter(0, k, T))
 
     def in_ts(self, st, k: int) -> int:
-        """When station st's input frame of cycle k is on the wire."""
-        return self.cyc_start_ns + k * self.cycle_ns + self.cycle_ns // 2 + 20_000 * st.i
+        """When station st's input frame of cycle k is on the wire: the device's own clock and phase."""
+        T = st.cycle_ns
+        return (self.cyc_start_ns + st.phase + k * T + (k * T * st.ppb) // 10**9
+                + self.jitter(st.i + 1, k, T))
+
+    def set_clocks(self) -> None:
+        """Drift (ppm) and phase of every clock from their own RNG, so the frame contents do not
+        depend on them. IRT and --drift-ppm 0 --jitter-us 0: the old fixed order (inputs half a cycle
+        after the outputs, 20 us apart)."""
+        cfg = self.cfg
+        rt = not cfg.irt and (cfg.drift_ppm or cfg.jitter_us)
+        rng = random.Random(f"clocks:{cfg.seed}")
+        d = cfg.drift_ppm if rt else 0.0
+        self.ctrl_ppb = int(round(rng.uniform(-d, d) * 1000)) if d else 0
+        self.jit_ns = int(cfg.jitter_us * 1000) if rt else 0
+        self.jit_seed = rng.getrandbits(32)
+        for st in self.all_stations():
+            st.ppb = int(round(rng.uniform(-d, d) * 1000)) if d else 0
+            st.phase = rng.randrange(st.cycle_ns) if rt else st.cycle_ns // 2 + 20_000 * st.i
+
+    def jitter(self, clock: int, k: int, T: int) -> int:
+        """Deterministic send jitter in [-J, J], J <= T/4 (a stream's frames keep their order)."""
+        J = min(self.jit_ns, T // 4)
+        if not J:
+            return 0
+        x = (k * 2654435761 + clock * 40503 + self.jit_seed) & 0xFFFFFFFF
+        x = ((x ^ (x >> 16)) * 0x45D9F3B) & 0xFFFFFFFF
+        x ^= x >> 16
+        return x % (2 * J + 1) - J
+
+    def all_stations(self) -> list:
+        return self.stations + getattr(self, "io_stations", [])
 
     # ------------------------------------------------------------------ RPC
     def rpc_call(self, ts, st: Station, opnum: int, req_blocks, res_blocks, *, from_device=False,
@@ -210,7 +256,8 @@ class SimSession:
             obj, iface = F.object_uuid(CTRL_VENDOR, CTRL_DEVICE), F.IF_CONTROLLER
         else:
             src, dst, sip, dip, sp, dp = CTRL_MAC, st.mac, CTRL_IP, st.ip, st.rpc_port, F.RPC_PORT
-            obj, iface = F.object_uuid(self.ident["vendor_id"], self.ident["device_id"]), F.IF_DEVICE
+            ident = getattr(st, "ident", self.ident)
+            obj, iface = F.object_uuid(ident["vendor_id"], ident["device_id"]), F.IF_DEVICE
         self.seq += 1
         req = F.rpc(src, dst, sip, dip, sp, dp, ptype=0, opnum=opnum, seq=self.seq, act=act, obj=obj,
                     iface=iface, blocks=req_blocks, ip_id=self.next_ip_id())
@@ -260,15 +307,18 @@ class SimSession:
         params = self.params = self.device_params()
         if sc is not None:
             sc.prepare(self, params)
-        n = len(self.stations)
+        from .iodevice import IoStation
+        self.io_stations = [IoStation(j, len(self.stations) + j, cfg, self.rng) for j in range(cfg.io_devices)]
+        self.set_clocks()
+        n = len(self.all_stations())
         # --- LLDP from the controller and both ports of every encoder (wire.md §6)
         self.lldp_round(0)
         # --- DCP: Identify All, responses; per station Identify by name, Set NameOfStation, Set IP
         xid = self.xid
         self.add(self.ms(5), F.dcp_identify_req(CTRL_MAC, xid), "dcp.identify_all")
-        for st in self.stations:
+        for st in self.all_stations():
             self.add(self.ms(5.5 + 0.2 * st.i), self.identify_res(st, xid), "dcp.identify_res")
-        for st in self.stations:
+        for st in self.all_stations():
             base = 10 + 10 * st.i
             x = self.xid = self.xid + 1
             self.add(self.ms(base), F.dcp_identify_req(CTRL_MAC, x, name=st.name), "dcp.identify_name")
@@ -300,7 +350,7 @@ class SimSession:
             self.startup_tidy(params, t)
         else:
             startup.realistic(self, params, t)
-        for st in self.stations:
+        for st in self.all_stations():
             st.cc0 = (self.rng.randrange(1 << 16), self.rng.randrange(1 << 16))
             st.sol0 = 1 + self.rng.randrange(15)
             st.ars = [{"ar_uuid": str(st.ar_uuid), "session_key": st.session_key, "params": dict(params),
@@ -332,13 +382,16 @@ class SimSession:
             self.run_cyclic(params, encs)
         else:   # the fast path writes cycles 0.. itself; the start-up cycles come from here
             self.run_startup_cycles()
+        from .iodevice import run_cycles
+        for st in self.io_stations:
+            run_cycles(self, st, with_good=self.with_cyclic)
         t_lldp = 5000.0
         while self.ms(t_lldp) < self.cyc_ts(cfg.cycles):
             self.lldp_round(t_lldp + 0.2)
             t_lldp += 5000.0
         # --- Release at the end
         t_end = self.cyc_ts(cfg.cycles) + 2_000_000
-        for st in self.stations:
+        for st in self.all_stations():
             self.rpc_call(t_end + st.i * 1_000_000, st, 1,
                           [F.control_req(st.ar_uuid, st.session_key, release=True)],
                           [F.control_res(st.ar_uuid, st.session_key, block_type=0x8114)], what="release")
@@ -352,6 +405,8 @@ class SimSession:
         """The old tidy start-up: Connect, 0xBF00, PrmEnd per station; cyclic data from cycle 0 after
         the last PrmEnd, GOOD from the first frame; ApplicationReady once the IO data run."""
         sc = self.scenario
+        if self.io_stations:
+            raise ValueError("IO devices need the realistic start-up (not --startup tidy)")
         for st in self.stations:
             self.connect(self.ms(t), st)
             if not (sc and sc.skip_bf00):
@@ -373,15 +428,16 @@ class SimSession:
     def lldp_round(self, t_ms):
         self.add(self.ms(t_ms), F.lldp_frame(CTRL_PORT_MAC, chassis=CTRL_NAME, port_id=f"port-001.{CTRL_NAME}",
                                               mgmt_ip=CTRL_IP), "lldp")
-        for st in self.stations:
+        for st in self.all_stations():
             for p, pm in enumerate(st.port_macs):
                 self.add(self.ms(t_ms + 0.1 + 0.05 * (2 * st.i + p)),
                          F.lldp_frame(pm, chassis=st.name, port_id=f"port-00{p + 1}.{st.name}", mgmt_ip=st.ip),
                          "lldp")
 
     def identify_res(self, st, xid):
-        return F.dcp_identify_res(st.mac, CTRL_MAC, xid, name=st.name, vendor_text=self.ident["vendor_text"],
-                                  vendor_id=self.ident["vendor_id"], device_id=self.ident["device_id"],
+        ident = getattr(st, "ident", self.ident)
+        return F.dcp_identify_res(st.mac, CTRL_MAC, xid, name=st.name, vendor_text=ident["vendor_text"],
+                                  vendor_id=ident["vendor_id"], device_id=ident["device_id"],
                                   ip=st.ip, mask="255.255.255.0", gw="0.0.0.0")
 
     def dcp_set_name(self, ts, st, name: bytes, tags=()):
@@ -391,6 +447,13 @@ class SimSession:
 
     def connect(self, ts, st: Station):
         cfg = self.cfg
+        if hasattr(st, "connect_blocks"):    # an IO device (iodevice.py)
+            req = [F.ar_block_req(st.ar_uuid, st.session_key, CTRL_MAC, F.object_uuid(CTRL_VENDOR, CTRL_DEVICE),
+                                  CTRL_NAME)] + st.connect_blocks(cfg)
+            res = [F.ar_block_res(st.ar_uuid, st.session_key, st.mac), F.iocr_block_res(1, 1, st.in_fid),
+                   F.iocr_block_res(2, 2, st.out_fid), F.alarm_cr_block_res()]
+            self.rpc_call(ts, st, 0, req, res, what="connect")
+            return
         ctrl_obj = F.object_uuid(CTRL_VENDOR, CTRL_DEVICE)
         in_apis = [(API_DAP, [(s, ss, o) for a, s, ss, o in st.in_objs if a == API_DAP], []),
                    (API_ENC, [(s, ss, o) for a, s, ss, o in st.in_objs if a == API_ENC],
@@ -402,8 +465,8 @@ class SimSession:
         subs_enc = [(SUB_MAP, MAP_SUBMODULE, None, None),
                     (SUB_TEL, submodule_ident(cfg.telegram), st.in_len, st.out_len)]
         req = [F.ar_block_req(st.ar_uuid, st.session_key, CTRL_MAC, ctrl_obj, CTRL_NAME),
-               F.iocr_block_req(1, 1, st.in_csdu, st.in_fid, self.scf, self.rr, in_apis),
-               F.iocr_block_req(2, 2, st.out_csdu, st.out_fid, self.scf, self.rr, out_apis),
+               F.iocr_block_req(1, 1, st.in_csdu, st.in_fid, st.scf, st.rr, in_apis, rt_class=3 if cfg.irt else 2),
+               F.iocr_block_req(2, 2, st.out_csdu, st.out_fid, st.scf, st.rr, out_apis, rt_class=3 if cfg.irt else 2),
                F.alarm_cr_block_req(),
                F.expected_submodules([(API_DAP, 0, DAP_MODULE, subs_dap),
                                       (API_ENC, SLOT_ENC, module_ident(cfg.telegram), subs_enc)])]
@@ -461,8 +524,8 @@ class SimSession:
         """Start-up cycles (k < 0) with IOxS BAD, zero data (realistic start-up, not GOOD before PrmEnd)."""
         if self.cfg.good_before_prmend or self.cfg.startup == "tidy":
             return
-        step = (self.scf * self.rr) & 0xFFFF
         for st in self.stations:
+            step = st.step
             o_t, i_t = frame_templates(st, IOXS_BAD, startup.DATA_STATUS_STOP, DATA_STATUS)
             for k in range(min(st.first_in, st.first_out), 0):
                 if k >= st.first_out:
@@ -477,7 +540,6 @@ class SimSession:
     def run_cyclic(self, params, devs):
         cfg, sc = self.cfg, self.scenario
         cyc_s = self.cycle_ns / 1e9
-        step = (self.scf * self.rr) & 0xFFFF   # cycle counter unit 31.25 us (wire.md §2.3)
         # shaft segments are given in fractions of the run (so short and long runs look alike)
         frac = sc.shaft if sc is not None and sc.shaft else DEFAULT_SHAFT
         run_s = cfg.cycles * cyc_s
@@ -486,7 +548,7 @@ class SimSession:
         self.run_startup_cycles()
         per = []
         for st in self.stations:
-            enc = Encoder(cfg.profile, cfg.telegram, params=params, shaft=Shaft(shaft_segs), cycle_s=cyc_s)
+            enc = Encoder(cfg.profile, cfg.telegram, params=params, shaft=Shaft(shaft_segs), cycle_s=st.cycle_ns / 1e9)
             plc = Plc(cfg.telegram, sol_start=st.sol0)
             out_t, in_t = frame_templates(st, IOXS_GOOD, DATA_STATUS, DATA_STATUS)
             if sc is not None and sc.reject_bf00:
@@ -500,9 +562,12 @@ class SimSession:
         # GOOD before PrmEnd: the model runs from the first start-up frame (hooks from cycle 0)
         k0 = min([0] + [min(st.good_from, st.first_in, st.first_out) for st in self.stations
                         if st.good_from < 0])
-        for k in range(k0, cfg.cycles):
+        for k in range(k0, max(st.cycles for st in self.stations)):
             for row in per:
                 st, enc, plc, out_t, in_t, cc0, ar_tag = row
+                if k >= st.cycles:
+                    continue
+                step = st.step
                 rs = getattr(st, "restart", None)
                 if rs is not None and k >= rs["end"]:
                     # Release, silence, the second AR's start-up, then its data exchange (a new model)
@@ -510,7 +575,7 @@ class SimSession:
                         continue
                     if k == rs["good_from"]:
                         enc = row[1] = Encoder(cfg.profile, cfg.telegram, params=rs["params"],
-                                               shaft=Shaft(shaft_segs), cycle_s=cyc_s)
+                                               shaft=Shaft(shaft_segs), cycle_s=st.cycle_ns / 1e9)
                         plc = row[2] = Plc(cfg.telegram, sol_start=rs["sol0"])
                         ar_tag = row[6] = rs["tag"]
                         last_in[st.i] = None
@@ -546,7 +611,7 @@ class SimSession:
         """A start-up cycle of the second AR: BAD frames (False), or GOOD already (True, model runs)."""
         if self.cfg.good_before_prmend:
             return True
-        step = (self.scf * self.rr) & 0xFFFF
+        step = st.step
         o_t, i_t = rs.setdefault("bad", frame_templates(st, IOXS_BAD, startup.DATA_STATUS_STOP, DATA_STATUS))
         if k >= rs["first_out"]:
             o = bytearray(o_t)
@@ -573,6 +638,7 @@ class SimSession:
         return out
 
     def truth(self) -> dict:
+        from . import iodevice
         cfg = self.cfg
         num = {id(f): n for n, f in enumerate(self.frames, 1)}
         faults = []
@@ -599,10 +665,10 @@ class SimSession:
                 "module_ident": module_ident(cfg.telegram), "submodule_ident": submodule_ident(cfg.telegram),
                 "iocrs": [
                     {"direction": "input", "frame_id": st.in_fid, "src": st.mac, "dst": CTRL_MAC,
-                     "data_length": st.in_csdu, "send_clock_factor": self.scf, "reduction_ratio": self.rr,
+                     "data_length": st.in_csdu, "send_clock_factor": st.scf, "reduction_ratio": st.rr,
                      "objects": objs(st.in_objs, st.in_len), "iocs": iocs(st.in_iocs)},
                     {"direction": "output", "frame_id": st.out_fid, "src": CTRL_MAC, "dst": st.mac,
-                     "data_length": st.out_csdu, "send_clock_factor": self.scf, "reduction_ratio": self.rr,
+                     "data_length": st.out_csdu, "send_clock_factor": st.scf, "reduction_ratio": st.rr,
                      "objects": objs(st.out_objs, st.out_len), "iocs": iocs(st.out_iocs)},
                 ],
             })
@@ -618,6 +684,9 @@ class SimSession:
                        **({"restart": cfg.restart, "restart_scaling": cfg.restart_scaling}
                           if cfg.restart is not None else {}),
                        **({"capture_loss": cfg.capture_loss} if cfg.capture_loss else {}),
+                       "drift_ppm": cfg.drift_ppm if not cfg.irt else 0, "jitter_us": cfg.jitter_us if not cfg.irt else 0,
+                       **({"cycle_list": cfg.cycle_list} if cfg.cycle_list else {}),
+                       **({"irt": True} if cfg.irt else {}), **({"io_devices": cfg.io_devices} if cfg.io_devices else {}),
                        **({"start_mid_session": cfg.start_mid_session} if cfg.start_mid_session is not None
                           else {})},
             "frames": len(self.frames),
@@ -630,6 +699,7 @@ class SimSession:
             "faults": faults,
             "clean": not faults,
             **getattr(self, "capture_extra", {"capture_gaps": []}),
+            **({"io_devices": [iodevice.truth(self, st) for st in self.io_stations]} if self.io_stations else {}),
         }
 
 
@@ -649,6 +719,20 @@ def frame_templates(st: Station, ioxs: int, ds_out: int, ds_in: int) -> tuple[by
         in_t[h + o] = ioxs
     out_t[-2], in_t[-2] = ds_out, ds_in
     return bytes(out_t), bytes(in_t)
+
+
+def station_clock(cfg: Config, i: int) -> tuple[int, int]:
+    """(SCF, RR) of encoder i: one send clock for the controller (that of the shortest cycle, or the
+    cycle's own below 1 ms), the reduction ratio gives each encoder its cycle time."""
+    cycles = cfg.cycle_list or [cfg.cycle_ms]
+    mine = cycles[i] if i < len(cycles) else cycles[0]
+    scf = send_clock(min(cycles))[0]
+    send_clock(mine)                        # refuses a cycle time that is not SCF x RR
+    rr = int(round(mine * 32 / scf))
+    if rr * scf != mine * 32 or rr & (rr - 1) or rr > 512:
+        raise ValueError(f"cycle time {mine} ms is not a power-of-two multiple of the send clock "
+                         f"{scf * 31.25:g} us")
+    return scf, rr
 
 
 def send_clock(cycle_ms: float) -> tuple[int, int]:

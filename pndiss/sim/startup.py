@@ -30,6 +30,8 @@ def records(sess, st, params, fresh=False) -> list:
     conforming controller would, without the scenario's record faults)."""
     from .session import API_ENC, SLOT_ENC, SUB_MAP
     sc = None if fresh else sess.scenario
+    if hasattr(st, "connect_blocks"):     # an IO device: no parameter records
+        return []
     out = [DAP_RECORD + ((),)]
     if not (sc and sc.skip_bf00):
         bf = sc.bf00_bytes if sc and sc.bf00_bytes else recdata.bf00(sess.cfg.profile, **params)
@@ -40,6 +42,8 @@ def records(sess, st, params, fresh=False) -> list:
 def write_records(sess, ts, st, recs) -> int:
     """One MultipleWrite (index 0xE040) or one plain write per record, 1 ms apart. Returns the end."""
     mw = sess.cfg.records == "multiplewrite"
+    if not recs:
+        return ts
     for api, slot, sub, index, data, _tags in recs:
         sess.facts["records"].append({"station": st.name, "op": "write", "index": index, "length": len(data),
                                       **({"via": "multiplewrite"} if mw else {})})
@@ -68,7 +72,7 @@ def realistic(sess, params, t_connect_ms: float) -> None:
     gbp = sess.cfg.good_before_prmend
     plans = []
     t = sess.ms(t_connect_ms)
-    for st in sess.stations:
+    for st in sess.all_stations():
         recs = records(sess, st, params)
         d_rec, d_prm, d_app = timing(sess, len(recs))
         plans.append((st, recs, t, t + d_rec, t + d_prm, t + d_app))
@@ -78,7 +82,7 @@ def realistic(sess, params, t_connect_ms: float) -> None:
     for st, recs, t_c, t_rec, t_prm, t_app in plans:
         st.first_in, st.first_out = schedule(sess, st, recs, t_c, t_rec - t_c, t_prm - t_c, t_app - t_c,
                                              station0_tags=True)
-        st.good_from = min(st.first_in, st.first_out) if gbp else 0
+        st.good_from = min(st.first_in, st.first_out) if gbp and not hasattr(st, "connect_blocks") else 0
 
 
 def schedule(sess, st, recs, t_c, d_rec, d_prm, d_app, station0_tags=False) -> tuple[int, int]:
@@ -87,8 +91,9 @@ def schedule(sess, st, recs, t_c, d_rec, d_prm, d_app, station0_tags=False) -> t
     frames, so that frame lies between the request and its response (300 us later).
     Returns (first input cycle, first output cycle) of the AR."""
     sc = sess.scenario
-    T = sess.cycle_ns
-    k = (t_c - sess.cyc_start_ns) // T - 2
+    k = (t_c - sess.cyc_start_ns) // st.cycle_ns - 2
+    while sess.in_ts(st, k) >= t_c:
+        k -= 1
     while sess.in_ts(st, k) < t_c:
         k += 1
     t_c = sess.in_ts(st, k) - 150_000
