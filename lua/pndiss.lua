@@ -1147,6 +1147,8 @@ function on_record(ev, fn)
     if #lst < 256 then lst[#lst + 1] = ev end
     for _, ax in ipairs(axis_list) do
         if (ax.info.device_mac or "") == dev and (ev.ar_uuid == nil or ax.fm.ar == nil or ev.ar_uuid == ax.fm.ar) then
+            -- an axis of a restarted AR seen before its own 0xBF00 (#31)
+            if ax.checker.prev_bf00 == nil then ax.checker.prev_bf00 = prev_bf00[dev] end
             note(ax.checker:on_record(ev), fn)
         end
     end

@@ -426,6 +426,8 @@ class CyclicTracker:
         for ax in self.axes.values():
             if ax.info["device_mac"] == dev and (ev.get("ar_uuid") is None or ax.fm is None or ax.fm.ar_uuid is None
                                                   or ev.get("ar_uuid") == ax.fm.ar_uuid):
+                if ax.checker.prev_bf00 is None:  # an axis of a restarted AR seen before its own 0xBF00 (#31)
+                    ax.checker.prev_bf00 = self.prev_bf00.get(dev)
                 self._out(ax.checker.on_record(ev))
 
     # -- results -----------------------------------------------------------------------------------
