@@ -146,18 +146,19 @@ def test_restart_with_new_scaling_judges_the_second_ar_with_its_settings(tmp_pat
 
 
 # ---- violations without an encoder axis count everywhere ---------------------------------------------------
-def test_dcp_duplicate_counts_in_summary_report_and_fail_on(tmp_path):
-    cap = os.path.join(CAPS, "fault-dcp-name-duplicate.pcapng")
+@pytest.mark.parametrize("rule", ["DCP-NAME-DUPLICATE", "DCP-NAME-INVALID", "IP-ASSIGN-OCCUPIED"])
+def test_dcp_violations_count_in_summary_report_and_fail_on(tmp_path, rule):
+    cap = os.path.join(CAPS, f"fault-{rule.lower()}.pcapng")
     a, evs = events(cap)
-    n = len([e for e in kinds(evs, "violation") if e["rule"] == "DCP-NAME-DUPLICATE"])
+    n = len([e for e in kinds(evs, "violation") if e["rule"] == rule])
     s = a.summary()
-    sev = s["violations"]["by_rule"]["DCP-NAME-DUPLICATE"]["severity"]
-    assert n >= 1 and s["violations"]["by_rule"]["DCP-NAME-DUPLICATE"]["events"] == n
+    sev = s["violations"]["by_rule"][rule]["severity"]
+    assert n >= 1 and s["violations"]["by_rule"][rule]["events"] == n
     assert s["violations"]["by_severity"][sev] >= n and s["cyclic"]["violations_by_severity"][sev] >= n
     r = subprocess.run([sys.executable, "-m", "pndiss", "analyze", cap, "--no-progress", "--fail-on", "info"],
                        capture_output=True, text=True, env=ENV)
     assert r.returncode == 1, r.stderr
-    assert "Violations not tied to an encoder" in r.stdout and "DCP-NAME-DUPLICATE" in r.stdout
+    assert "Violations not tied to an encoder" in r.stdout and rule in r.stdout
     clean = subprocess.run([sys.executable, "-m", "pndiss", "analyze", os.path.join(CAPS, "startup-t81-generic.pcapng"),
                             "-q", "--fail-on", "info"], capture_output=True, text=True, env=ENV)
     assert clean.returncode == 0
