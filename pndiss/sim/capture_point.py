@@ -4,7 +4,8 @@
 
 Both act on the finished, time-sorted frame list, so the session on the wire is the same with and
 without them; the ground truth comes from what was dropped here, never from an analysis.
-Frames that carry an injected fault's evidence (tags ``inj:*``) are never dropped by the loss.
+Frames that carry an injected fault's evidence (tags ``inj:*``), and the two frames either side
+of them in their stream, are never dropped by the loss.
 """
 from __future__ import annotations
 
@@ -29,6 +30,7 @@ def apply(sess, frames: list) -> tuple[list, dict]:
     if cfg.capture_loss > 0:
         # its own RNG: the same session with and without loss differs only in the dropped frames
         rng = random.Random(f"capture-loss:{cfg.seed}:{cfg.capture_loss}")
+        keep = _near_faults(frames)
         kept, gaps = [], []
         last = {}       # stream -> frame number (in the written capture) of its last kept frame
         missing = {}    # stream -> frames dropped since
@@ -36,7 +38,7 @@ def apply(sess, frames: list) -> tuple[list, dict]:
         for f in frames:
             cyclic = f.what.startswith("cyclic")
             key = _stream(f.data) if cyclic else None
-            if cyclic and not any(t.startswith("inj:") for t in f.tags) and rng.random() < cfg.capture_loss:
+            if cyclic and id(f) not in keep and rng.random() < cfg.capture_loss:
                 missing[key] = missing.get(key, 0) + 1
                 continue
             kept.append(f)
@@ -57,6 +59,25 @@ def apply(sess, frames: list) -> tuple[list, dict]:
     if needs:
         extra["needs"] = needs
     return frames, extra
+
+
+def _near_faults(frames: list, margin: int = 2) -> set:
+    """ids of the frames the loss must keep: every frame of an injected fault and, in its cyclic
+    stream, the ``margin`` frames either side (the fault's context stays whole)."""
+    by_stream: dict = {}
+    keep = set()
+    for f in frames:
+        fault = any(t.startswith("inj:") for t in f.tags)
+        if fault:
+            keep.add(id(f))
+        if f.what.startswith("cyclic"):
+            by_stream.setdefault(_stream(f.data), []).append((f, fault))
+    for lst in by_stream.values():
+        hits = [j for j, (_f, fault) in enumerate(lst) if fault]
+        for j in hits:
+            for f, _ in lst[max(0, j - margin):j + margin + 1]:
+                keep.add(id(f))
+    return keep
 
 
 def mid_session_truth(sess, t0: int) -> dict:

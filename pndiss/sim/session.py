@@ -580,6 +580,8 @@ class SimSession:
                         ar_tag = row[6] = rs["tag"]
                         last_in[st.i] = None
                 tags_o, tags_i = {ar_tag}, {ar_tag}
+                if rs is not None and k == rs["good_from"] and "fault_tag" in rs:
+                    tags_i.add(rs["fault_tag"])
                 hooks = sc is not None and k >= 0
                 if hooks:
                     sc.before_cycle(self, k, st, plc, enc, last_in[st.i])

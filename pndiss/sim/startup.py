@@ -149,3 +149,11 @@ def restart(sess, st, params) -> None:
     st.ars.append({"ar_uuid": str(st.ar_uuid), "session_key": st.session_key, "params": params2,
                    "first_cycle": min(first_in, first_out), "data_exchange_cycle": good, "tag": tag})
     st.ars[0]["last_cycle"] = R - 1
+    if any(params2.get(k) != params.get(k) for k in ("direction", "mupr", "tmr")):
+        # the controller changed code sequence / MUPR / TMR and does no preset before using the
+        # position: behaviour.md §9 #31 (an info-level controller violation), on the first GOOD frame
+        tag = "inj:PRESET-WITHOUT-NEW-PARAMS"
+        st.restart["fault_tag"] = tag
+        sess.injected.append({"rule": "PRESET-WITHOUT-NEW-PARAMS", "side": "controller", "cycle": good, "tag": tag,
+                              "how": "the AR restart changes code sequence/MUPR/TMR in 0xBF00 and no preset follows",
+                              "also_possible": [], "settings": {}})
