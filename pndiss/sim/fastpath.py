@@ -10,7 +10,6 @@ PLC, absolute value requested and acknowledged, shaft turning at a constant ``ST
 """
 from __future__ import annotations
 
-import dataclasses
 import json
 import struct
 import sys
@@ -97,8 +96,6 @@ class _Stream:
 
 def write_fast(cfg: Config, path: str, expected: bool = True) -> dict:
     """Start-up scenario with ``cfg.cycles`` cycles, cyclic part in bulk. Returns the ground truth."""
-    # the bulk writer keeps one fixed slot order per cycle: one synchronised clock, no jitter
-    cfg = dataclasses.replace(cfg, drift_ppm=0.0, jitter_us=0.0)
     sess = SimSession(cfg, None)
     sess.with_cyclic = False
     acyclic, truth = sess.build()
@@ -129,6 +126,70 @@ def write_fast(cfg: Config, path: str, expected: bool = True) -> dict:
     acyc = [(f.ts, f.data) for f in acyclic]
     t_start = sess.cyc_start_ns
 
+    drift = any(st.phase != st.cycle_ns // 2 + 20_000 * st.i or st.ppb for st in sess.stations) \
+        or sess.ctrl_ppb or sess.jit_ns
+    if drift:
+        with open(path, "wb") as f:
+            _write_sorted(pcapng.Writer(f), acyc, sess, slots, pair, stride, epb, streams, step_cc, cc_period)
+    else:
+        _write_fixed(path, acyc, cfg, sess, slots, pair, stride, epb, streams, step_cc, cc_period, t_start, T_ns)
+    truth["frames"] = len(acyc) + frames_cyc
+    truth["frame_kinds"]["cyclic.in"] = truth["frame_kinds"]["cyclic.out"] = cfg.cycles * n_st
+    truth["fast_path"] = {"steps_per_cycle": STEPS, "note": "constant-speed steady state, no handshakes"}
+    if expected:
+        from .scenarios import expected_path
+        with open(expected_path(path), "w", encoding="utf-8") as f:
+            json.dump(truth, f, indent=1, sort_keys=True)
+            f.write("\n")
+    return truth
+
+
+def _write_sorted(w, acyc, sess, slots, pair, stride, epb, streams, step_cc, cc_period) -> None:
+    """Drifting clocks and jitter: per chunk every frame's own timestamp (the session's out_ts /
+    in_ts), then the chunk's frames and the acyclic frames in time order. A frame is written once
+    no later frame can be earlier: before the first frame of the next chunk (each stream's frames
+    are in order, so that is the earliest of the streams' next frames)."""
+    cycles = sess.cfg.cycles
+    n_slots = len(slots)
+    ts_of = [(sess.out_ts if kind == "out" else sess.in_ts, s.st) for kind, s, _ in slots]
+    pending = []     # (ts, order, bytes) not yet written
+    ai = order = 0
+    k = 0
+    while k < cycles:
+        k1 = min(cycles, k + CHUNK)
+        n = k1 - k
+        mv = _emit_into(slots, pair, stride, epb, k, k1, sess.cyc_start_ns, sess.cycle_ns, streams, step_cc,
+                        cc_period)
+        view = memoryview(mv)
+        for j, (fn, st) in enumerate(ts_of):
+            ts = [fn(st, c) for c in range(k, k1)]
+            hi = _le32(array("I", [t >> 32 for t in ts]))
+            lo = _le32(array("I", [t & 0xFFFFFFFF for t in ts]))
+            e = j * epb
+            for b in range(4):
+                mv[e + 12 + b::stride] = hi[b::4]
+                mv[e + 16 + b::stride] = lo[b::4]
+            for c, t in enumerate(ts):
+                i = c * n_slots + j
+                pending.append((t, order + i, view[i * epb:(i + 1) * epb]))
+        order += n * n_slots
+        bound = min(fn(st, k1) for fn, st in ts_of) if k1 < cycles else None
+        while ai < len(acyc) and (bound is None or acyc[ai][0] < bound):
+            pending.append((acyc[ai][0], -1, pcapng.epb(*acyc[ai])))
+            ai += 1
+        pending.sort(key=lambda r: (r[0], r[1]))
+        cut = len(pending) if bound is None else next((x for x, r in enumerate(pending) if r[0] >= bound),
+                                                      len(pending))
+        w.write_raw(b"".join(bytes(r[2]) if isinstance(r[2], memoryview) else r[2] for r in pending[:cut]), cut)
+        pending = pending[cut:]
+        k = k1
+    while ai < len(acyc):
+        w.write(*acyc[ai])
+        ai += 1
+
+
+def _write_fixed(path, acyc, cfg, sess, slots, pair, stride, epb, streams, step_cc, cc_period, t_start, T_ns):
+    """One synchronised clock without jitter: every cycle's frames in one fixed slot order."""
     with open(path, "wb") as f:
         w = pcapng.Writer(f)
         ai = 0
@@ -161,15 +222,6 @@ def write_fast(cfg: Config, path: str, expected: bool = True) -> dict:
         while ai < len(acyc):
             w.write(*acyc[ai])
             ai += 1
-    truth["frames"] = len(acyc) + frames_cyc
-    truth["frame_kinds"]["cyclic.in"] = truth["frame_kinds"]["cyclic.out"] = cfg.cycles * n_st
-    truth["fast_path"] = {"steps_per_cycle": STEPS, "note": "constant-speed steady state, no handshakes"}
-    if expected:
-        from .scenarios import expected_path
-        with open(expected_path(path), "w", encoding="utf-8") as f:
-            json.dump(truth, f, indent=1, sort_keys=True)
-            f.write("\n")
-    return truth
 
 
 def _emit(w, slots, pair, stride, epb, k0, k1, t_start, T_ns, streams, step_cc, cc_period, sess):
