@@ -52,7 +52,9 @@ def test_help_lists_every_scenario_and_option(capsys):
     for name in SCENARIOS:
         assert name in out
     for opt in ("--scenario", "--profile", "--telegram", "--cycle-time", "--cycles", "--duration",
-                "--encoders", "--inject", "--seed", "-o"):
+                "--encoders", "--inject", "--seed", "-o", "--startup", "--records", "--good-before-prmend",
+                "--restart", "--restart-scaling", "--restart-gap", "--capture-loss", "--start-mid-session",
+                "--drift-ppm", "--jitter-us", "--irt", "--io-devices"):
         assert opt in out
     for rule in list(INJECTIONS)[:5]:
         assert rule in out
@@ -69,6 +71,18 @@ def test_help_lists_every_scenario_and_option(capsys):
     ["--encoders", "0"],
     ["--scenario", "startup", "--inject", "PRESET-NOT-STANDSTILL"],   # a preset-scenario fault
     ["--inject", "PRESET-NOT-STANDSTILL", "--inject", "PARK-ACK-MISSING"],   # two scenarios at once
+    ["--restart-scaling", "mupr=4096"],                       # without --restart
+    ["--restart", "20", "--restart-scaling", "speed=3"],
+    ["--restart", "20", "--restart-scaling", "mupr=x"],
+    ["--restart", "0"],
+    ["--capture-loss", "0.9"],
+    ["--start-mid-session", "45"],                             # fewer than 10 cycles left
+    ["--cycle-time", "1,2"],                                   # two cycle times, one encoder
+    ["--encoders", "2", "--cycle-time", "1,0.3"],
+    ["--io-devices", "17"],
+    ["--io-devices", "1", "--startup", "tidy"],
+    ["--good-before-prmend", "--startup", "tidy"],
+    ["--drift-ppm", "-1"],
 ])
 def test_impossible_combinations_exit_2(tmp_path, capsys, args):
     assert main(["simulate", "-o", str(tmp_path / "x.pcapng"), "--cycles", "50", *args]) == 2
