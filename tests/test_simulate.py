@@ -495,3 +495,20 @@ def test_irt_and_io_devices(tmp_path):
     good = [d for d in rows if d[20 + 5] == 0x80]      # DI IOPS after 4 DAP IOPS + 1 data byte
     assert len(good) == 800 and len({d[20 + 4] for d in good}) > 1    # the inputs change
     assert len(rows) > len(good)                                       # start-up frames with IOPS BAD
+
+
+def test_fast_path_capture_loss(tmp_path):
+    from pndiss.sim.fastpath import FAST_THRESHOLD
+    p = sim(tmp_path, "fl.pcapng", "--cycles", str(FAST_THRESHOLD), "--capture-loss", "0.001")
+    exp = json.loads((tmp_path / "fl.expected.json").read_text())
+    frames = {fn: (t, d) for fn, t, _, d in open_capture(str(p))}
+    assert len(frames) == exp["frames"] and exp["needs"] == ["capture_gap"]
+    assert 100 < exp["capture_loss"]["frames_dropped"] < 300
+    ts = [t for t, _ in frames.values()]
+    assert all(a <= b for a, b in zip(ts, ts[1:]))
+    for g in exp["capture_gaps"]:
+        a, b = frames[g["prev_frame"]][1], frames[g["next_frame"]][1]
+        assert int.from_bytes(a[18:20], "big") == int.from_bytes(b[18:20], "big") == g["frame_id"]
+        assert a[6:12].hex(":") == g["src"]
+        assert (int.from_bytes(b[-4:-2], "big") - int.from_bytes(a[-4:-2], "big")) % 65536 == 32 * (
+            g["cycles_missing"] + 1)

@@ -176,7 +176,7 @@ def run(args) -> int:
                  jitter_us=args.jitter_us, irt=args.irt, io_devices=args.io_devices)
     try:
         if cycles >= FAST_THRESHOLD and not injects and args.scenario == "startup" and not cfg.good_before_prmend \
-                and cfg.restart is None and not cfg.capture_loss and cfg.start_mid_session is None \
+                and cfg.restart is None and cfg.start_mid_session is None \
                 and cfg.cycle_list is None and not cfg.io_devices:
             truth = write_fast(cfg, args.output, expected=not args.no_expected)
         else:

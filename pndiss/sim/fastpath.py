@@ -10,7 +10,9 @@ PLC, absolute value requested and acknowledged, shaft turning at a constant ``ST
 """
 from __future__ import annotations
 
+import dataclasses
 import json
+import random
 import struct
 import sys
 from array import array
@@ -96,7 +98,9 @@ class _Stream:
 
 def write_fast(cfg: Config, path: str, expected: bool = True) -> dict:
     """Start-up scenario with ``cfg.cycles`` cycles, cyclic part in bulk. Returns the ground truth."""
-    sess = SimSession(cfg, None)
+    loss = cfg.capture_loss
+    # the start-up part comes whole; frames are lost only from the bulk cyclic part (below)
+    sess = SimSession(dataclasses.replace(cfg, capture_loss=0.0), None)
     sess.with_cyclic = False
     acyclic, truth = sess.build()
     streams = [_Stream(sess, st, len(sess.stations)) for st in sess.stations]
@@ -128,11 +132,21 @@ def write_fast(cfg: Config, path: str, expected: bool = True) -> dict:
 
     drift = any(st.phase != st.cycle_ns // 2 + 20_000 * st.i or st.ppb for st in sess.stations) \
         or sess.ctrl_ppb or sess.jit_ns
-    if drift:
+    gaps = []
+    if drift or loss:
         with open(path, "wb") as f:
-            _write_sorted(pcapng.Writer(f), acyc, sess, slots, pair, stride, epb, streams, step_cc, cc_period)
+            w = pcapng.Writer(f)
+            _write_sorted(w, acyc, sess, slots, pair, stride, epb, streams, step_cc, cc_period, loss, gaps)
     else:
         _write_fixed(path, acyc, cfg, sess, slots, pair, stride, epb, streams, step_cc, cc_period, t_start, T_ns)
+    if loss:
+        dropped = sum(g["cycles_missing"] for g in gaps)
+        frames_cyc -= dropped
+        truth["config"]["capture_loss"] = loss
+        truth["capture_loss"] = {"rate": loss, "frames_dropped": dropped,
+                                 "note": "bulk path: only data-exchange frames are lost"}
+        truth["capture_gaps"] = gaps
+        truth["needs"] = ["capture_gap"]
     truth["frames"] = len(acyc) + frames_cyc
     truth["frame_kinds"]["cyclic.in"] = truth["frame_kinds"]["cyclic.out"] = cfg.cycles * n_st
     truth["fast_path"] = {"steps_per_cycle": STEPS, "note": "constant-speed steady state, no handshakes"}
@@ -144,7 +158,8 @@ def write_fast(cfg: Config, path: str, expected: bool = True) -> dict:
     return truth
 
 
-def _write_sorted(w, acyc, sess, slots, pair, stride, epb, streams, step_cc, cc_period) -> None:
+def _write_sorted(w, acyc, sess, slots, pair, stride, epb, streams, step_cc, cc_period, loss=0.0,
+                  gaps=None) -> None:
     """Drifting clocks and jitter: per chunk every frame's own timestamp (the session's out_ts /
     in_ts), then the chunk's frames and the acyclic frames in time order. A frame is written once
     no later frame can be earlier: before the first frame of the next chunk (each stream's frames
@@ -154,6 +169,11 @@ def _write_sorted(w, acyc, sess, slots, pair, stride, epb, streams, step_cc, cc_
     ts_of = [(sess.out_ts if kind == "out" else sess.in_ts, s.st) for kind, s, _ in slots]
     pending = []     # (ts, order, bytes) not yet written
     ai = order = 0
+    # capture loss (capture_point.py does the same for the normal path): own RNG, gaps per stream
+    rng = random.Random(f"capture-loss:{sess.cfg.seed}:{loss}")
+    keys = [(st.out_fid if kind == "out" else st.in_fid, CTRL_MAC if kind == "out" else st.mac)
+            for kind, s, _ in slots for st in (s.st,)]
+    last, missing = [None] * n_slots, [0] * n_slots
     k = 0
     while k < cycles:
         k1 = min(cycles, k + CHUNK)
@@ -180,7 +200,26 @@ def _write_sorted(w, acyc, sess, slots, pair, stride, epb, streams, step_cc, cc_
         pending.sort(key=lambda r: (r[0], r[1]))
         cut = len(pending) if bound is None else next((x for x, r in enumerate(pending) if r[0] >= bound),
                                                       len(pending))
-        w.write_raw(b"".join(bytes(r[2]) if isinstance(r[2], memoryview) else r[2] for r in pending[:cut]), cut)
+        out = pending[:cut]
+        if loss:
+            kept = []
+            for r in out:
+                if r[1] < 0:
+                    kept.append(r)
+                    continue
+                j = r[1] % n_slots
+                if rng.random() < loss:
+                    missing[j] += 1
+                    continue
+                kept.append(r)
+                num = w.frames + len(kept)
+                if missing[j] and last[j] is not None:
+                    gaps.append({"frame_id": keys[j][0], "src": keys[j][1], "prev_frame": last[j],
+                                 "next_frame": num, "cycles_missing": missing[j]})
+                missing[j] = 0
+                last[j] = num
+            out = kept
+        w.write_raw(b"".join(bytes(r[2]) if isinstance(r[2], memoryview) else r[2] for r in out), len(out))
         pending = pending[cut:]
         k = k1
     while ai < len(acyc):
