@@ -512,3 +512,15 @@ def test_fast_path_capture_loss(tmp_path):
         assert a[6:12].hex(":") == g["src"]
         assert (int.from_bytes(b[-4:-2], "big") - int.from_bytes(a[-4:-2], "big")) % 65536 == 32 * (
             g["cycles_missing"] + 1)
+
+
+@pytest.mark.skipif(not HAVE_TSHARK, reason="tshark not installed")
+def test_restart_by_abort(tmp_path):
+    p = sim(tmp_path, "a.pcapng", "--cycles", "400", "--restart", "150", "--restart-mode", "abort")
+    assert tshark(p, "-Y", BAD_FILTER) == ""
+    err = tshark(p, "-Y", "pn_io.pdu_type.type == 4", "-T", "fields", "-e", "pn_io.error_code2").split()
+    assert err == ["13"]                                   # AR abort.req
+    assert tshark(p, "-Y", "pn_io.control_command.release == 1", "-T", "fields", "-e", "frame.number").split() \
+        and len(tshark(p, "-Y", "pn_io.control_command.release == 1").splitlines()) == 1   # only at the end
+    exp = json.loads((tmp_path / "a.expected.json").read_text())
+    assert exp["stations"][0]["ars"][0]["ended_by"] == "abort" and exp["clean"]

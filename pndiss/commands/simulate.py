@@ -66,6 +66,9 @@ def add_parser(sub) -> None:
     p.add_argument("--restart-scaling", metavar="KEY=VALUE[,...]", default="",
                    help="0xBF00 values of the second AR: mupr, tmr, direction, velocity_unit "
                         "(e.g. mupr=4096,tmr=16777216,direction=1); needs --restart")
+    p.add_argument("--restart-mode", choices=("release", "abort"), default="release",
+                   help="how the first AR ends: release (IODReleaseReq, default) or abort (ERR-RTA-PDU from the "
+                        "controller)")
     p.add_argument("--restart-gap", type=float, default=200.0, metavar="MS",
                    help="silence between the Release and the new Connect (default 200 ms)")
     p.add_argument("--capture-loss", type=float, default=0.0, metavar="RATE",
@@ -171,6 +174,7 @@ def run(args) -> int:
                  cycles=cycles, encoders=args.encoders, injects=injects, seed=args.seed,
                  startup=args.startup, records=args.records, good_before_prmend=args.good_before_prmend,
                  restart=args.restart, restart_scaling=scaling, restart_gap_ms=args.restart_gap,
+                 restart_mode=args.restart_mode,
                  capture_loss=args.capture_loss, start_mid_session=mid,
                  cycle_list=cycle_list if len(cycle_list) > 1 else None, drift_ppm=args.drift_ppm,
                  jitter_us=args.jitter_us, irt=args.irt, io_devices=args.io_devices)

@@ -64,6 +64,8 @@ PLANT = {
     # encoder 1 released and connected again with other scaling (MUPR 4096, TMR 2^24, direction ccw)
     "plant-restart-new-scaling": dict(telegram=81, cycles=1200, restart=500,
                                       restart_scaling={"mupr": 4096, "tmr": 1 << 24, "direction": 1}),
+    # encoder 1's AR aborted by the controller (ERR-RTA-PDU), a new AR with the same settings: clean
+    "plant-restart-abort": dict(telegram=81, cycles=600, restart=250, restart_mode="abort"),
     # three encoders at 1/2/4 ms, two IO devices, drifting clocks
     "plant-3enc-cycles-io-devices": dict(telegram=81, cycles=1000, encoders=3, cycle_list=[1.0, 2.0, 4.0],
                                          io_devices=2),

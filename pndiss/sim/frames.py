@@ -301,9 +301,12 @@ def read_res(seq, ar_uuid, api, slot, subslot, index, data: bytes):
 RTA_DATA, RTA_ACK = 1, 3
 
 
+RTA_ERR = 4
+
+
 def rta(src, dst, *, high: bool, dst_ep: int, src_ep: int, pdu_type: int, send_seq: int, ack_seq: int,
-        sdu: bytes = b"") -> bytes:
-    hdr = struct.pack(">HHBBHHH", dst_ep, src_ep, 0x10 | pdu_type, 0x11, send_seq, ack_seq, len(sdu))
+        sdu: bytes = b"", add_flags: int = 0x11) -> bytes:
+    hdr = struct.pack(">HHBBHHH", dst_ep, src_ep, 0x10 | pdu_type, add_flags, send_seq, ack_seq, len(sdu))
     fid = 0xFC01 if high else 0xFE01
     return _eth(src, dst, Raw(struct.pack(">H", fid) + hdr + sdu), vlan=6 if high else 5, etype=ETH_PNRT)
 

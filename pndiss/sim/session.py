@@ -73,6 +73,7 @@ class Config:
     restart: int | None = None        # cycle at which encoder 1's AR is released and set up again
     restart_scaling: dict = field(default_factory=dict)   # 0xBF00 values of the second AR (mupr, tmr, direction, ...)
     restart_gap_ms: float = 200.0     # silence between Release and the new Connect
+    restart_mode: str = "release"     # how the first AR ends: "release" (IODReleaseReq) or "abort" (ERR-RTA)
     capture_loss: float = 0.0         # share of cyclic frames the capture point drops (seeded)
     start_mid_session: int | None = None   # the capture starts at this data-exchange cycle
     cycle_list: list | None = None    # one cycle time (ms) per encoder; None: cycle_ms for all
@@ -683,7 +684,8 @@ class SimSession:
                        "cycle_ms": cfg.cycle_ms, "cycles": cfg.cycles, "encoders": cfg.encoders,
                        "seed": cfg.seed, "inject": [f"{r}@{c}" if c is not None else r for r, c in cfg.injects],
                        "startup": cfg.startup, "records": cfg.records, "good_before_prmend": cfg.good_before_prmend,
-                       **({"restart": cfg.restart, "restart_scaling": cfg.restart_scaling}
+                       **({"restart": cfg.restart, "restart_scaling": cfg.restart_scaling,
+                           "restart_mode": cfg.restart_mode}
                           if cfg.restart is not None else {}),
                        **({"capture_loss": cfg.capture_loss} if cfg.capture_loss else {}),
                        "drift_ppm": cfg.drift_ppm if not cfg.irt else 0, "jitter_us": cfg.jitter_us if not cfg.irt else 0,

@@ -127,9 +127,17 @@ def restart(sess, st, params) -> None:
     cfg = sess.cfg
     T = sess.cycle_ns
     R = cfg.restart
-    sess.rpc_call(sess.out_ts(st, R - 1) + 300_000, st, 1,
-                  [F.control_req(st.ar_uuid, st.session_key, release=True)],
-                  [F.control_res(st.ar_uuid, st.session_key, block_type=0x8114)], what="release")
+    if cfg.restart_mode == "abort":
+        # the controller aborts the AR: ERR-RTA-PDU on the alarm CR, PNIOStatus RTA_ERR_CLS_PROTOCOL
+        # 13 "abort.req" (wire.md §5, §7.1: byte pattern 14 01 ffff fffe 0004 cf 81 fd xx)
+        sess.add(sess.out_ts(st, R - 1) + 300_000,
+                 F.rta(_ctrl_mac(), st.mac, high=False, dst_ep=2, src_ep=1,
+                       pdu_type=F.RTA_ERR, send_seq=0xFFFF, ack_seq=0xFFFE, sdu=bytes([0xCF, 0x81, 0xFD, 0x0D]),
+                       add_flags=0x01), "abort")
+    else:
+        sess.rpc_call(sess.out_ts(st, R - 1) + 300_000, st, 1,
+                      [F.control_req(st.ar_uuid, st.session_key, release=True)],
+                      [F.control_res(st.ar_uuid, st.session_key, block_type=0x8114)], what="release")
     params2 = dict(params, **cfg.restart_scaling)
     st.ar_uuid = sess.uuid()
     st.session_key += 1
@@ -149,6 +157,7 @@ def restart(sess, st, params) -> None:
     st.ars.append({"ar_uuid": str(st.ar_uuid), "session_key": st.session_key, "params": params2,
                    "first_cycle": min(first_in, first_out), "data_exchange_cycle": good, "tag": tag})
     st.ars[0]["last_cycle"] = R - 1
+    st.ars[0]["ended_by"] = cfg.restart_mode
     if any(params2.get(k) != params.get(k) for k in ("direction", "mupr", "tmr")):
         # the controller changed code sequence / MUPR / TMR and does no preset before using the
         # position: behaviour.md §9 #31 (an info-level controller violation), on the first GOOD frame
@@ -157,3 +166,8 @@ def restart(sess, st, params) -> None:
         sess.injected.append({"rule": "PRESET-WITHOUT-NEW-PARAMS", "side": "controller", "cycle": good, "tag": tag,
                               "how": "the AR restart changes code sequence/MUPR/TMR in 0xBF00 and no preset follows",
                               "also_possible": [], "settings": {}})
+
+
+def _ctrl_mac() -> str:
+    from .session import CTRL_MAC
+    return CTRL_MAC
