@@ -287,6 +287,53 @@ end
 -- again; an unmapped key is also looked up again every RELOOKUP_EVERY frames of that key
 local RELOOKUP_EVERY = 1024
 local misses
+
+-- capture loss, as pndiss/gaps.py: per (frame ID, src, dst) stream the CycleCounter of its last frame;
+-- round(advance / step) - 1 cycles are missing, once the step is known (Connect) or seen LEARN times
+local gap_streams
+local GAP_LEARN, GAP_IRREGULAR_MAX = 4, 3
+local function gap_stream(key)
+    local st = gap_streams[key]
+    if st == nil then
+        st = {step = 0, known = false, seen = 0, irregular = 0, uniform = true}
+        gap_streams[key] = st
+    end
+    return st
+end
+local function gap_step_from(key, cycle_ns)
+    local st = gap_stream(key)
+    local step = cycle_ns and math.floor(cycle_ns / 31250) or 0
+    if step > 0 and step < 0x10000 and st.step == 0 then st.step, st.known = step, true end
+end
+local function gcd(a, b)
+    while b ~= 0 do a, b = b, a % b end
+    return a
+end
+local function gap_advance(key, cc)
+    local st = gap_stream(key)
+    local prev = st.cc
+    st.cc = cc
+    if prev == nil then return 0 end
+    local d = (cc - prev) % 0x10000
+    if d == 0 then return 0 end
+    if st.step == 0 then st.step = d; return 0 end
+    if d % st.step ~= 0 then
+        st.irregular = st.irregular + 1
+        st.step = gcd(st.step, d)
+        st.seen, st.known = 0, false
+        if st.irregular >= GAP_IRREGULAR_MAX then st.uniform = false end
+        return 0
+    end
+    if d == st.step then st.seen = st.seen + 1; return 0 end
+    if not st.uniform or (not st.known and st.seen < GAP_LEARN) then return 0 end
+    return math.floor(d / st.step) - 1
+end
+-- both streams advance by one confirmed step per cycle: each actual value has its own setpoint
+local function gap_same_step(a, b)
+    local sa, sb = gap_streams[a or ""], gap_streams[b or ""]
+    return sa ~= nil and sb ~= nil and sa.step == sb.step and sa.uniform and sb.uniform
+        and (sa.known or sa.seen >= GAP_LEARN) and (sb.known or sb.seen >= GAP_LEARN)
+end
 local map_generation, cache_generation
 local function lookup(fid, src, dst)
     if cache_generation ~= map_generation then
@@ -313,6 +360,7 @@ local function lookup(fid, src, dst)
     local out = false
     if fm then
         local dir = fm.direction == "output" and "setpoint" or "actual"
+        gap_step_from(key, fm.cycle_ns)
         local objs = {}
         for _, d in ipairs(fm.objects) do
             if d.length and d.length > 0 then
@@ -345,7 +393,7 @@ for _, n in ipairs({"pn_io.opnum", "pn_io.block_type", "pn_io.ar_uuid", "pn_io.c
                     "pn_io.module_ident_number", "pn_io.submodule_ident_number", "pn_io.iocr_multicast_mac_add",
                     "pn_io.index", "pn_io.im_profile_id", "pn_io.vendor_id_high", "pn_io.vendor_id_low",
                     "pn_io.order_id", "dcerpc.pkt_type", "dcerpc.dg_act_id", "dcerpc.dg_seqnum",
-                    "pn_rt.frame_id", "pn_rt.ds", "pn_io.send_clock_factor", "pn_io.reduction_ratio",
+                    "pn_rt.frame_id", "pn_rt.ds", "pn_rt.cycle_counter", "pn_io.send_clock_factor", "pn_io.reduction_ratio",
                     "pn_io.error_code", "pn_io.error_decode", "pn_io.error_code1", "pn_io.error_code2",
                     "pn_dcp.service_id",
                     "pn_dcp.suboption_vendor_id", "pn_dcp.suboption_device_id", "pn_dcp.suboption_device_devicevendorvalue"}) do
@@ -1201,7 +1249,7 @@ local function decode_sig(tvb, base, rows)
 end
 
 -- CyclicTracker.on_cyclic for one mapped frame (first pass); returns what the tree shows
-local function on_cyclic(pinfo, tvb, fr, ds_ok)
+local function on_cyclic(pinfo, tvb, fr, ds_ok, miss, key)
     local fn, ts = pinfo.number, ts_ns(pinfo)
     local out = {objs = {}}
     local csdu = tvb:raw()
@@ -1258,10 +1306,23 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok)
             end
             out.objs[#out.objs + 1] = v
             if dir == "setpoint" then
+                -- setpoint cycles lost, or one never paired: no edge across (cyclic.py)
+                if miss > 0 or ax.sp_new then ax.sp_break = true end
                 ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, ok
+                ax.sp_new, ax.sp_key = true, key
             else
                 if ax.ambiguous == nil then ax.ambiguous = ambiguous(ax, o) end
-                if ax.sp ~= nil then
+                local stale = false
+                if ax.sp ~= nil and (miss > 0 or ax.sp_break or not ax.sp_new) then
+                    -- cyclic.py _unpaired: lost cycles elapse unjudged; a missing own setpoint too
+                    stale = not ax.sp_new and gap_same_step(ax.sp_key, key)
+                    if miss > 0 or ax.sp_break or stale then
+                        ax.sp_break = false
+                        note(chk:lost(fn, ts, miss + (stale and 1 or 0)), fn)
+                    end
+                end
+                if ax.sp ~= nil and not stale then
+                    ax.sp_new = false
                     if not (ok and ax.sp_ok) or ax.ambiguous then
                         note(chk:gap(fn, ts, "not valid"), fn)
                     else
@@ -1382,12 +1443,16 @@ local function heuristic(tvb, pinfo, tree)
         if pinfo.visited then return false end
         local fi = X["pn_rt.frame_id"]()
         if fi == nil then blind = true; return false end   -- no protocol tree: nothing extracted
-        local fr = lookup(fi.value, tostring(pinfo.dl_src), tostring(pinfo.dl_dst))
+        local src, dst = tostring(pinfo.dl_src), tostring(pinfo.dl_dst)
+        local key = fi.value .. "|" .. src .. "|" .. dst
+        local cc = X["pn_rt.cycle_counter"]()
+        local miss = cc and gap_advance(key, cc.value) or 0
+        local fr = lookup(fi.value, src, dst)
         if fr == nil or #fr.objs == 0 then return false end
         -- DataStatus: DataValid (bit 2) and ProviderState RUN (bit 4), wire.md §2.3
         local ds = X["pn_rt.ds"]()
         local ok_ds = ds ~= nil and bit.band(ds.value, 0x14) == 0x14
-        cached = on_cyclic(pinfo, tvb, fr, ok_ds)
+        cached = on_cyclic(pinfo, tvb, fr, ok_ds, miss, key)
         cyc_cache[pinfo.number] = cached
     end
     if tree then
@@ -1564,6 +1629,7 @@ local function reset_state()
     profiles, facts, ar_devs, p922_of, im0_seen = {}, {}, {}, {}, {}
     pending_connects, pairer, superseded = {}, {}, {}
     axes, axis_list, dev_records, bf00_last, prev_bf00 = {}, {}, {}, {}, {}
+    gap_streams = {}
     viol, viol_seen, late, finished = {}, {}, {}, false
     dcp_state = {name_at = {}, ip_at = {}, mac_name = {}, mac_ip = {}, reported = {}}
     cyc_cache, rec_cache, cyclic_frame, blind = {}, {}, nil, false

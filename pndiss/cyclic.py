@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from . import rules
 from . import telegrams as tg
+from .gaps import MAX_EVENTS, GapTracker
 from .encoder import Checker, EncoderConfig
 from .encoder.acyclic import tg_length_problem
 from .proto.common import Malformed
@@ -63,7 +64,7 @@ class _Axis:
     """One encoder (AR/submodule): its checker, latest setpoint and identity."""
 
     __slots__ = ("key", "info", "checker", "sp", "sp_frame", "sp_ok", "telegram", "source", "profile", "reason",
-                 "startup_checked", "fm", "ambiguous")
+                 "startup_checked", "fm", "ambiguous", "sp_new", "sp_break", "sp_key")
 
     def __init__(self, key, info):
         self.key = key
@@ -79,6 +80,9 @@ class _Axis:
         self.startup_checked = False
         self.fm = None
         self.ambiguous = None     # telegram guessed from a length that fits several: report, don't judge
+        self.sp_new = False       # the latest setpoint is not paired with an actual value yet
+        self.sp_break = False     # setpoint cycles lost (or one never paired) since the last paired cycle
+        self.sp_key = None        # the setpoint's stream key
 
 
 class CyclicTracker:
@@ -99,6 +103,7 @@ class CyclicTracker:
         # With a sink: called as telegram_sink(obj, frame, frame_id, fn, ts, iops, judged) instead of building
         # a ``telegram`` event dict per frame (the MCAP exporter formats its message from obj.sig itself).
         self.telegram_sink = None
+        self.gaps = GapTracker(getattr(self.s, "capture_gaps", True))
 
     # -- frame layout ------------------------------------------------------------------------------
     def _frame(self, key, rt_ev) -> _Frame | None:
@@ -116,6 +121,8 @@ class CyclicTracker:
             return None
         objs = []
         direction = "setpoint" if fm.direction == "output" else "actual"
+        if fm.send_clock_factor and fm.reduction_ratio:
+            self.gaps.step_from(key, fm.send_clock_factor * fm.reduction_ratio)
         for do in fm.objects:
             if not do.length:
                 continue
@@ -147,15 +154,23 @@ class CyclicTracker:
             self.map_generation = gen
             self.frames.clear()
             self.misses.clear()
+        # capture loss: cycles this stream sent that the capture does not hold (pndiss/gaps.py)
+        miss = self.gaps.advance(key, fn, ts, (pdu[-4] << 8) | pdu[-3])
         fr = self.frames.get(key)
         if fr is None:  # not cached, or cached as unmapped (then _frame counts the miss)
             fr = self._frame(key, rt_ev)
             if fr is None or not fr.objs:
+                if miss:
+                    self._capture_gap(key, fn, ts, miss, fr)
                 self.unmapped += 1
                 return
         elif not fr.objs:
+            if miss:
+                self._capture_gap(key, fn, ts, miss, fr)
             self.unmapped += 1
             return
+        if miss:
+            self._capture_gap(key, fn, ts, miss, fr)
         self.mapped += 1
         csdu = pdu[csdu_off:len(pdu) - 4]
         same = csdu == fr.last_csdu
@@ -201,13 +216,21 @@ class CyclicTracker:
                 else:
                     self.telegram_sink(o, fr, key[0], fn, ts, iops, bool(ok))
             if direction == "setpoint":
+                if miss or ax.sp_new:
+                    ax.sp_break = True  # setpoint cycles lost, or one was never paired: no edge across
                 ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, bool(ok)
+                ax.sp_new, ax.sp_key = True, key
                 continue
             if ax.ambiguous is None:
                 ax.ambiguous = self._ambiguous(ax, o)
             if ax.sp is None:
                 continue  # no setpoint seen yet: nothing to pair
             chk = ax.checker
+            if miss or ax.sp_break or not ax.sp_new:
+                # elapsed cycles, not captured frames: the cycles the capture lost are not judged
+                if self._unpaired(ax, key, miss, fn, ts):
+                    continue
+            ax.sp_new = False
             if not (ok and ax.sp_ok) or ax.ambiguous:
                 self.gated += 1
                 self._out(chk.gap(fn, ts, "not valid"))
@@ -217,6 +240,31 @@ class CyclicTracker:
             evs = chk.cycle(fn, ts, ax.sp, o.sig, ax.sp_frame)
             if evs:
                 self._out(evs)
+
+    def _unpaired(self, ax: _Axis, key: tuple, miss: int, fn: int, ts: int) -> bool:
+        """Capture loss around this actual value: the lost cycles elapse unjudged (Checker.lost). True when
+        this cycle's own setpoint is missing too (the latest one was paired already and both streams
+        run at one step): then this cycle is not judged either."""
+        stale = not ax.sp_new and self.gaps.same_step(ax.sp_key, key)
+        if not (miss or ax.sp_break or stale):
+            return False
+        ax.sp_break = False
+        self._out(ax.checker.lost(fn, ts, miss + stale))
+        return stale
+
+    def _capture_gap(self, key: tuple, fn: int, ts: int, miss: int, fr) -> None:
+        fm = fr.fm if fr is not None else None
+        st = self.a.stations.by_mac
+        station = fm.station if fm is not None else None
+        if station is None:
+            station = (st.get(key[1]) or st.get(key[2]) or {}).get("name")
+        ev = {"frame": fn, "ts_ns": ts, "kind": "capture_gap", "station": station, "frame_id": key[0],
+              "src": key[1], "dst": key[2], "direction": fm.direction if fm is not None else None,
+              "cycles_missing": miss, "prev_frame": self.gaps.prev, "next_frame": fn}
+        if len(self.gaps.rows) < MAX_EVENTS:
+            self.gaps.rows.append({k: ev[k] for k in ("frame_id", "src", "dst", "station", "direction",
+                                                      "prev_frame", "next_frame", "cycles_missing")})
+        self.a.emit(ev)
 
     def _relabel(self, o: _Obj, fr: _Frame) -> None:
         t = o.do.telegram
@@ -382,11 +430,13 @@ class CyclicTracker:
             encs.append({**ax.info, "telegram": ax.telegram, "telegram_source": ax.source, "profile": ax.profile,
                          "profile_reason": ax.reason, **s})
         return {"frames_mapped": self.mapped, "frames_unmapped": self.unmapped, "cycles_gated": self.gated,
-                "encoders": encs, "violations_by_severity": sev}
+                "encoders": encs, "violations_by_severity": sev, "capture_gaps": self.gaps.summary()}
 
     def report_sections(self) -> list:
         from .cyclic_report import sections
-        return sections(self.summary())
+        from .gaps_report import section
+        summ = self.summary()
+        return [x for x in [section(summ["capture_gaps"])] if x is not None] + sections(summ)
 
 
 def tg_is_irt(frame_id: int) -> bool:
