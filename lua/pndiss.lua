@@ -324,8 +324,18 @@ local function gap_advance(key, cc)
         if st.irregular >= GAP_IRREGULAR_MAX then st.uniform = false end
         return 0
     end
-    if d == st.step then st.seen = st.seen + 1; return 0 end
-    if not st.uniform or (not st.known and st.seen < GAP_LEARN) then return 0 end
+    if d == st.step then
+        st.seen = st.seen + 1
+        if st.seen >= GAP_LEARN then st.irregular = 0 end
+        return 0
+    end
+    if not st.uniform or (not st.known and st.seen < GAP_LEARN) then
+        if st.irregular > 0 and not st.known then
+            st.irregular = st.irregular + 1
+            if st.irregular >= GAP_IRREGULAR_MAX then st.uniform = false end
+        end
+        return 0
+    end
     return math.floor(d / st.step) - 1
 end
 -- both streams advance by one confirmed step per cycle: each actual value has its own setpoint

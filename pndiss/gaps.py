@@ -83,8 +83,14 @@ class GapTracker:
             return 0
         if d == st.step:
             st.seen += 1
+            if st.seen >= LEARN:
+                st.irregular = 0   # confirmed: an AR restart now and then does not make it non-uniform
             return 0
         if not st.uniform or (not st.known and st.seen < LEARN):
+            if st.irregular and not st.known:
+                st.irregular += 1  # a step shrunk by an odd advance and never seen exactly: a free-running counter
+                if st.irregular >= IRREGULAR_MAX:
+                    st.uniform = False
             return 0
         k = d // st.step - 1
         st.gaps += 1
