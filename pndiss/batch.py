@@ -257,6 +257,8 @@ class _Run:
             if fr is False:
                 return False  # not looked up yet: one frame the normal way does it
             if fr is None:
+                if t.infer.wants(c.s.key):
+                    return False  # content inference still samples this stream: frame by frame
                 c.kind = "unmapped"
                 left = RELOOKUP_EVERY - t.misses.get(c.s.key, 0) % RELOOKUP_EVERY - 1
                 self.relookup = left if self.relookup is None else min(self.relookup, left)

@@ -16,6 +16,7 @@ from __future__ import annotations
 from . import rules
 from . import telegrams as tg
 from .gaps import MAX_EVENTS, GapTracker
+from .infer import Inference
 from .encoder import Checker, EncoderConfig
 from .encoder.acyclic import tg_length_problem
 from .proto.common import Malformed
@@ -104,6 +105,7 @@ class CyclicTracker:
         # a ``telegram`` event dict per frame (the MCAP exporter formats its message from obj.sig itself).
         self.telegram_sink = None
         self.gaps = GapTracker(getattr(self.s, "capture_gaps", True))
+        self.infer = Inference(analyzer, getattr(self.s, "infer_telegrams", True))
 
     # -- frame layout ------------------------------------------------------------------------------
     def _frame(self, key, rt_ev) -> _Frame | None:
@@ -162,6 +164,8 @@ class CyclicTracker:
             if fr is None or not fr.objs:
                 if miss:
                     self._capture_gap(key, fn, ts, miss, fr)
+                if fr is None and self.infer.enabled:
+                    self.infer.offer(key, fn, pdu[csdu_off:len(pdu) - 4])   # mid-session: learn from the content
                 self.unmapped += 1
                 return
         elif not fr.objs:
@@ -415,6 +419,7 @@ class CyclicTracker:
 
     # -- results -----------------------------------------------------------------------------------
     def finish(self) -> None:
+        self.infer.finish()
         for ax in self.axes.values():
             if ax.checker is not None:
                 self._out(ax.checker.finish())
@@ -430,13 +435,15 @@ class CyclicTracker:
             encs.append({**ax.info, "telegram": ax.telegram, "telegram_source": ax.source, "profile": ax.profile,
                          "profile_reason": ax.reason, **s})
         return {"frames_mapped": self.mapped, "frames_unmapped": self.unmapped, "cycles_gated": self.gated,
-                "encoders": encs, "violations_by_severity": sev, "capture_gaps": self.gaps.summary()}
+                "encoders": encs, "violations_by_severity": sev, "capture_gaps": self.gaps.summary(),
+                "content_inference": self.infer.summary()}
 
     def report_sections(self) -> list:
         from .cyclic_report import sections
         from .gaps_report import section
         summ = self.summary()
-        return [x for x in [section(summ["capture_gaps"])] if x is not None] + sections(summ)
+        from .infer_report import sections as infer_sections
+        return [x for x in [section(summ["capture_gaps"])] if x is not None] + infer_sections(summ) + sections(summ)
 
 
 def tg_is_irt(frame_id: int) -> bool:
