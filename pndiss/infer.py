@@ -83,10 +83,11 @@ def _counting(vals: list[int]) -> float:
     return good / (len(vals) - 1) if moves >= (len(vals) - 1) // 4 else 0.0
 
 
-def _continuous(vals: list[int], bits: int) -> float:
+def _continuous(vals: list[int], bits: int) -> float | None:
+    """Share of small steps; None when the value never changes (a standstill proves nothing)."""
     m = 1 << bits
     if len(vals) < 2 or len(set(vals)) < 2:
-        return 0.0
+        return None
     ok = 0
     for a, b in zip(vals, vals[1:]):
         d = (b - a) % m
@@ -214,7 +215,8 @@ class Inference:
         if best is None:
             return None
         margin = best["score"] - best["runner_up"]
-        best["confidence"] = round(min(1.0, best["score"] / 4.0) * (1.0 if margin >= 0.5 else 0.5 + margin), 2)
+        share = best["evidence"].pop("share")
+        best["confidence"] = round(share * (1.0 if margin >= 0.5 else 0.5 + margin), 2)
         return best
 
     @staticmethod
@@ -244,16 +246,20 @@ class Inference:
                 creq = [(_word(A[i], oa + aco[ac_m], 2) >> b) & 1 for b in ac_m_bits]
                 hits += bool(ctrl and any(creq))
             mirror = hits / len(pairs)
-        cont = 0.0
+        cont = None
         for name in _CI["positions"]:
             if name in aco:
                 size = tg.SIGNALS[name]["size"]
-                cont = max(cont, _continuous([_word(c, oa + aco[name], size) for c in A], 8 * size))
+                c = _continuous([_word(x, oa + aco[name], size) for x in A], 8 * size)
+                if c is not None:
+                    cont = max(cont or 0.0, c)
         if max(sol_s, sol_a) < 0.8 and mirror < 0.9:
             return None   # no positive evidence: zeros and constants fit anything
-        score = sol_s + sol_a + mirror + cont
-        return score, {"sign_of_life_setpoint": round(sol_s, 2), "sign_of_life_actual": round(sol_a, 2),
-                       "control_mirrored": round(mirror, 2), "position_continuous": round(cont, 2)}
+        parts = [sol_s, sol_a, mirror] + ([cont] if cont is not None else [])
+        return sum(parts), {"sign_of_life_setpoint": round(sol_s, 2), "sign_of_life_actual": round(sol_a, 2),
+                            "control_mirrored": round(mirror, 2),
+                            "position_continuous": None if cont is None else round(cont, 2),
+                            "share": sum(parts) / len(parts)}
 
     def summary(self) -> dict:
         return {"inferred": self.results, "not_inferred": list(self.failed.values())}
