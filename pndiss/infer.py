@@ -96,6 +96,21 @@ def _continuous(vals: list[int], bits: int) -> float | None:
     return ok / (len(vals) - 1)
 
 
+def lua_facts() -> dict:
+    """What the plugin's port of this module reads (tools/gen_lua.py): the same numbers, computed once."""
+    words = ("stw2_enc", "g1_stw", "zsw2_enc", "g1_zsw")
+    cands = []
+    for t in candidates():
+        cands.append({"telegram": t, "setpoint": _offsets(t, "setpoint"), "actual": _offsets(t, "actual"),
+                      "len_setpoint": tg.length(t, "setpoint"), "len_actual": tg.length(t, "actual")})
+    return {"samples": SAMPLES, "max_streams": MAX_STREAMS, "source": SOURCE, "iops_good": IOPS_GOOD,
+            "reserved": {w: _reserved(w) for w in words}, "sizes": {w: tg.SIGNALS[w]["size"] for w in words},
+            "sol": {d: _bit(d, "sign_of_life")[0] for d in tg.DIRECTIONS},
+            "mirror": {d: {"signal": _bit(d, "mirror")[0], "bits": list(_bit(d, "mirror")[1])} for d in tg.DIRECTIONS},
+            "positions": [{"name": n, "size": tg.SIGNALS[n]["size"]} for n in _CI["positions"]],
+            "candidates": cands}
+
+
 class Stream:
     __slots__ = ("key", "samples", "frames", "done")
 
@@ -250,7 +265,8 @@ class Inference:
         for name in _CI["positions"]:
             if name in aco:
                 size = tg.SIGNALS[name]["size"]
-                c = _continuous([_word(x, oa + aco[name], size) for x in A], 8 * size)
+                lo = oa + aco[name] + size - 4   # the low 32 bits (of a 64-bit G1_XIST3 too): same in the plugin
+                c = _continuous([_word(x, lo, 4) for x in A], 32)
                 if c is not None:
                     cont = max(cont or 0.0, c)
         if max(sol_s, sol_a) < 0.8 and mirror < 0.9:

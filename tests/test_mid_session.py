@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 
@@ -127,3 +128,13 @@ def test_template_when_nothing_fits(tmp_path):
     a2 = analyze_file(path, Settings(map_file=str(mp)))
     enc, = a2.summary()["cyclic"]["encoders"]
     assert enc["telegram"] == 83 and enc["telegram_source"] == "map"
+
+
+@pytest.mark.skipif(shutil.which("tshark") is None, reason="tshark not installed")
+@pytest.mark.parametrize("telegram", (81, 83))
+def test_lua_plugin_infers_the_same(caps, telegram):
+    """The plugin's port of pndiss/infer.py finds the same layout: every field value and violation equal."""
+    from test_lua_plugin import compare
+    n, bad, lua_viol, py_viol = compare(caps[telegram][0])
+    assert n > 1000 and not bad, bad[:5]
+    assert lua_viol == py_viol and py_viol
