@@ -1463,6 +1463,18 @@ local function decode_sig(tvb, base, rows)
     return sig
 end
 
+-- cyclic.py _judge: one cycle, the actual value `sig` (frame fn) with the axis' setpoint; decided = the
+-- frame being dissected (a value that waited for its setpoint is judged on the setpoint's frame)
+local function judge(ax, sig, fn, ts, ok, decided)
+    local chk = ax.checker
+    if not (ok and ax.sp_ok) or ax.ambiguous then
+        note(chk:gap(fn, ts, "not valid"), decided)
+    else
+        if not ax.startup_checked then startup(ax, fn) end
+        note(chk:cycle(fn, ts, ax.sp, sig, ax.sp_frame), decided)
+    end
+end
+
 -- CyclicTracker.on_cyclic for one mapped frame (first pass); returns what the tree shows
 local function on_cyclic(pinfo, tvb, fr, ds_ok, miss, key)
     local fn, ts = pinfo.number, ts_ns(pinfo)
@@ -1525,24 +1537,37 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok, miss, key)
                 if miss > 0 or ax.sp_new then ax.sp_break = true end
                 ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, ok
                 ax.sp_new, ax.sp_key = true, key
-            else
-                if ax.ambiguous == nil then ax.ambiguous = ambiguous(ax, o) end
-                local stale = false
-                if ax.sp ~= nil and (miss > 0 or ax.sp_break or not ax.sp_new) then
-                    -- cyclic.py _unpaired: lost cycles elapse unjudged; a missing own setpoint too
-                    stale = not ax.sp_new and gap_same_step(ax.sp_key, key)
-                    if miss > 0 or ax.sp_break or stale then
+                local pend = ax.pend
+                if pend ~= nil then   -- an actual value came before its setpoint (RT clocks drift): pair them now
+                    ax.pend = nil
+                    if miss > 0 then  -- ... unless its setpoint is among the lost ones: not judged
                         ax.sp_break = false
-                        note(chk:lost(fn, ts, miss + (stale and 1 or 0)), fn)
+                        note(chk:lost(pend.fn, pend.ts, 1), fn)
+                    else
+                        ax.sp_new = false
+                        judge(ax, pend.sig, pend.fn, pend.ts, pend.ok, fn)
                     end
                 end
-                if ax.sp ~= nil and not stale then
-                    ax.sp_new = false
-                    if not (ok and ax.sp_ok) or ax.ambiguous then
-                        note(chk:gap(fn, ts, "not valid"), fn)
-                    else
-                        if not ax.startup_checked then startup(ax, fn) end
-                        note(chk:cycle(fn, ts, ax.sp, o.sig, ax.sp_frame), fn)
+            else
+                if ax.ambiguous == nil then ax.ambiguous = ambiguous(ax, o) end
+                if ax.sp ~= nil then
+                    if ax.pend ~= nil then   -- two actual values, no setpoint between: the first one's is lost
+                        local pend = ax.pend
+                        ax.pend = nil
+                        note(chk:lost(pend.fn, pend.ts, 1), fn)
+                    end
+                    local stale = false
+                    if miss > 0 or ax.sp_break or not ax.sp_new then
+                        -- cyclic.py _unpaired: lost cycles elapse unjudged; a value waits for its own setpoint
+                        stale = not ax.sp_new and gap_same_step(ax.sp_key, key)
+                        local brk = ax.sp_break
+                        ax.sp_break = false
+                        if miss > 0 or brk then note(chk:lost(fn, ts, miss), fn) end
+                        if stale then ax.pend = {sig = o.sig, fn = fn, ts = ts, ok = ok} end
+                    end
+                    if not stale then
+                        ax.sp_new = false
+                        judge(ax, o.sig, fn, ts, ok, fn)
                     end
                 end
             end

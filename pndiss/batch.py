@@ -436,7 +436,7 @@ class _Run:
                 continue
             ax = x.ax
             chk = ax.checker
-            if ax.sp_new or ax.sp_break or (x.sp is None and t.gaps.same_step(ax.sp_key, self.cols[x.ac_col].s.key)):
+            if ax.sp_new or ax.sp_break or ax.pend is not None or (x.sp is None and t.gaps.same_step(ax.sp_key, self.cols[x.ac_col].s.key)):
                 return r   # a setpoint unpaired or missing (cyclic.py's _unpaired decides)
             if x.sp is None and ax.sp is None:
                 continue   # no setpoint yet: the actual pairs with nothing

@@ -65,7 +65,7 @@ class _Axis:
     """One encoder (AR/submodule): its checker, latest setpoint and identity."""
 
     __slots__ = ("key", "info", "checker", "sp", "sp_frame", "sp_ok", "telegram", "source", "profile", "reason",
-                 "startup_checked", "fm", "ambiguous", "sp_new", "sp_break", "sp_key")
+                 "startup_checked", "fm", "ambiguous", "sp_new", "sp_break", "sp_key", "pend")
 
     def __init__(self, key, info):
         self.key = key
@@ -84,6 +84,7 @@ class _Axis:
         self.sp_new = False       # the latest setpoint is not paired with an actual value yet
         self.sp_break = False     # setpoint cycles lost (or one never paired) since the last paired cycle
         self.sp_key = None        # the setpoint's stream key
+        self.pend = None          # (signals, frame, ts, ok) of an actual value waiting for its setpoint
 
 
 class CyclicTracker:
@@ -224,36 +225,55 @@ class CyclicTracker:
                     ax.sp_break = True  # setpoint cycles lost, or one was never paired: no edge across
                 ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, bool(ok)
                 ax.sp_new, ax.sp_key = True, key
+                pend = ax.pend
+                if pend is not None:  # an actual value came before its setpoint (RT clocks drift): pair them now
+                    ax.pend = None
+                    if miss:  # ... unless its setpoint is among the lost ones: that cycle is not judged
+                        ax.sp_break = False
+                        self._out(ax.checker.lost(pend[1], pend[2], 1))
+                    else:
+                        ax.sp_new = False
+                        self._judge(ax, *pend)
                 continue
             if ax.ambiguous is None:
                 ax.ambiguous = self._ambiguous(ax, o)
             if ax.sp is None:
                 continue  # no setpoint seen yet: nothing to pair
-            chk = ax.checker
+            if ax.pend is not None:  # two actual values, no setpoint between: the first one's setpoint is lost
+                pend, ax.pend = ax.pend, None
+                self._out(ax.checker.lost(pend[1], pend[2], 1))
             if miss or ax.sp_break or not ax.sp_new:
                 # elapsed cycles, not captured frames: the cycles the capture lost are not judged
-                if self._unpaired(ax, key, miss, fn, ts):
+                if self._unpaired(ax, key, miss, fn, ts, o.sig, bool(ok)):
                     continue
             ax.sp_new = False
-            if not (ok and ax.sp_ok) or ax.ambiguous:
-                self.gated += 1
-                self._out(chk.gap(fn, ts, "not valid"))
-                continue
-            if not ax.startup_checked:
-                self._startup(ax, fn, ts)
-            evs = chk.cycle(fn, ts, ax.sp, o.sig, ax.sp_frame)
-            if evs:
-                self._out(evs)
+            self._judge(ax, o.sig, fn, ts, ok)
 
-    def _unpaired(self, ax: _Axis, key: tuple, miss: int, fn: int, ts: int) -> bool:
+    def _judge(self, ax: _Axis, sig: dict, fn: int, ts: int, ok) -> None:
+        """One cycle: the actual value ``sig`` with the axis' setpoint (gated on DataStatus / IOPS)."""
+        chk = ax.checker
+        if not (ok and ax.sp_ok) or ax.ambiguous:
+            self.gated += 1
+            self._out(chk.gap(fn, ts, "not valid"))
+            return
+        if not ax.startup_checked:
+            self._startup(ax, fn, ts)
+        evs = chk.cycle(fn, ts, ax.sp, sig, ax.sp_frame)
+        if evs:
+            self._out(evs)
+
+    def _unpaired(self, ax: _Axis, key: tuple, miss: int, fn: int, ts: int, sig: dict, ok: bool) -> bool:
         """Capture loss around this actual value: the lost cycles elapse unjudged (Checker.lost). True when
-        this cycle's own setpoint is missing too (the latest one was paired already and both streams
-        run at one step): then this cycle is not judged either."""
+        the value waits for its own setpoint (the latest one was paired already and both streams run at
+        one step): the next setpoint is paired with it, or, if that setpoint was lost, it is not judged."""
         stale = not ax.sp_new and self.gaps.same_step(ax.sp_key, key)
         if not (miss or ax.sp_break or stale):
             return False
-        ax.sp_break = False
-        self._out(ax.checker.lost(fn, ts, miss + stale))
+        brk, ax.sp_break = ax.sp_break, False
+        if miss or brk:
+            self._out(ax.checker.lost(fn, ts, miss))
+        if stale:
+            ax.pend = (sig, fn, ts, ok)
         return stale
 
     def _capture_gap(self, key: tuple, fn: int, ts: int, miss: int, fr) -> None:

@@ -43,3 +43,16 @@ def cyclic_streams(path: str) -> dict:
         if rt.classify(fid, False)[1]:
             out.setdefault((fid, bytes(d[6:12])), []).append(fn)
     return out
+
+
+def swap(src: str, dst: str, firsts: set) -> None:
+    """Copy src to dst with each frame numbered in ``firsts`` and the frame after it in reverse order (time
+    stamps stay in place): a setpoint and an actual value whose order flipped (RT clocks drifting)."""
+    fr = [(ts, bytes(d)) for _fn, ts, _lt, d in open_capture(src)]
+    for f in sorted(firsts):
+        i = f - 1
+        fr[i], fr[i + 1] = (fr[i][0], fr[i + 1][1]), (fr[i + 1][0], fr[i][1])
+    with open(dst, "wb") as f:
+        w = Writer(f)
+        for ts, d in fr:
+            w.write(ts, d)
