@@ -138,3 +138,46 @@ def test_lua_plugin_infers_the_same(caps, telegram):
     n, bad, lua_viol, py_viol = compare(caps[telegram][0])
     assert n > 1000 and not bad, bad[:5]
     assert lua_viol == py_viol and py_viol
+
+
+# -- the scorer on its own: random content never breaks it, and what it finds is a candidate telegram
+
+from hypothesis import HealthCheck, given, settings as hsettings, strategies as st  # noqa: E402
+
+from pndiss import infer  # noqa: E402
+
+
+class _Session:
+    def has_connect(self, *_):
+        return False
+
+    def lookup(self, *_):
+        return None
+
+    def add_inferred(self, res):
+        self.res = res
+
+
+class _A:
+    def __init__(self):
+        self.session = _Session()
+
+
+@hsettings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(n_out=st.integers(0, 24), n_in=st.integers(0, 40), seed=st.integers(0, 2 ** 32 - 1),
+       fill=st.sampled_from((None, 0x00, 0x80)))
+def test_random_content_never_breaks_inference(n_out, n_in, seed, fill):
+    import random
+    rnd = random.Random(seed)
+    inf = infer.Inference(_A())
+
+    def csdu(n):
+        return bytes(fill if fill is not None and rnd.random() < 0.7 else rnd.randrange(256) for _ in range(n))
+
+    for i in range(infer.SAMPLES):
+        inf.offer((0x8001, "c", "d"), 2 * i + 1, csdu(n_out))
+        inf.offer((0x8000, "d", "c"), 2 * i + 2, csdu(n_in))
+    inf.finish()
+    for r in inf.results:
+        assert r["telegram"] in infer.candidates() and 0 <= r["confidence"] <= 1
+    assert len(inf.results) + len(inf.failed) // 2 <= 1
