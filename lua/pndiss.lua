@@ -309,12 +309,20 @@ local function gcd(a, b)
     while b ~= 0 do a, b = b, a % b end
     return a
 end
-local function gap_advance(key, cc)
+local GAP_UNIT_NS, GAP_HALF_WRAP_NS = 31250, 0x10000 * 31250 / 2
+local function gap_advance(key, cc, ts)
     local st = gap_stream(key)
-    local prev = st.cc
-    st.cc = cc
+    local prev, pts = st.cc, st.ts
+    st.cc, st.ts = cc, ts
     if prev == nil then return 0 end
     local d = (cc - prev) % 0x10000
+    if d ~= st.step and pts ~= nil and ts - pts >= GAP_HALF_WRAP_NS and st.uniform
+            and (st.known or st.seen >= GAP_LEARN) then
+        -- the counter may have wrapped during the gap: the time stamps tell the cycles (pndiss/gaps.py)
+        local period = st.step * GAP_UNIT_NS
+        local k = math.floor((ts - pts + math.floor(period / 2)) / period) - 1
+        if k > 0 then return k end
+    end
     if d == 0 then return 0 end
     if st.step == 0 then st.step = d; return 0 end
     if d % st.step ~= 0 then
@@ -1686,7 +1694,7 @@ local function heuristic(tvb, pinfo, tree)
         local src, dst = tostring(pinfo.dl_src), tostring(pinfo.dl_dst)
         local key = fi.value .. "|" .. src .. "|" .. dst
         local cc = X["pn_rt.cycle_counter"]()
-        local miss = cc and gap_advance(key, cc.value) or 0
+        local miss = cc and gap_advance(key, cc.value, ts_ns(pinfo)) or 0
         local fr = lookup(fi.value, src, dst)
         if fr == nil then infer_offer(key, fi.value, src, dst, pinfo.number, tvb) end   -- mid-session capture
         if fr == nil or #fr.objs == 0 then return false end

@@ -14,6 +14,8 @@ from __future__ import annotations
 from math import gcd
 
 WRAP = 0x10000
+UNIT_NS = 31250              # CycleCounter unit, 31.25 us (wire.md §2.3)
+HALF_WRAP_NS = WRAP * UNIT_NS // 2
 LEARN = 4            # advances seen before a learnt step is trusted
 IRREGULAR_MAX = 3    # advances off the step before the stream counts as non-uniform
 MAX_EVENTS = 1000    # gaps kept for the summary/report (events carry all of them)
@@ -28,7 +30,7 @@ class Stream:
         self.ts = None
         self.step = 0         # counter units per cycle; 0 = not known yet
         self.known = False    # step from the Connect (not learnt)
-        self.seen = 0         # advances observed
+        self.seen = 0         # advances of exactly one step since the step last changed
         self.irregular = 0
         self.uniform = True
         self.gaps = 0
@@ -60,12 +62,20 @@ class GapTracker:
         st = self.streams.get(key)
         if st is None:
             st = self.streams[key] = Stream()
-        prev = st.cc
+        prev, pts = st.cc, st.ts
         self.prev = st.frame
         st.cc, st.frame, st.ts = cc, fn, ts
         if prev is None or not self.enabled:
             return 0
         d = (cc - prev) % WRAP
+        if d != st.step and pts is not None and ts - pts >= HALF_WRAP_NS and st.uniform \
+                and (st.known or st.seen >= LEARN):
+            # the counter may have wrapped during the gap (every 2.048 s): the time stamps tell the cycles. An
+            # advance of exactly one step is taken as one cycle (as the batch path does, pndiss/batch.py)
+            period = st.step * UNIT_NS
+            k = (ts - pts + period // 2) // period - 1
+            if k > 0:
+                return self._count(st, k)
         if d == 0:
             return 0              # a repeated counter: no new cycle, nothing to say
         if st.step == 0:
@@ -92,7 +102,9 @@ class GapTracker:
                 if st.irregular >= IRREGULAR_MAX:
                     st.uniform = False
             return 0
-        k = d // st.step - 1
+        return self._count(st, d // st.step - 1)
+
+    def _count(self, st: Stream, k: int) -> int:
         st.gaps += 1
         st.missing += k
         self.count += 1

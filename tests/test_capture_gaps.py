@@ -207,3 +207,13 @@ def test_lua_plugin_same_on_flips(flipped):
     path, fault = flipped
     rows = {(fn, r) for fn, r, _d in rule_rows(path, *settings_pref({"sol_monitor_rt": True}))}
     assert rows == {(fault["first_frame"], fault["rule"])}
+
+
+def test_pause_longer_than_the_counter_wraps():
+    """2.5 s without frames (the 16-bit counter wraps every 2.048 s at 31.25 us): the time stamps count."""
+    g = GapTracker()
+    key = (1, "a", "b")
+    for i in range(10):
+        assert g.advance(key, i, i * 1_000_000, (32 * i) % 65536) == 0
+    i = 10 + 2500
+    assert g.advance(key, 10, i * 1_000_000, (32 * i) % 65536) == 2500   # cycles 10..2509 missing
