@@ -714,13 +714,16 @@ local function infer_try(st, fn)
         end
     end
     if #partners == 0 then return end
+    if has_connect(st.src, st.dst) then   -- the Connect of this AR decides
+        infer_fail(st)
+        for _, p in ipairs(partners) do infer_fail(p) end
+        return
+    end
     local best = nil
     for _, p in ipairs(partners) do
         for _, io in ipairs({{st, p}, {p, st}}) do
-            if not has_connect(io[1].src, io[1].dst) then
-                local got = infer_score(io[1], io[2])
-                if got ~= nil and (best == nil or got.score > best.score) then best = got end
-            end
+            local got = infer_score(io[1], io[2])
+            if got ~= nil and (best == nil or got.score > best.score) then best = got end
         end
     end
     if best == nil then

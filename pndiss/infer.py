@@ -157,11 +157,13 @@ class Inference:
         if not partners:
             return   # the partner may still come; finish() lists the stream if it never does
         sess = self.a.session
+        if sess.has_connect(st.key[1], st.key[2]):
+            for s in [st] + partners:   # the session knows (or is learning) this AR: its Connect decides
+                s.done, s.samples = True, []
+            return
         best = None
         for p in partners:
             for out_s, in_s in ((st, p), (p, st)):
-                if sess.has_connect(out_s.key[1], out_s.key[2]):
-                    continue   # the session knows (or is learning) this AR: its Connect decides
                 got = self._score(out_s, in_s)
                 if got is not None and (best is None or got["score"] > best["score"]):
                     best = got
@@ -278,4 +280,6 @@ class Inference:
                             "share": sum(parts) / len(parts)}
 
     def summary(self) -> dict:
-        return {"inferred": self.results, "not_inferred": list(self.failed.values())}
+        lookup = self.a.session.lookup   # a Connect later in the capture may have mapped a stream since
+        return {"inferred": self.results,
+                "not_inferred": [f for k, f in self.failed.items() if lookup(*k) is None]}
