@@ -166,7 +166,7 @@ class CyclicTracker:
                 if miss:
                     self._capture_gap(key, fn, ts, miss, fr)
                 if fr is None and self.infer.enabled:
-                    self.infer.offer(key, fn, pdu[csdu_off:len(pdu) - 4])   # mid-session: learn from the content
+                    self.infer.offer(key, fn, pdu[csdu_off:len(pdu) - 4], ts)   # mid-session: learn from the content
                 self.unmapped += 1
                 return
         elif not fr.objs:

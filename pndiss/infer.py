@@ -128,8 +128,9 @@ class Inference:
         self.streams: dict = {}
         self.results: list[dict] = []     # one per inferred AR (report, summary)
         self.failed: dict = {}            # key -> {frame_id, src, dst, c_sdu_len, frames}: nothing fits
+        self.ts = None                    # time stamp of the frame that completed the samples
 
-    def offer(self, key: tuple, fn: int, csdu: bytes) -> None:
+    def offer(self, key: tuple, fn: int, csdu: bytes, ts: int | None = None) -> None:
         """A cyclic frame the session could not map (cyclic.py); decides once both directions have samples."""
         st = self.streams.get(key)
         if st is None:
@@ -141,6 +142,7 @@ class Inference:
         st.samples.append(bytes(csdu))
         st.frames.append(fn)
         if len(st.samples) == SAMPLES:
+            self.ts = ts
             self._try(st, fn)
 
     def wants(self, key: tuple) -> bool:
@@ -172,7 +174,7 @@ class Inference:
                 self._fail(s)
             return
         out_s, in_s = best["out"], best["in"]
-        res = {"frame": fn, "controller_mac": out_s.key[1], "device_mac": out_s.key[2], "telegram": best["t"],
+        res = {"frame": fn, "ts_ns": self.ts, "controller_mac": out_s.key[1], "device_mac": out_s.key[2], "telegram": best["t"],
                "source": SOURCE, "confidence": best["confidence"], "evidence": best["evidence"],
                "learnt_from": [min(out_s.frames[0], in_s.frames[0]), max(out_s.frames[-1], in_s.frames[-1])],
                "streams": [{"frame_id": s.key[0], "src": s.key[1], "dst": s.key[2], "direction": d,

@@ -644,7 +644,7 @@ class SessionTracker:
                 source="content")
         self._fallback.clear()
         self.map_generation += 1
-        self.a.emit({"frame": res["frame"], "ts_ns": self.a.cur_ts, "kind": "ar", "source": res["source"],
+        self.a.emit({"frame": res["frame"], "ts_ns": res["ts_ns"], "kind": "ar", "source": res["source"],
                      "station": station, "device_mac": res["device_mac"], "controller_mac": res["controller_mac"],
                      "telegram": res["telegram"], "confidence": res["confidence"], "evidence": res["evidence"],
                      "learnt_from": res["learnt_from"], "iocrs": res["streams"]})
