@@ -20,6 +20,7 @@
 --   local chk = C.new(cfg, info)                  -- info = {station=, device_mac=, api=, slot=, subslot=}
 --   chk:cycle(frame, ts, sp, ac, sp_frame)        -- sp / ac: signal name -> number (signed signals negative)
 --   chk:gap(frame, ts, reason)
+--   chk:lost(frame, ts, cycles)
 --   chk:on_record(ev)                             -- ev shaped like the Python record/param event dict:
 --                                                    same keys, lists 1-based, None = nil, record data
 --                                                    as a hex string (as in the Python event)
@@ -284,6 +285,7 @@ function C.new(cfg, info)
   self.open_order = {}            -- their rules in opening order (Python dict order)
   self.counts = {}                -- rule -> {events=, cycles=, first_frame=, severity=, side=, message=}
   self.gated = 0
+  self.lost_cycles = 0            -- cycles missing from the capture (not judged)
   self:reset_history()
   -- acyclic knowledge (behaviour.md §2.0: state carried from cycle to cycle)
   self.p65000 = 0                 -- last written preset value, default 0 (000_37bf2397999f1108.txt:1787-1789)
@@ -363,6 +365,19 @@ Checker._reset_history = Checker.reset_history
 -- A cycle that is reported, not judged (provider STOP, DataValid = 0, IOPS bad).
 function Checker:gap(frame, ts, reason)
   self.gated = self.gated + 1
+  self.out = nil
+  if self.prev_ac ~= nil or self.open_order[1] ~= nil then
+    flush_all(self)
+    self:reset_history()
+  end
+  return self.out or EMPTY
+end
+
+-- `cycles` cycles missing from the capture before `frame` (capture loss, pndiss/gaps.py): they count
+-- as elapsed (n moves on) but are not judged; no edge, window or pending handshake reaches across them.
+function Checker:lost(frame, ts, cycles)
+  self.lost_cycles = self.lost_cycles + cycles
+  self.n = self.n + cycles
   self.out = nil
   if self.prev_ac ~= nil or self.open_order[1] ~= nil then
     flush_all(self)

@@ -19,6 +19,8 @@ from __future__ import annotations
 
 from . import rules
 from . import telegrams as tg
+from .gaps import MAX_EVENTS, GapTracker
+from .infer import Inference
 from .encoder import Checker, EncoderConfig
 from .encoder.acyclic import tg_length_problem
 from .proto.common import Malformed
@@ -72,7 +74,7 @@ class _Axis:
     """One encoder (AR/submodule): its checker, latest setpoint and identity."""
 
     __slots__ = ("key", "info", "checker", "sp", "sp_frame", "sp_ok", "telegram", "source", "profile", "reason",
-                 "fm", "ambiguous", "sp_before")
+                 "fm", "ambiguous", "sp_before", "sp_new", "sp_break", "sp_key", "pend")
 
     def __init__(self, key, info):
         self.key = key
@@ -88,6 +90,10 @@ class _Axis:
         self.reason = ""
         self.fm = None
         self.ambiguous = None     # telegram guessed from a length that fits several: report, don't judge
+        self.sp_new = False       # the latest setpoint is not paired with an actual value yet
+        self.sp_break = False     # setpoint cycles lost (or one never paired) since the last paired cycle
+        self.sp_key = None        # the setpoint's stream key
+        self.pend = None          # (signals, frame, ts, ok) of an actual value waiting for its setpoint
 
 
 class CyclicTracker:
@@ -108,6 +114,8 @@ class CyclicTracker:
         # With a sink: called as telegram_sink(obj, frame, frame_id, fn, ts, iops, judged) instead of building
         # a ``telegram`` event dict per frame (the MCAP exporter formats its message from obj.sig itself).
         self.telegram_sink = None
+        self.gaps = GapTracker(getattr(self.s, "capture_gaps", True))
+        self.infer = Inference(analyzer, getattr(self.s, "infer_telegrams", True))
 
     # -- frame layout ------------------------------------------------------------------------------
     def _frame(self, key, rt_ev) -> _Frame | None:
@@ -125,6 +133,8 @@ class CyclicTracker:
             return None
         objs = []
         direction = "setpoint" if fm.direction == "output" else "actual"
+        if fm.send_clock_factor and fm.reduction_ratio:
+            self.gaps.step_from(key, fm.send_clock_factor * fm.reduction_ratio)
         for do in fm.objects:
             if not do.length:
                 continue
@@ -156,18 +166,30 @@ class CyclicTracker:
             self.map_generation = gen
             self.frames.clear()
             self.misses.clear()
+        # capture loss: cycles this stream sent that the capture does not hold (pndiss/gaps.py)
+        miss = self.gaps.advance(key, fn, ts, (pdu[-4] << 8) | pdu[-3])
         fr = self.frames.get(key)
         if fr is None:  # not cached, or cached as unmapped (then _frame counts the miss)
             fr = self._frame(key, rt_ev)
             if fr is None or not fr.objs:
+                if miss:
+                    self._capture_gap(key, fn, ts, miss, fr)
+                if fr is None and self.infer.enabled:
+                    self.infer.offer(key, fn, pdu[csdu_off:len(pdu) - 4], ts)   # mid-session: learn from the content
                 self.unmapped += 1
                 return
         elif not fr.objs:
+            if miss:
+                self._capture_gap(key, fn, ts, miss, fr)
             self.unmapped += 1
             return
+        if miss:
+            self._capture_gap(key, fn, ts, miss, fr)
         self.mapped += 1
-        if ds_ok and fr.fm.phase in NOT_JUDGED_PHASES:
+        if fr.fm.phase in NOT_JUDGED_PHASES:
             ds_ok = False   # before PrmEnd or after the AR's end: reported, not judged
+            if fr.fm.phase != "parameterisation":
+                self.gaps.restart(key)   # the AR ended: a later AR on this stream is no capture loss
         csdu = pdu[csdu_off:len(pdu) - 4]
         same = csdu == fr.last_csdu
         fr.last_csdu = csdu
@@ -213,22 +235,74 @@ class CyclicTracker:
                     self.telegram_sink(o, fr, key[0], fn, ts, iops, bool(ok))
             if direction == "setpoint":
                 ax.sp_before = ax.sp if ax.sp_ok else None
+                if miss or ax.sp_new:
+                    ax.sp_break = True  # setpoint cycles lost, or one was never paired: no edge across
                 ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, bool(ok)
+                ax.sp_new, ax.sp_key = True, key
+                pend = ax.pend
+                if pend is not None:  # an actual value came before its setpoint (RT clocks drift): pair them now
+                    ax.pend = None
+                    if miss:  # ... unless its setpoint is among the lost ones: that cycle is not judged
+                        ax.sp_break = False
+                        self._out(ax.checker.lost(pend[1], pend[2], 1))
+                    else:
+                        ax.sp_new = False
+                        self._judge(ax, *pend)
                 continue
             if ax.ambiguous is None:
                 ax.ambiguous = self._ambiguous(ax, o)
             if ax.sp is None:
                 continue  # no setpoint seen yet: nothing to pair
-            chk = ax.checker
-            if not (ok and ax.sp_ok) or ax.ambiguous:
-                self.gated += 1
-                self._out(chk.gap(fn, ts, "not valid"))
-                continue
-            if fr.fm.phase in JUDGED_FIRST:
-                self._exchange(fr.fm, fn, ts)
-            evs = chk.cycle(fn, ts, ax.sp, o.sig, ax.sp_frame, ax.sp_before)
-            if evs:
-                self._out(evs)
+            if ax.pend is not None:  # two actual values, no setpoint between: the first one's setpoint is lost
+                pend, ax.pend = ax.pend, None
+                self._out(ax.checker.lost(pend[1], pend[2], 1))
+            if miss or ax.sp_break or not ax.sp_new:
+                # elapsed cycles, not captured frames: the cycles the capture lost are not judged
+                if self._unpaired(ax, key, miss, fn, ts, o.sig, bool(ok)):
+                    continue
+            ax.sp_new = False
+            self._judge(ax, o.sig, fn, ts, ok)
+
+    def _judge(self, ax: _Axis, sig: dict, fn: int, ts: int, ok) -> None:
+        """One cycle: the actual value ``sig`` with the axis' setpoint (gated on DataStatus / IOPS)."""
+        chk = ax.checker
+        if not (ok and ax.sp_ok) or ax.ambiguous:
+            self.gated += 1
+            self._out(chk.gap(fn, ts, "not valid"))
+            return
+        if ax.fm is not None and ax.fm.phase in JUDGED_FIRST:
+            self._exchange(ax.fm, fn, ts)
+        evs = chk.cycle(fn, ts, ax.sp, sig, ax.sp_frame, ax.sp_before)
+        if evs:
+            self._out(evs)
+
+    def _unpaired(self, ax: _Axis, key: tuple, miss: int, fn: int, ts: int, sig: dict, ok: bool) -> bool:
+        """Capture loss around this actual value: the lost cycles elapse unjudged (Checker.lost). True when
+        the value waits for its own setpoint (the latest one was paired already and both streams run at
+        one step): the next setpoint is paired with it, or, if that setpoint was lost, it is not judged."""
+        stale = not ax.sp_new and self.gaps.same_step(ax.sp_key, key)
+        if not (miss or ax.sp_break or stale):
+            return False
+        brk, ax.sp_break = ax.sp_break, False
+        if miss or brk:
+            self._out(ax.checker.lost(fn, ts, miss))
+        if stale:
+            ax.pend = (sig, fn, ts, ok)
+        return stale
+
+    def _capture_gap(self, key: tuple, fn: int, ts: int, miss: int, fr) -> None:
+        fm = fr.fm if fr is not None else None
+        st = self.a.stations.by_mac
+        station = fm.station if fm is not None else None
+        if station is None:
+            station = (st.get(key[1]) or st.get(key[2]) or {}).get("name")
+        ev = {"frame": fn, "ts_ns": ts, "kind": "capture_gap", "station": station, "frame_id": key[0],
+              "src": key[1], "dst": key[2], "direction": fm.direction if fm is not None else None,
+              "cycles_missing": miss, "prev_frame": self.gaps.prev, "next_frame": fn}
+        if len(self.gaps.rows) < MAX_EVENTS:
+            self.gaps.rows.append({k: ev[k] for k in ("frame_id", "src", "dst", "station", "direction",
+                                                      "prev_frame", "next_frame", "cycles_missing")})
+        self.a.emit(ev)
 
     def _relabel(self, o: _Obj, fr: _Frame) -> None:
         t = o.do.telegram
@@ -353,6 +427,9 @@ class CyclicTracker:
         if phase == "prm_end":
             for ax in self._ar_axes(ar):
                 self._startup(ax, fn, ts)
+        elif phase in ("released", "aborted"):
+            for key, _fm in self.a.session.frame_keys(ar):
+                self.gaps.restart(key)   # a later AR on these streams is no capture loss
 
     def _exchange(self, fm, fn: int, ts: int) -> None:
         """The AR's first judged cycle: its phase becomes data_exchange."""
@@ -432,6 +509,7 @@ class CyclicTracker:
 
     # -- results -----------------------------------------------------------------------------------
     def finish(self) -> None:
+        self.infer.finish()
         for ax in self.axes.values():
             if ax.checker is not None:
                 self._out(ax.checker.finish())
@@ -445,11 +523,15 @@ class CyclicTracker:
                          "profile_reason": ax.reason, **s})
         return {"frames_mapped": self.mapped, "frames_unmapped": self.unmapped, "cycles_gated": self.gated,
                 # every violation, not only the encoders' (DCP, ...): one counting point (Analyzer.violations)
-                "encoders": encs, "violations_by_severity": self.a.violations_by_severity()}
+                "encoders": encs, "violations_by_severity": self.a.violations_by_severity(),
+                "capture_gaps": self.gaps.summary(), "content_inference": self.infer.summary()}
 
     def report_sections(self) -> list:
         from .cyclic_report import sections
-        return sections(self.summary())
+        from .gaps_report import section
+        summ = self.summary()
+        from .infer_report import sections as infer_sections
+        return [x for x in [section(summ["capture_gaps"])] if x is not None] + infer_sections(summ) + sections(summ)
 
 
 def tg_is_irt(frame_id: int) -> bool:

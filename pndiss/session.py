@@ -671,6 +671,29 @@ class SessionTracker:
         """(frame ID, src, dst) lookup keys of an AR's frame maps still in force (a later AR may reuse them)."""
         return [(k, self.maps[k]) for k in ar["map_keys"] if any(self.maps.get(k) is m for m in ar["maps"])]
 
+    def has_connect(self, controller: str, device: str) -> bool:
+        """A Connect between these MACs was seen (an AR, or a request still open): no content inference."""
+        macs = {controller, device}
+        return any(ar["device_mac"] in macs and ar["controller_mac"] in macs for ar in self.ars.values()) or \
+            any(c["opnum"] == 0 and {c["src"], c["dst"]} == macs for c in self.calls.values())
+
+    def add_inferred(self, res: dict) -> None:
+        """Frame maps found from the cyclic content (pndiss/infer.py): used like a Connect's, source said."""
+        station = self._station(res["device_mac"])
+        for s in res["streams"]:
+            do = armap.DataObject(api=0, slot=0, subslot=0, offset=s["offset"], length=s["length"],
+                                  telegram=res["telegram"], telegram_source=res["source"])
+            self.maps[(s["frame_id"], s["src"], s["dst"])] = armap.FrameMap(
+                frame_id=s["frame_id"], direction=s["direction"], controller_mac=res["controller_mac"],
+                device_mac=res["device_mac"], station=station, data_length=s["c_sdu_len"], objects=[do],
+                source="content")
+        self._fallback.clear()
+        self.map_generation += 1
+        self.a.emit({"frame": res["frame"], "ts_ns": res["ts_ns"], "kind": "ar", "source": res["source"],
+                     "station": station, "device_mac": res["device_mac"], "controller_mac": res["controller_mac"],
+                     "telegram": res["telegram"], "confidence": res["confidence"], "evidence": res["evidence"],
+                     "learnt_from": res["learnt_from"], "iocrs": res["streams"]})
+
     def profile_for(self, device_mac: str | None) -> tuple[str, str]:
         s = self.a.settings.profile
         if s and s != "auto":

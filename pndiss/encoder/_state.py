@@ -45,6 +45,7 @@ class Checker:
         self.timeline: list[dict] = []     # first state changes (capped), for the report
         self.state_changes = 0
         self.gated = 0                 # cycles reported but not judged (IOPS/DataStatus)
+        self.lost_cycles = 0           # cycles missing from the capture (not judged)
         self._reset_history()
         # acyclic knowledge (behaviour.md §2.0: state carried from cycle to cycle)
         self.p65000 = 0                # last written preset value, default 0 (000_37bf2397999f1108.txt:1787-1789)
@@ -115,6 +116,18 @@ class Checker:
     def gap(self, frame: int, ts: int, reason: str) -> list[dict]:
         """A cycle that is reported, not judged (provider STOP, DataValid = 0, IOPS bad)."""
         self.gated += 1
+        self.out = []
+        if self.prev_ac is not None or self._open:
+            self._flush_all()
+            self._reset_history()
+        return self.out
+
+    def lost(self, frame: int, ts: int, cycles: int) -> list[dict]:
+        """``cycles`` cycles the capture does not hold (capture loss, pndiss/gaps.py) before ``frame``: they
+        count as elapsed (n moves on, so deadlines count cycles, not captured frames) but are not judged; no
+        edge, window or pending handshake reaches across them (not judged rather than a violation)."""
+        self.lost_cycles += cycles
+        self.n += cycles
         self.out = []
         if self.prev_ac is not None or self._open:
             self._flush_all()
@@ -844,7 +857,7 @@ class Checker:
         return self.out
 
     def summary(self) -> dict:
-        return {"cycles": self.n, "gated_cycles": self.gated, "settings": self.cfg.in_force(),
+        return {"cycles": self.n, "gated_cycles": self.gated, "lost_cycles": self.lost_cycles, "settings": self.cfg.in_force(),
                 "violations": self.counts, "state_changes": self.state_changes, "timeline": self.timeline[:50],
                 "p65000": self.p65000, "bf00_seen": self.bf00_seen}
 
