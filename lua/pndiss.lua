@@ -211,6 +211,9 @@ local usermap = {}     -- fid -> {direction, telegram, offset} (preference, not 
 local profiles         -- device MAC -> profile (I&M0 / DCP)
 local ar_devs          -- AR UUID -> {device, controller} (session.ars: records name their AR)
 local p922_of          -- "device|api|slot|subslot" -> telegram read from P922 (session.telegram_p922)
+local ar_keys          -- AR UUID -> {{fid, src, dst}, ...} of its frame maps (session.frame_keys)
+local ar_phase         -- AR UUID -> phase (session.set_phase; only what changes the verdict is tracked)
+local ar_order         -- AR UUIDs in the order of their Connects (session.ars, for an abort)
 local DRIVE_APIS = {[0x3A00] = true, [0x3D00] = true}   -- spec/network.md §1.7
 
 local function tg_len(t, dir)
@@ -311,6 +314,71 @@ end
 -- again; an unmapped key is also looked up again every RELOOKUP_EVERY frames of that key
 local RELOOKUP_EVERY = 1024
 local misses
+
+-- capture loss, as pndiss/gaps.py: per (frame ID, src, dst) stream the CycleCounter of its last frame;
+-- round(advance / step) - 1 cycles are missing, once the step is known (Connect) or seen LEARN times
+local gap_streams
+local GAP_LEARN, GAP_IRREGULAR_MAX = 4, 3
+local function gap_stream(key)
+    local st = gap_streams[key]
+    if st == nil then
+        st = {step = 0, known = false, seen = 0, irregular = 0, uniform = true}
+        gap_streams[key] = st
+    end
+    return st
+end
+local function gap_step_from(key, cycle_ns)
+    local st = gap_stream(key)
+    local step = cycle_ns and math.floor(cycle_ns / 31250) or 0
+    if step > 0 and step < 0x10000 and st.step == 0 then st.step, st.known = step, true end
+end
+local function gcd(a, b)
+    while b ~= 0 do a, b = b, a % b end
+    return a
+end
+local GAP_UNIT_NS, GAP_HALF_WRAP_NS = 31250, 0x10000 * 31250 / 2
+local function gap_advance(key, cc, ts)
+    local st = gap_stream(key)
+    local prev, pts = st.cc, st.ts
+    st.cc, st.ts = cc, ts
+    if prev == nil then return 0 end
+    local d = (cc - prev) % 0x10000
+    if d ~= st.step and pts ~= nil and ts - pts >= GAP_HALF_WRAP_NS and st.uniform
+            and (st.known or st.seen >= GAP_LEARN) then
+        -- the counter may have wrapped during the gap: the time stamps tell the cycles (pndiss/gaps.py)
+        local period = st.step * GAP_UNIT_NS
+        local k = math.floor((ts - pts + math.floor(period / 2)) / period) - 1
+        if k > 0 then return k end
+    end
+    if d == 0 then return 0 end
+    if st.step == 0 then st.step = d; return 0 end
+    if d % st.step ~= 0 then
+        st.irregular = st.irregular + 1
+        st.step = gcd(st.step, d)
+        st.seen, st.known = 0, false
+        if st.irregular >= GAP_IRREGULAR_MAX then st.uniform = false end
+        return 0
+    end
+    if d == st.step then
+        st.seen = st.seen + 1
+        if st.seen >= GAP_LEARN then st.irregular = 0 end
+        return 0
+    end
+    if not st.uniform or (not st.known and st.seen < GAP_LEARN) then
+        if st.irregular > 0 and not st.known then
+            st.irregular = st.irregular + 1
+            if st.irregular >= GAP_IRREGULAR_MAX then st.uniform = false end
+        end
+        return 0
+    end
+    return math.floor(d / st.step) - 1
+end
+-- both streams advance by one confirmed step per cycle: each actual value has its own setpoint
+local function gap_same_step(a, b)
+    local sa, sb = gap_streams[a or ""], gap_streams[b or ""]
+    return sa ~= nil and sb ~= nil and sa.step == sb.step and sa.uniform and sb.uniform
+        and (sa.known or sa.seen >= GAP_LEARN) and (sb.known or sb.seen >= GAP_LEARN)
+end
 local map_generation, cache_generation
 local function lookup(fid, src, dst)
     if cache_generation ~= map_generation then
@@ -337,6 +405,7 @@ local function lookup(fid, src, dst)
     local out = false
     if fm then
         local dir = fm.direction == "output" and "setpoint" or "actual"
+        gap_step_from(key, fm.cycle_ns)
         local objs = {}
         for _, d in ipairs(fm.objects) do
             if d.length and d.length > 0 then
@@ -369,8 +438,9 @@ for _, n in ipairs({"pn_io.opnum", "pn_io.block_type", "pn_io.ar_uuid", "pn_io.c
                     "pn_io.module_ident_number", "pn_io.submodule_ident_number", "pn_io.iocr_multicast_mac_add",
                     "pn_io.index", "pn_io.im_profile_id", "pn_io.vendor_id_high", "pn_io.vendor_id_low",
                     "pn_io.order_id", "dcerpc.pkt_type", "dcerpc.dg_act_id", "dcerpc.dg_seqnum",
-                    "pn_rt.frame_id", "pn_rt.ds", "pn_io.send_clock_factor", "pn_io.reduction_ratio",
+                    "pn_rt.frame_id", "pn_rt.ds", "pn_rt.cycle_counter", "pn_io.send_clock_factor", "pn_io.reduction_ratio",
                     "pn_io.error_code", "pn_io.error_decode", "pn_io.error_code1", "pn_io.error_code2",
+                    "pn_io.control_command", "pn_io.pdu_type.type",
                     "pn_dcp.service_id",
                     "pn_dcp.suboption_vendor_id", "pn_dcp.suboption_device_id", "pn_dcp.suboption_device_devicevendorvalue"}) do
     X[n] = Field.new(n)
@@ -417,9 +487,9 @@ end
 
 local pending_connects   -- "act|seq" -> request summary
 
-local function connect_request(key)
+local function connect_request(key, pinfo)
     local bl = blocks()
-    local req = {iocrs = {}, expected = {}}
+    local req = {iocrs = {}, expected = {}, src = tostring(pinfo.dl_src), dst = tostring(pinfo.dl_dst)}
     local api, slot, sub = all("pn_io.api"), all("pn_io.slot_nr"), all("pn_io.subslot_nr")
     for _, b in ipairs(bl) do
         if b.type == 0x0101 then
@@ -487,6 +557,11 @@ local function connect_response(key, pinfo)
     if not ok then return end
     local station = dcp_state.station[device]
     if station == nil or station == "" then station = server_name end  -- session._connect: dev_station
+    local keys = {}
+    if req.ar then
+        if ar_phase[req.ar] == nil then ar_order[#ar_order + 1] = req.ar end
+        ar_keys[req.ar], ar_phase[req.ar] = keys, "parameterisation"
+    end
     for _, cr in ipairs(req.iocrs) do
         local direction = ({[1] = "input", [2] = "output", [3] = "input"})[cr.type]
         if direction then
@@ -495,8 +570,7 @@ local function connect_response(key, pinfo)
             if direction == "output" then s, d = req.controller, device end
             if cr.type == 3 and cr.mcast then d = tostring(cr.mcast) end
             local fm = {direction = direction, device = device, controller = req.controller, ar = req.ar, frame_id = fid,
-                        station = station,
-                        source = "connect", objects = {},
+                        station = station, source = "connect", objects = {}, phase = "parameterisation",
                         -- armap.FrameMap.cycle_time_ns: SendClockFactor x ReductionRatio x 31.25 us
                         cycle_ns = (cr.scf and cr.scf > 0 and cr.rr and cr.rr > 0) and cr.scf * cr.rr * 31250 or nil}
             for _, o in ipairs(cr.objects) do
@@ -514,8 +588,217 @@ local function connect_response(key, pinfo)
                 fm.objects[#fm.objects + 1] = obj
             end
             maps[fid .. "|" .. s .. "|" .. d] = fm
+            keys[#keys + 1] = {fid, s, d, fm}
         end
     end
+end
+
+-- mid-session captures: pndiss/infer.py, step for step. The first SAMPLES C_SDUs of each cyclic stream
+-- nothing maps are kept; once a stream and its partner (MACs reversed) have them, every candidate
+-- telegram at every offset is scored (IOPS GOOD after the data, reserved bits clear, sign-of-life
+-- counting, control requested mirrored, positions continuous: T.content_inference); the best becomes
+-- a map of source "inferred from content"
+local CI = T.content_inference
+local infer_streams, infer_list   -- key -> stream; streams in first-seen order (Python's dict order)
+
+local function has_connect(controller, device)
+    for _, d in pairs(ar_devs) do
+        if (d[1] == controller and d[2] == device) or (d[1] == device and d[2] == controller) then return true end
+    end
+    for _, r in pairs(pending_connects) do
+        if (r.src == controller and r.dst == device) or (r.src == device and r.dst == controller) then return true end
+    end
+    return false
+end
+
+local function word(c, off, size)
+    local v = 0
+    for i = 1, size do v = v * 256 + c:byte(off + i) end
+    return v
+end
+
+local function next_ls(v) return (v % 15) + 1 end
+
+local function counting(vals)
+    local n = #vals
+    if n < 2 then return 0.0 end
+    local good, moves = 0, 0
+    for i = 1, n - 1 do
+        local a, b = vals[i], vals[i + 1]
+        if a ~= 0 and b ~= 0 then
+            if b ~= a then moves = moves + 1 end
+            if b == next_ls(a) or b == a then good = good + 1 end
+        end
+    end
+    if moves >= math.floor((n - 1) / 4) then return good / (n - 1) end
+    return 0.0
+end
+
+local function continuous(vals)
+    local n = #vals
+    if n < 2 then return nil end
+    local differ = false
+    for i = 2, n do if vals[i] ~= vals[1] then differ = true break end end
+    if not differ then return nil end
+    local m = 4294967296
+    local ok = 0
+    for i = 1, n - 1 do
+        local d = (vals[i + 1] - vals[i]) % m
+        if d > m / 2 then d = d - m end
+        if math.abs(d) < 16777216 then ok = ok + 1 end
+    end
+    return ok / (n - 1)
+end
+
+local function placements(samples, n, L)
+    local out = {}
+    for o = 0, n - L - 1 do
+        local all_good = true
+        for _, c in ipairs(samples) do
+            if c:byte(o + L + 1) ~= CI.iops_good then all_good = false break end
+        end
+        if all_good then out[#out + 1] = o end
+    end
+    return out
+end
+
+local function evidence(S, A, pairs_, os_, oa, spo, aco)
+    for _, w in ipairs({{"stw2_enc", S, os_, spo}, {"g1_stw", S, os_, spo}, {"zsw2_enc", A, oa, aco},
+                        {"g1_zsw", A, oa, aco}}) do
+        local sig, samples, base, offs = w[1], w[2], w[3], w[4]
+        if offs[sig] ~= nil then
+            local res, size = CI.reserved[sig], CI.sizes[sig]
+            for _, c in ipairs(samples) do
+                if bit.band(word(c, base + offs[sig], size), res) ~= 0 then return nil end
+            end
+        end
+    end
+    local cls, dls = {}, {}
+    for i, c in ipairs(S) do cls[i] = bit.rshift(word(c, os_ + spo[CI.sol.setpoint], 2), 12) end
+    for i, c in ipairs(A) do dls[i] = bit.rshift(word(c, oa + aco[CI.sol.actual], 2), 12) end
+    local sol_s, sol_a = counting(cls), counting(dls)
+    local mirror = 0.0
+    if #pairs_ > 0 then
+        local hits = 0
+        local ms, ma = CI.mirror.setpoint, CI.mirror.actual
+        for _, pr in ipairs(pairs_) do
+            local ws, wa = word(S[pr[1]], os_ + spo[ms.signal], 2), word(A[pr[2]], oa + aco[ma.signal], 2)
+            local ctrl, creq = false, false
+            for _, b in ipairs(ms.bits) do if bit.band(bit.rshift(ws, b), 1) == 1 then ctrl = true end end
+            for _, b in ipairs(ma.bits) do if bit.band(bit.rshift(wa, b), 1) == 1 then creq = true end end
+            if ctrl and creq then hits = hits + 1 end
+        end
+        mirror = hits / #pairs_
+    end
+    local cont = nil
+    for _, p in ipairs(CI.positions) do
+        if aco[p.name] ~= nil then
+            local lo = oa + aco[p.name] + p.size - 4
+            local vals = {}
+            for i, c in ipairs(A) do vals[i] = word(c, lo, 4) end
+            local cv = continuous(vals)
+            if cv ~= nil then cont = math.max(cont or 0.0, cv) end
+        end
+    end
+    if math.max(sol_s, sol_a) < 0.8 and mirror < 0.9 then return nil end
+    local sum, n = sol_s + sol_a + mirror, 3
+    if cont ~= nil then sum, n = sum + cont, 4 end
+    return sum, {sol_s = sol_s, sol_a = sol_a, mirror = mirror, cont = cont, share = sum / n}
+end
+
+local function infer_score(out_s, in_s)
+    local S, A = out_s.samples, in_s.samples
+    local ls, la = math.huge, math.huge
+    for _, c in ipairs(S) do ls = math.min(ls, #c) end
+    for _, c in ipairs(A) do la = math.min(la, #c) end
+    local pairs_ = {}
+    local j = 0
+    for i, f in ipairs(in_s.frames) do
+        while j + 1 <= #out_s.frames and out_s.frames[j + 1] < f do j = j + 1 end
+        if j >= 1 then pairs_[#pairs_ + 1] = {j, i} end
+    end
+    local best = nil
+    for _, cand in ipairs(CI.candidates) do
+        local spo, aco = cand.setpoint, cand.actual
+        for _, os_ in ipairs(placements(S, ls, cand.len_setpoint)) do
+            for _, oa in ipairs(placements(A, la, cand.len_actual)) do
+                local score, ev = evidence(S, A, pairs_, os_, oa, spo, aco)
+                if score ~= nil then
+                    if best == nil or score > best.score + 1e-9 then
+                        best = {t = cand.telegram, cand = cand, os = os_, oa = oa, score = score, ev = ev,
+                                out = out_s, ["in"] = in_s, runner_up = best and best.score or 0.0}
+                    elseif best.runner_up < score then
+                        best.runner_up = score
+                    end
+                end
+            end
+        end
+    end
+    if best == nil then return nil end
+    local margin = best.score - best.runner_up
+    local f = margin >= 0.5 and 1.0 or 0.5 + margin
+    best.confidence = math.floor(best.ev.share * f * 100 + 0.5) / 100
+    return best
+end
+
+local function infer_fail(st)
+    st.done = true
+    st.samples = {}
+end
+
+local function infer_try(st, fn)
+    local partners = {}
+    for _, p in ipairs(infer_list) do
+        if p ~= st and not p.done and #p.samples == CI.samples and p.src == st.dst and p.dst == st.src then
+            partners[#partners + 1] = p
+        end
+    end
+    if #partners == 0 then return end
+    if has_connect(st.src, st.dst) then   -- the Connect of this AR decides
+        infer_fail(st)
+        for _, p in ipairs(partners) do infer_fail(p) end
+        return
+    end
+    local best = nil
+    for _, p in ipairs(partners) do
+        for _, io in ipairs({{st, p}, {p, st}}) do
+            local got = infer_score(io[1], io[2])
+            if got ~= nil and (best == nil or got.score > best.score) then best = got end
+        end
+    end
+    if best == nil then
+        infer_fail(st)
+        for _, p in ipairs(partners) do infer_fail(p) end
+        return
+    end
+    local out_s, in_s = best.out, best["in"]
+    local controller, device = out_s.src, out_s.dst
+    for _, x in ipairs({{out_s, "output", best.os, best.cand.len_setpoint}, {in_s, "input", best.oa, best.cand.len_actual}}) do
+        local s = x[1]
+        maps[s.key] = {direction = x[2], device = device, controller = controller, frame_id = s.fid, source = "content",
+                       objects = {{api = 0, slot = 0, subslot = 0, offset = x[3], length = x[4], telegram = best.t,
+                                   telegram_source = CI.source}},
+                       inferred = {confidence = best.confidence, first = math.min(out_s.frames[1], in_s.frames[1]),
+                                   last = math.max(out_s.frames[#out_s.frames], in_s.frames[#in_s.frames])}}
+        s.done = true
+        s.samples = {}
+    end
+    map_generation = map_generation + 1
+end
+
+-- cyclic.py: a cyclic frame nothing maps (key "fid|src|dst", tvb = its C_SDU)
+local function infer_offer(key, fid, src, dst, fn, tvb)
+    local st = infer_streams[key]
+    if st == nil then
+        if #infer_list >= CI.max_streams then return end
+        st = {key = key, fid = fid, src = src, dst = dst, samples = {}, frames = {}, done = false}
+        infer_streams[key] = st
+        infer_list[#infer_list + 1] = st
+    end
+    if st.done or #st.samples >= CI.samples then return end
+    st.samples[#st.samples + 1] = tvb:raw()
+    st.frames[#st.frames + 1] = fn
+    if #st.samples == CI.samples then infer_try(st, fn) end
 end
 
 
@@ -1139,7 +1422,7 @@ local function new_axis(o, fr, fn)
     local fm, d = fr.fm, o.d
     local info = {station = fm.station, device_mac = fm.device, api = d.api, slot = d.slot, subslot = d.subslot}
     local ax = {key = o.key, info = info, sp = nil, sp_frame = nil, sp_ok = false, telegram = o.telegram,
-                source = o.source, startup_checked = false, fm = fm, ambiguous = nil}
+                source = o.source, fm = fm, ambiguous = nil}
     ax.profile, ax.reason = profile_for(fm.device)
     local iso = nil
     if fm.frame_id ~= nil then iso = fm.frame_id >= 0x0100 and fm.frame_id < 0x1000 end   -- RT_CLASS_3 = IRT
@@ -1170,6 +1453,8 @@ function on_record(ev, fn)
     if #lst < 256 then lst[#lst + 1] = ev end
     for _, ax in ipairs(axis_list) do
         if (ax.info.device_mac or "") == dev and (ev.ar_uuid == nil or ax.fm.ar == nil or ev.ar_uuid == ax.fm.ar) then
+            -- an axis of a restarted AR seen before its own 0xBF00 (#31)
+            if ax.checker.prev_bf00 == nil then ax.checker.prev_bf00 = prev_bf00[dev] end
             note(ax.checker:on_record(ev), fn)
         end
     end
@@ -1189,7 +1474,7 @@ local function relabel(o, fr, fn)
     o.length_checked = false
     if ax == nil then return end
     ax.telegram, ax.source, ax.ambiguous = t, o.source, false
-    ax.sp = nil   -- decoded with the old layout
+    ax.sp, ax.sp_before = nil, nil   -- decoded with the old layout
     local chk = ax.checker
     local c = chk.cfg
     if c.telegram ~= t or tostring(c.sources.telegram):find("length", 1, true) then
@@ -1212,13 +1497,87 @@ local function length_check(o, fr, fn)
     end
 end
 
--- cyclic.py _startup: #66, 0xBF00 (PS/PSM 0xFFFF) is written before cyclic data exchange starts
+-- cyclic.py _startup: #66, 0xBF00 (PS/PSM 0xFFFF) is written since the Connect, decided at PrmEnd
+-- (an ambiguous length guess is not judged: cyclic.py _unsure)
 local function startup(ax, fn)
-    ax.startup_checked = true
-    if ax.fm.source == "connect" and is_std(ax.checker.cfg.telegram) and not ax.checker.bf00_seen then
-        note_violation(ax.sp_frame or fn, "STARTUP-NO-PARAM-RECORD", fn, false,
-            "cyclic data exchange started without a write of 0xBF00" .. (ax.profile == "psm" and " / 0xFFFF" or "")
-            .. " in this AR")
+    if ax.fm.source == "connect" and is_std(ax.checker.cfg.telegram) and not ax.checker.bf00_seen
+            and not ambiguous(ax, {source = ax.source}) then
+        note_violation(fn, "STARTUP-NO-PARAM-RECORD", fn, false,
+            "PrmEnd without a write of 0xBF00" .. (ax.profile == "psm" and " / 0xFFFF" or "")
+            .. " since the Connect of this AR")
+    end
+end
+
+-- session.set_phase + cyclic.on_phase, as far as they change a verdict: PrmEnd or ApplicationReady
+-- ends the AR's parameterisation (its cycles are judged from then on), Release / abort ends the AR
+-- (cyclic.py NOT_JUDGED_PHASES); at PrmEnd #66 is decided for every encoder axis of the AR
+-- (cyclic.py _ar_axes creates them). Phases only move forward.
+local PHASE_RANK = {parameterisation = 0, judged = 1, released = 2, aborted = 3}
+local function ar_moves(ar, phase, fn)
+    local cur = ar ~= nil and ar_phase[ar] or nil
+    local to = (phase == "prm_end" or phase == "application_ready") and "judged" or phase
+    if cur == nil or PHASE_RANK[to] <= PHASE_RANK[cur] then return end
+    ar_phase[ar] = to
+    for _, k in ipairs(ar_keys[ar]) do k[4].phase = to end
+    if to == "released" or to == "aborted" then   -- gaps.restart: a later AR on these streams is no capture loss
+        for _, k in ipairs(ar_keys[ar]) do
+            local st = gap_streams[k[1] .. "|" .. k[2] .. "|" .. k[3]]
+            if st ~= nil and maps[k[1] .. "|" .. k[2] .. "|" .. k[3]] == k[4] then st.cc, st.ts = nil, nil end
+        end
+    end
+    if phase ~= "prm_end" then return end
+    local list, seen = {}, {}
+    for _, k in ipairs(ar_keys[ar]) do
+        if maps[k[1] .. "|" .. k[2] .. "|" .. k[3]] == k[4] then
+            local fr = lookup(k[1], k[2], k[3])
+            if fr ~= nil and fr.fm == k[4] then
+                for _, o in ipairs(fr.objs) do
+                    local ax = o.ax or axes[o.key]
+                    if ax == nil then ax = new_axis(o, fr, fn) end
+                    o.ax = ax
+                    if ax.checker.io_len[fr.dir] == nil then
+                        ax.checker.io_len[fr.dir] = o.d.length
+                        refine_profile(ax, fn)
+                    end
+                    if not seen[ax] then seen[ax] = true; list[#list + 1] = ax end
+                end
+            end
+        end
+    end
+    for _, ax in ipairs(list) do startup(ax, fn) end
+end
+
+-- PNIO-CM Control / Release of an AR (session._control, session._release)
+local function control(op, pt, fn)
+    local want = (op == 4 and pt == 0) and "control" or ((op == 1 and pt == 2) and "release" or nil)
+    if want == nil then return end
+    for _, b in ipairs(blocks()) do
+        local u = inside(all("pn_io.ar_uuid"), b)[1]
+        local ar = u and tostring(u)
+        if want == "release" and b.type == 0x8114 then
+            ar_moves(ar, "released", fn)
+        elseif want == "control" and b.type >= 0x0110 and b.type <= 0x0117 and b.type ~= 0x0115 then
+            local c = inside(all("pn_io.control_command"), b)[1]
+            if c and bit.band(c.value, 1) ~= 0 then ar_moves(ar, "prm_end", fn) end
+            if c and bit.band(c.value, 2) ~= 0 then ar_moves(ar, "application_ready", fn) end
+        end
+    end
+end
+
+-- session.on_rta_error: an ERR-RTA-PDU between an AR's controller and device aborts the latest such AR
+local function rta_error(pinfo)
+    local t = X["pn_io.pdu_type.type"]()
+    if t == nil or t.value ~= 4 then return end
+    local src, dst = tostring(pinfo.dl_src), tostring(pinfo.dl_dst)
+    for i = #ar_order, 1, -1 do
+        local ar = ar_order[i]
+        local d = ar_devs[ar]
+        local ph = ar_phase[ar]
+        if d and ((d[1] == src and d[2] == dst) or (d[1] == dst and d[2] == src))
+                and ph ~= "released" and ph ~= "aborted" then
+            ar_moves(ar, "aborted", pinfo.number)
+            return
+        end
     end
 end
 
@@ -1233,8 +1592,19 @@ local function decode_sig(tvb, base, rows)
     return sig
 end
 
+-- cyclic.py _judge: one cycle, the actual value `sig` (frame fn) with the axis' setpoint; decided = the
+-- frame being dissected (a value that waited for its setpoint is judged on the setpoint's frame)
+local function judge(ax, sig, fn, ts, ok, decided)
+    local chk = ax.checker
+    if not (ok and ax.sp_ok) or ax.ambiguous then
+        note(chk:gap(fn, ts, "not valid"), decided)
+    else
+        note(chk:cycle(fn, ts, ax.sp, sig, ax.sp_frame, ax.sp_before), decided)
+    end
+end
+
 -- CyclicTracker.on_cyclic for one mapped frame (first pass); returns what the tree shows
-local function on_cyclic(pinfo, tvb, fr, ds_ok)
+local function on_cyclic(pinfo, tvb, fr, ds_ok, miss, key)
     local fn, ts = pinfo.number, ts_ns(pinfo)
     local out = {objs = {}}
     local csdu = tvb:raw()
@@ -1291,15 +1661,42 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok)
             end
             out.objs[#out.objs + 1] = v
             if dir == "setpoint" then
+                if ax.sp_ok then ax.sp_before = ax.sp else ax.sp_before = nil end
+                -- setpoint cycles lost, or one never paired: no edge across (cyclic.py)
+                if miss > 0 or ax.sp_new then ax.sp_break = true end
                 ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, ok
+                ax.sp_new, ax.sp_key = true, key
+                local pend = ax.pend
+                if pend ~= nil then   -- an actual value came before its setpoint (RT clocks drift): pair them now
+                    ax.pend = nil
+                    if miss > 0 then  -- ... unless its setpoint is among the lost ones: not judged
+                        ax.sp_break = false
+                        note(chk:lost(pend.fn, pend.ts, 1), fn)
+                    else
+                        ax.sp_new = false
+                        judge(ax, pend.sig, pend.fn, pend.ts, pend.ok, fn)
+                    end
+                end
             else
                 if ax.ambiguous == nil then ax.ambiguous = ambiguous(ax, o) end
                 if ax.sp ~= nil then
-                    if not (ok and ax.sp_ok) or ax.ambiguous then
-                        note(chk:gap(fn, ts, "not valid"), fn)
-                    else
-                        if not ax.startup_checked then startup(ax, fn) end
-                        note(chk:cycle(fn, ts, ax.sp, o.sig, ax.sp_frame), fn)
+                    if ax.pend ~= nil then   -- two actual values, no setpoint between: the first one's is lost
+                        local pend = ax.pend
+                        ax.pend = nil
+                        note(chk:lost(pend.fn, pend.ts, 1), fn)
+                    end
+                    local stale = false
+                    if miss > 0 or ax.sp_break or not ax.sp_new then
+                        -- cyclic.py _unpaired: lost cycles elapse unjudged; a value waits for its own setpoint
+                        stale = not ax.sp_new and gap_same_step(ax.sp_key, key)
+                        local brk = ax.sp_break
+                        ax.sp_break = false
+                        if miss > 0 or brk then note(chk:lost(fn, ts, miss), fn) end
+                        if stale then ax.pend = {sig = o.sig, fn = fn, ts = ts, ok = ok} end
+                    end
+                    if not stale then
+                        ax.sp_new = false
+                        judge(ax, o.sig, fn, ts, ok, fn)
                     end
                 end
             end
@@ -1429,12 +1826,23 @@ local function heuristic(tvb, pinfo, tree)
         if pinfo.visited then return false end
         local fi = X["pn_rt.frame_id"]()
         if fi == nil then blind = true; return false end   -- no protocol tree: nothing extracted
-        local fr = lookup(fi.value, tostring(pinfo.dl_src), tostring(pinfo.dl_dst))
+        local src, dst = tostring(pinfo.dl_src), tostring(pinfo.dl_dst)
+        local key = fi.value .. "|" .. src .. "|" .. dst
+        local cc = X["pn_rt.cycle_counter"]()
+        local miss = cc and gap_advance(key, cc.value, ts_ns(pinfo)) or 0
+        local fr = lookup(fi.value, src, dst)
+        if fr == nil then infer_offer(key, fi.value, src, dst, pinfo.number, tvb) end   -- mid-session capture
         if fr == nil or #fr.objs == 0 then return false end
         -- DataStatus: DataValid (bit 2) and ProviderState RUN (bit 4), wire.md §2.3
         local ds = X["pn_rt.ds"]()
         local ok_ds = ds ~= nil and bit.band(ds.value, 0x14) == 0x14
-        cached = on_cyclic(pinfo, tvb, fr, ok_ds)
+        local ph = fr.fm.phase   -- before PrmEnd or after the AR's end: not judged (cyclic.py NOT_JUDGED_PHASES)
+        if ph == "parameterisation" or ph == "released" or ph == "aborted" then ok_ds = false end
+        if ph == "released" or ph == "aborted" then   -- gaps.restart: a later AR here is no capture loss
+            local st = gap_streams[key]
+            if st ~= nil then st.cc, st.ts = nil, nil end
+        end
+        cached = on_cyclic(pinfo, tvb, fr, ok_ds, miss, key)
         cyc_cache[pinfo.number] = cached
     end
     if tree then
@@ -1555,6 +1963,7 @@ local function first_pass(pinfo)
             f.dcp = {v.value, dv and dv.value}
         end
         on_dcp(pinfo)
+        rta_error(pinfo)
         return nil
     end
     local items
@@ -1563,8 +1972,9 @@ local function first_pass(pinfo)
     local key = act and seq and (tostring(act) .. "|" .. tostring(seq.value))
     local ok, err = pcall(function()
         if op.value == 0 and pt and key then
-            if pt.value == 0 then connect_request(key) elseif pt.value == 2 then connect_response(key, pinfo) end
+            if pt.value == 0 then connect_request(key, pinfo) elseif pt.value == 2 then connect_response(key, pinfo) end
         end
+        if pt then control(op.value, pt.value, pinfo.number) end
         items = record_items(pinfo, records_of_frame())
     end)
     if not ok then items = {{error = tostring(err)}} end
@@ -1612,8 +2022,11 @@ local function reset_state()
     maps, map_cache, misses = {}, {}, {}
     map_generation, cache_generation = 0, 0
     profiles, facts, ar_devs, p922_of, im0_seen = {}, {}, {}, {}, {}
+    ar_keys, ar_phase, ar_order = {}, {}, {}
     pending_connects, pairer, superseded = {}, {}, {}
     axes, axis_list, dev_records, bf00_last, prev_bf00 = {}, {}, {}, {}, {}
+    gap_streams = {}
+    infer_streams, infer_list = {}, {}
     viol, viol_seen, late, finished = {}, {}, {}, false
     dcp_state = {name_at = {}, ip_at = {}, mac_name = {}, mac_ip = {}, reported = {}, station = {}}
     cyc_cache, rec_cache, cyclic_frame, blind = {}, {}, nil, false

@@ -20,6 +20,7 @@
 --   local chk = C.new(cfg, info)                  -- info = {station=, device_mac=, api=, slot=, subslot=}
 --   chk:cycle(frame, ts, sp, ac, sp_frame)        -- sp / ac: signal name -> number (signed signals negative)
 --   chk:gap(frame, ts, reason)
+--   chk:lost(frame, ts, cycles)
 --   chk:on_record(ev)                             -- ev shaped like the Python record/param event dict:
 --                                                    same keys, lists 1-based, None = nil, record data
 --                                                    as a hex string (as in the Python event)
@@ -275,12 +276,16 @@ function C.new(cfg, info)
   self.info = info or {}
   self.n = 0                      -- judged cycles so far
   self.f, self.fc = 0, 0          -- frame of the actual value / of the setpoint
+  self.last_fc = nil              -- setpoint frame of the previous judged cycle
+  self.sp_new = true              -- this cycle's setpoint frame was not judged before
+  self.sp_before = nil            -- the controller's setpoint frame before this one (RT drift)
   self.ts = 0
   self.out = nil                  -- events of the current call (created on the first one)
   self.open = {}                  -- coalescing runs of per-cycle conditions: rule -> run
   self.open_order = {}            -- their rules in opening order (Python dict order)
   self.counts = {}                -- rule -> {events=, cycles=, first_frame=, severity=, side=, message=}
   self.gated = 0
+  self.lost_cycles = 0            -- cycles missing from the capture (not judged)
   self:reset_history()
   -- acyclic knowledge (behaviour.md §2.0: state carried from cycle to cycle)
   self.p65000 = 0                 -- last written preset value, default 0 (000_37bf2397999f1108.txt:1787-1789)
@@ -360,6 +365,19 @@ Checker._reset_history = Checker.reset_history
 -- A cycle that is reported, not judged (provider STOP, DataValid = 0, IOPS bad).
 function Checker:gap(frame, ts, reason)
   self.gated = self.gated + 1
+  self.out = nil
+  if self.prev_ac ~= nil or self.open_order[1] ~= nil then
+    flush_all(self)
+    self:reset_history()
+  end
+  return self.out or EMPTY
+end
+
+-- `cycles` cycles missing from the capture before `frame` (capture loss, pndiss/gaps.py): they count
+-- as elapsed (n moves on) but are not judged; no edge, window or pending handshake reaches across them.
+function Checker:lost(frame, ts, cycles)
+  self.lost_cycles = self.lost_cycles + cycles
+  self.n = self.n + cycles
   self.out = nil
   if self.prev_ac ~= nil or self.open_order[1] ~= nil then
     flush_all(self)
@@ -517,10 +535,14 @@ function Checker:pending()
 end
 
 -- Judge one cycle: setpoint sp and actual value ac (signal tables) of the same cycle.
-function Checker:cycle(frame, ts, sp, ac, sp_frame)
+function Checker:cycle(frame, ts, sp, ac, sp_frame, sp_before)
   self.out = nil
   self.f, self.ts = frame, ts
   self.fc = sp_frame == nil and frame or sp_frame
+  -- RT: the controller's sign-of-life is judged on its own stream (Checker.cycle in _state.py)
+  self.sp_new = self.fc ~= self.last_fc
+  self.last_fc = self.fc
+  self.sp_before = sp_before
   if self.first_frame == nil then self.first_frame = frame end
   local same_in = sp == self.prev_sp and ac == self.prev_ac
   -- Fast path: identical inputs, nothing pending, history saturated -> nothing can change.
@@ -1096,7 +1118,11 @@ end
 function Checker:sign_of_life(CLS, pCLS, DLS, pDLS, SERR, X2, first)
   local c, k = self.cfg, self.cfg.k
   local o
-  if self.started_C then
+  if self.started_C and self.sp_new then   -- one judgement per controller frame (RT drift)
+    if not first and self.sp_before ~= nil then
+      local s2 = self.sp_before.stw2_enc or 0
+      pCLS = (s2 - s2 % 4096) / 4096
+    end
     if CLS == 0 then
       -- #1: C-LS 0 is never sent once started (001_9461bb7bc8c2767b.txt:484)
       o = self:hit("SOL-MASTER-ZERO", true)

@@ -1937,4 +1937,125 @@ T.checker = {
     },
   },
 }
+T.content_inference = {
+  candidates = {
+    {
+      actual = {
+        g1_xist1 = 4,
+        g1_xist2 = 8,
+        g1_zsw = 2,
+        zsw2_enc = 0,
+      },
+      len_actual = 12,
+      len_setpoint = 4,
+      setpoint = {
+        g1_stw = 2,
+        stw2_enc = 0,
+      },
+      telegram = 81,
+    },
+    {
+      actual = {
+        g1_xist1 = 4,
+        g1_xist2 = 8,
+        g1_zsw = 2,
+        nist_a = 12,
+        zsw2_enc = 0,
+      },
+      len_actual = 14,
+      len_setpoint = 4,
+      setpoint = {
+        g1_stw = 2,
+        stw2_enc = 0,
+      },
+      telegram = 82,
+    },
+    {
+      actual = {
+        g1_xist1 = 4,
+        g1_xist2 = 8,
+        g1_zsw = 2,
+        nist_b = 12,
+        zsw2_enc = 0,
+      },
+      len_actual = 16,
+      len_setpoint = 4,
+      setpoint = {
+        g1_stw = 2,
+        stw2_enc = 0,
+      },
+      telegram = 83,
+    },
+    {
+      actual = {
+        g1_xist2 = 12,
+        g1_xist3 = 4,
+        g1_zsw = 2,
+        nist_b = 16,
+        zsw2_enc = 0,
+      },
+      len_actual = 20,
+      len_setpoint = 4,
+      setpoint = {
+        g1_stw = 2,
+        stw2_enc = 0,
+      },
+      telegram = 84,
+    },
+    {
+      actual = {
+        g1_xist1 = 2,
+        nist_b = 6,
+        zsw2_enc = 0,
+      },
+      len_actual = 10,
+      len_setpoint = 6,
+      setpoint = {
+        g1_xist_preset_b1 = 2,
+        stw2_enc = 0,
+      },
+      telegram = 89,
+    },
+  },
+  iops_good = 128,
+  max_streams = 256,
+  mirror = {
+    actual = {
+      bits = {9, 10},
+      signal = "zsw2_enc",
+    },
+    setpoint = {
+      bits = {10},
+      signal = "stw2_enc",
+    },
+  },
+  positions = {
+    {
+      name = "g1_xist1",
+      size = 4,
+    },
+    {
+      name = "g1_xist3",
+      size = 8,
+    },
+  },
+  reserved = {
+    g1_stw = 1792,
+    g1_zsw = 1024,
+    stw2_enc = 2942,
+    zsw2_enc = 2416,
+  },
+  samples = 48,
+  sizes = {
+    g1_stw = 2,
+    g1_zsw = 2,
+    stw2_enc = 2,
+    zsw2_enc = 2,
+  },
+  sol = {
+    actual = "zsw2_enc",
+    setpoint = "stw2_enc",
+  },
+  source = "inferred from content",
+}
 return T

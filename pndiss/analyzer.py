@@ -70,6 +70,9 @@ class Analyzer:
         if self.sink is not None:
             self.sink(ev)
 
+    def violations_by_severity(self) -> dict:
+        return self.violations.by_severity()
+
     def event(self, kind: str, **fields) -> dict:
         """Emit an event stamped with the current frame and time."""
         ev = {"frame": self.cur_frame, "ts_ns": self.cur_ts, "kind": kind}
@@ -167,6 +170,8 @@ class Analyzer:
             d = alarm.decode(pdu, body, frame_id)
             d.update(frame=fn, ts_ns=ts, kind="alarm", src=src, dst=dst, frame_id=frame_id)
             self.emit(d)
+            if d.get("pdu_type", {}).get("type") == alarm.ERR:
+                self.session.on_rta_error(fn, ts, src, dst)   # the AR is aborted
             self.activity.on_event(d)
             self.stations.seen(src)
         elif cls in rt.PTCP_CLASSES:
@@ -191,6 +196,11 @@ class Analyzer:
         return "decoded"
 
     # -- results ----------------------------------------------------------------------------
+    def report_sections(self) -> list:
+        """The report's table of violations not tied to an encoder (DCP, records, ...)."""
+        from .violation_report import sections
+        return sections(self.violations.by_rule)
+
     def summary(self) -> dict:
         return {
             "frames": self.frames,
@@ -202,6 +212,7 @@ class Analyzer:
             "stations": self.stations.as_list(),
             "activity": self.activity.summary(),
             "malformed": self.malformed,
+            "violations": self.violations.totals(),
             "session": self.session.summary(),
             "cyclic": self.cyclic.summary(),
             "settings": self.settings.as_dict(),

@@ -54,6 +54,9 @@ class FrameMap:
     iocs: list[IocsEntry] = field(default_factory=list)
     source: str = "connect"     # 'connect' | 'map' | 'length'
     released: bool = False      # the AR was released; the map stays for late frames
+    # the AR's phase (pndiss.session PHASES); None = no Connect seen (map, mid-session): judged as data
+    # exchange. Cycles of an AR still in 'parameterisation' (Connect seen, no PrmEnd yet) are not judged.
+    phase: str | None = None
 
     @property
     def cycle_time_ns(self) -> int | None:

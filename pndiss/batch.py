@@ -29,7 +29,7 @@ import numpy as np
 
 from . import telegrams as tg
 from .capture import MAX_PACKET, MAX_RECORD, TS_MAX
-from .cyclic import IOPS_GOOD, RELOOKUP_EVERY
+from .cyclic import IOPS_GOOD, NOT_JUDGED_PHASES, RELOOKUP_EVERY
 from .proto.common import Malformed
 
 MAX_PERIOD = 8       # streams in one repeating pattern (setpoint + actual of up to 4 devices)
@@ -62,7 +62,7 @@ def _chunks(off: int, ln: int):
 class _Col:
     """One record of the period: its stream and where its fields lie in a row."""
 
-    __slots__ = ("s", "key", "boff", "data", "cap", "csdu", "n_csdu", "fr", "kind", "ds", "last")
+    __slots__ = ("s", "key", "boff", "data", "cap", "csdu", "n_csdu", "fr", "kind", "ds", "last", "cc", "ccbad")
 
     def __init__(self, s, key, boff, data, cap, off):
         self.s = s                  # fast._Stream
@@ -76,6 +76,8 @@ class _Col:
         self.kind = None            # "mapped", "empty" (no encoder objects) or "unmapped"
         self.ds = None              # DataStatus DataValid + RUN per row
         self.last = None
+        self.cc = None              # CycleCounter per row
+        self.ccbad = None           # per row: the counter did not advance by exactly the stream's step
 
 
 class _Ax:
@@ -273,6 +275,8 @@ class _Run:
             if fr is False:
                 return False  # not looked up yet: one frame the normal way does it
             if fr is None:
+                if t.infer.wants(c.s.key):
+                    return False  # content inference still samples this stream: frame by frame
                 c.kind = "unmapped"
                 left = RELOOKUP_EVERY - t.misses.get(c.s.key, 0) % RELOOKUP_EVERY - 1
                 self.relookup = left if self.relookup is None else min(self.relookup, left)
@@ -324,7 +328,19 @@ class _Run:
     def arrays(self, m: int) -> None:
         """The m verified rows: per-row arrays of every stream and axis."""
         self.m = m
+        gaps = self.e.t.gaps.streams
         for c in self.cols:
+            # capture loss breaks a steady run: a row is simple only where every stream's counter advanced by
+            # exactly its step (pndiss/gaps.py decides the others frame by frame)
+            st = gaps.get(c.s.key)
+            c.cc = self.f(c.data + c.cap - 4, ">u2").astype(np.int64)
+            if st is None or st.cc is None or not st.step:
+                c.ccbad = np.ones(m, dtype=bool)
+            else:
+                d = np.empty(m, dtype=np.int64)
+                d[1:] = c.cc[1:] - c.cc[:-1]
+                d[0] = c.cc[0] - st.cc
+                c.ccbad = (d % 0x10000) != st.step
             if c.kind == "mapped":
                 c.ds = (self.f(c.data + c.cap - 2, "u1") & 0x14) == 0x14   # DataValid and provider RUN (wire.md §2.3)
         for x in self.axes:
@@ -357,7 +373,7 @@ class _Run:
         return out
 
     def _ok(self, c: _Col, o):
-        if o.iops_at >= c.n_csdu:
+        if o.iops_at >= c.n_csdu or c.fr.fm.phase in NOT_JUDGED_PHASES:   # before PrmEnd / after the AR: cyclic.py
             return np.zeros(self.m, dtype=bool)
         return c.ds & ((self.f(c.csdu + o.iops_at, "u1") & IOPS_GOOD) != 0)
 
@@ -426,11 +442,20 @@ class _Run:
             if r >= self.relookup:
                 return r
             end = min(end, self.relookup)
+        for c in self.cols:
+            bad = c.ccbad[r:end]
+            if bad[0]:
+                return r
+            if bad.any():
+                end = r + int(np.argmax(bad))
+        t = self.e.t
         for x in self.axes:
             if x.ac is None:
                 continue
             ax = x.ax
             chk = ax.checker
+            if ax.sp_new or ax.sp_break or ax.pend is not None or (x.sp is None and t.gaps.same_step(ax.sp_key, self.cols[x.ac_col].s.key)):
+                return r   # a setpoint unpaired or missing (cyclic.py's _unpaired decides)
             if x.sp is None and ax.sp is None:
                 continue   # no setpoint yet: the actual pairs with nothing
             if ax.ambiguous or not x.ok[r]:
@@ -440,7 +465,7 @@ class _Run:
                 bad = x.ok[r:end] & (not ax.ambiguous)
             else:
                 if chk.prev_ac is None or chk.prev_sp is None or chk._open or chk.steady_n <= chk.L + 1 \
-                        or chk._pending_steady() or not ax.startup_checked:
+                        or chk._pending_steady():
                     return r
                 v = x.v
                 key = (int(v["stw2"][r]) & 0x0FFF, int(v["g1stw"][r]), int(v["zsw2"][r]) & 0x0FFF, int(v["g1zsw"][r]))
@@ -589,8 +614,14 @@ class _Run:
         last = e - 1
         P = len(self.cols)
         buf = self.buf
+        gaps = t.gaps.streams
         for j, c in enumerate(self.cols):
             c.s.n += cnt
+            st = gaps[c.s.key]   # every row advanced by the step (_stretch): as many exact steps
+            st.cc = int(c.cc[last])
+            st.frame = self.n + last * P + j + 1
+            st.ts = self.ts_of(buf, self._frame_pos(last, j))
+            st.seen += cnt
             if c.kind == "unmapped":
                 t.unmapped += cnt
                 t.misses[c.s.key] += cnt
@@ -609,8 +640,14 @@ class _Run:
                 o.bits = None
         for x in self.axes:
             ax = x.ax
+            if x.ac is not None:
+                ax.sp_new = False   # each row paired its setpoint (_stretch)
+            elif x.sp is not None:  # setpoints only: the later ones overwrote unpaired ones (cyclic.py)
+                ax.sp_break = ax.sp_break or ax.sp_new or cnt > 1
+                ax.sp_new = True
             if x.sp is not None:
                 ax.sp = x.sp.sig
+                ax.sp_before = None   # only sign-of-life monitoring reads it, and those axes never run in bulk
                 ax.sp_frame = self.n + last * P + x.sp_col + 1
                 ax.sp_ok = bool(self._ok(self.cols[x.sp_col], x.sp)[last])
             if x.ac is None or ax.sp is None:

@@ -5,7 +5,11 @@ For every cyclic frame the tracker finds the frame's layout (``session.lookup``,
 pndiss.telegrams and pairs the controller's setpoint (output frame) with the device's actual
 value (input frame) of the same cycle: each input frame closes a cycle with the latest setpoint.
 IOPS and DataStatus gate what is judged: data from a provider in STOP, with DataValid = 0 or IOPS
-bad is reported (telegram event, ``judged`` false) but not fed to the checker.
+bad is reported (telegram event, ``judged`` false) but not fed to the checker. So does the AR's phase
+(pndiss.session PHASES): an AR whose Connect was seen is judged from its PrmEnd on, whatever its
+IOxS said before (devices that send GOOD data during parameterisation are not judged on it), until
+its Release / abort, and
+STARTUP-NO-PARAM-RECORD is decided at the PrmEnd (on_phase), not from cyclic timing.
 
 Hot path: an unchanged C_SDU reuses the previous decode (same dict objects), and the checker
 skips identical cycles when no rule has anything pending; ``telegram`` events are built only when
@@ -15,6 +19,8 @@ from __future__ import annotations
 
 from . import limits, rules
 from . import telegrams as tg
+from .gaps import MAX_EVENTS, GapTracker
+from .infer import Inference
 from .encoder import Checker, EncoderConfig
 from .encoder.acyclic import tg_length_problem
 from .proto.common import Malformed
@@ -22,6 +28,11 @@ from .proto.common import Malformed
 IOPS_GOOD = 0x80          # IOxS DataState bit (wire.md §2.3, IEC 61158-6-10)
 RELOOKUP_EVERY = 1024     # frames between lookups of a still unmapped frame ID
 BF00_INDEXES = (0xBF00, 0xFFFF)
+# AR phases whose cyclic data is not judged: Connect seen but no PrmEnd yet (the settings are not final), or
+# the AR ended (released / aborted: frames still mapped to it belong to no data exchange, e.g. the next
+# AR's device sending before its Connect response; nothing is judged in the silence between two ARs)
+NOT_JUDGED_PHASES = ("parameterisation", "released", "aborted")
+JUDGED_FIRST = ("prm_end", "application_ready")  # phases the first judged cycle moves to data_exchange
 _MISSING = object()
 
 
@@ -63,7 +74,7 @@ class _Axis:
     """One encoder (AR/submodule): its checker, latest setpoint and identity."""
 
     __slots__ = ("key", "info", "checker", "sp", "sp_frame", "sp_ok", "telegram", "source", "profile", "reason",
-                 "startup_checked", "fm", "ambiguous")
+                 "fm", "ambiguous", "sp_before", "sp_new", "sp_break", "sp_key", "pend")
 
     def __init__(self, key, info):
         self.key = key
@@ -72,13 +83,17 @@ class _Axis:
         self.sp = None
         self.sp_frame = None
         self.sp_ok = False
+        self.sp_before = None     # the setpoint frame before sp (the controller's sign-of-life is judged on them)
         self.telegram = None
         self.source = None
         self.profile = "generic"
         self.reason = ""
-        self.startup_checked = False
         self.fm = None
         self.ambiguous = None     # telegram guessed from a length that fits several: report, don't judge
+        self.sp_new = False       # the latest setpoint is not paired with an actual value yet
+        self.sp_break = False     # setpoint cycles lost (or one never paired) since the last paired cycle
+        self.sp_key = None        # the setpoint's stream key
+        self.pend = None          # (signals, frame, ts, ok) of an actual value waiting for its setpoint
 
 
 class CyclicTracker:
@@ -103,6 +118,8 @@ class CyclicTracker:
         # With a sink: called as telegram_sink(obj, frame, frame_id, fn, ts, iops, judged) instead of building
         # a ``telegram`` event dict per frame (the MCAP exporter formats its message from obj.sig itself).
         self.telegram_sink = None
+        self.gaps = GapTracker(getattr(self.s, "capture_gaps", True))
+        self.infer = Inference(analyzer, getattr(self.s, "infer_telegrams", True))
 
     # -- frame layout ------------------------------------------------------------------------------
     def _frame(self, key, rt_ev) -> _Frame | None:
@@ -120,6 +137,8 @@ class CyclicTracker:
             return None
         objs = []
         direction = "setpoint" if fm.direction == "output" else "actual"
+        if fm.send_clock_factor and fm.reduction_ratio:
+            self.gaps.step_from(key, fm.send_clock_factor * fm.reduction_ratio)
         for do in fm.objects:
             if not do.length:
                 continue
@@ -151,16 +170,30 @@ class CyclicTracker:
             self.map_generation = gen
             self.frames.clear()
             self.misses.clear()
+        # capture loss: cycles this stream sent that the capture does not hold (pndiss/gaps.py)
+        miss = self.gaps.advance(key, fn, ts, (pdu[-4] << 8) | pdu[-3])
         fr = self.frames.get(key)
         if fr is None:  # not cached, or cached as unmapped (then _frame counts the miss)
             fr = self._frame(key, rt_ev)
             if fr is None or not fr.objs:
+                if miss:
+                    self._capture_gap(key, fn, ts, miss, fr)
+                if fr is None and self.infer.enabled:
+                    self.infer.offer(key, fn, pdu[csdu_off:len(pdu) - 4], ts)   # mid-session: learn from the content
                 self.unmapped += 1
                 return
         elif not fr.objs:
+            if miss:
+                self._capture_gap(key, fn, ts, miss, fr)
             self.unmapped += 1
             return
+        if miss:
+            self._capture_gap(key, fn, ts, miss, fr)
         self.mapped += 1
+        if fr.fm.phase in NOT_JUDGED_PHASES:
+            ds_ok = False   # before PrmEnd or after the AR's end: reported, not judged
+            if fr.fm.phase != "parameterisation":
+                self.gaps.restart(key)   # the AR ended: a later AR on this stream is no capture loss
         csdu = pdu[csdu_off:len(pdu) - 4]
         same = csdu == fr.last_csdu
         fr.last_csdu = csdu
@@ -205,22 +238,75 @@ class CyclicTracker:
                 else:
                     self.telegram_sink(o, fr, key[0], fn, ts, iops, bool(ok))
             if direction == "setpoint":
+                ax.sp_before = ax.sp if ax.sp_ok else None
+                if miss or ax.sp_new:
+                    ax.sp_break = True  # setpoint cycles lost, or one was never paired: no edge across
                 ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, bool(ok)
+                ax.sp_new, ax.sp_key = True, key
+                pend = ax.pend
+                if pend is not None:  # an actual value came before its setpoint (RT clocks drift): pair them now
+                    ax.pend = None
+                    if miss:  # ... unless its setpoint is among the lost ones: that cycle is not judged
+                        ax.sp_break = False
+                        self._out(ax.checker.lost(pend[1], pend[2], 1))
+                    else:
+                        ax.sp_new = False
+                        self._judge(ax, *pend)
                 continue
             if ax.ambiguous is None:
                 ax.ambiguous = self._ambiguous(ax, o)
             if ax.sp is None:
                 continue  # no setpoint seen yet: nothing to pair
-            chk = ax.checker
-            if not (ok and ax.sp_ok) or ax.ambiguous:
-                self.gated += 1
-                self._out(chk.gap(fn, ts, "not valid"))
-                continue
-            if not ax.startup_checked:
-                self._startup(ax, fn, ts)
-            evs = chk.cycle(fn, ts, ax.sp, o.sig, ax.sp_frame)
-            if evs:
-                self._out(evs)
+            if ax.pend is not None:  # two actual values, no setpoint between: the first one's setpoint is lost
+                pend, ax.pend = ax.pend, None
+                self._out(ax.checker.lost(pend[1], pend[2], 1))
+            if miss or ax.sp_break or not ax.sp_new:
+                # elapsed cycles, not captured frames: the cycles the capture lost are not judged
+                if self._unpaired(ax, key, miss, fn, ts, o.sig, bool(ok)):
+                    continue
+            ax.sp_new = False
+            self._judge(ax, o.sig, fn, ts, ok)
+
+    def _judge(self, ax: _Axis, sig: dict, fn: int, ts: int, ok) -> None:
+        """One cycle: the actual value ``sig`` with the axis' setpoint (gated on DataStatus / IOPS)."""
+        chk = ax.checker
+        if not (ok and ax.sp_ok) or ax.ambiguous:
+            self.gated += 1
+            self._out(chk.gap(fn, ts, "not valid"))
+            return
+        if ax.fm is not None and ax.fm.phase in JUDGED_FIRST:
+            self._exchange(ax.fm, fn, ts)
+        evs = chk.cycle(fn, ts, ax.sp, sig, ax.sp_frame, ax.sp_before)
+        if evs:
+            self._out(evs)
+
+    def _unpaired(self, ax: _Axis, key: tuple, miss: int, fn: int, ts: int, sig: dict, ok: bool) -> bool:
+        """Capture loss around this actual value: the lost cycles elapse unjudged (Checker.lost). True when
+        the value waits for its own setpoint (the latest one was paired already and both streams run at
+        one step): the next setpoint is paired with it, or, if that setpoint was lost, it is not judged."""
+        stale = not ax.sp_new and self.gaps.same_step(ax.sp_key, key)
+        if not (miss or ax.sp_break or stale):
+            return False
+        brk, ax.sp_break = ax.sp_break, False
+        if miss or brk:
+            self._out(ax.checker.lost(fn, ts, miss))
+        if stale:
+            ax.pend = (sig, fn, ts, ok)
+        return stale
+
+    def _capture_gap(self, key: tuple, fn: int, ts: int, miss: int, fr) -> None:
+        fm = fr.fm if fr is not None else None
+        st = self.a.stations.by_mac
+        station = fm.station if fm is not None else None
+        if station is None:
+            station = (st.get(key[1]) or st.get(key[2]) or {}).get("name")
+        ev = {"frame": fn, "ts_ns": ts, "kind": "capture_gap", "station": station, "frame_id": key[0],
+              "src": key[1], "dst": key[2], "direction": fm.direction if fm is not None else None,
+              "cycles_missing": miss, "prev_frame": self.gaps.prev, "next_frame": fn}
+        if len(self.gaps.rows) < MAX_EVENTS:
+            self.gaps.rows.append({k: ev[k] for k in ("frame_id", "src", "dst", "station", "direction",
+                                                      "prev_frame", "next_frame", "cycles_missing")})
+        self.a.emit(ev)
 
     def _relabel(self, o: _Obj, fr: _Frame) -> None:
         t = o.do.telegram
@@ -235,7 +321,7 @@ class CyclicTracker:
         if ax is None:
             return
         ax.telegram, ax.source, ax.ambiguous = t, o.source, False
-        ax.sp = None  # decoded with the old layout
+        ax.sp = ax.sp_before = None  # decoded with the old layout
         c = ax.checker.cfg
         if c.telegram != t or "length" in str(c.sources.get("telegram")):
             c.telegram = t
@@ -340,17 +426,71 @@ class CyclicTracker:
                 self._out(ax.checker.on_record(ev))  # a 0xBF00 among them configures the checker
         return ax
 
+    # -- AR phases (pndiss.session.set_phase) --------------------------------------------------------
+    def on_phase(self, ar: dict, phase: str, fn: int, ts: int) -> None:
+        if phase == "prm_end":
+            for ax in self._ar_axes(ar):
+                self._startup(ax, fn, ts)
+        elif phase in ("released", "aborted"):
+            for key, _fm in self.a.session.frame_keys(ar):
+                self.gaps.restart(key)   # a later AR on these streams is no capture loss
+
+    def _exchange(self, fm, fn: int, ts: int) -> None:
+        """The AR's first judged cycle: its phase becomes data_exchange."""
+        ar = self.a.session.ars.get(fm.ar_uuid)
+        if ar is not None and any(m is fm for m in ar["maps"]):
+            self.a.session.set_phase(ar, "data_exchange", fn, ts, "first judged cycle")
+        else:
+            fm.phase = "data_exchange"
+
+    def _ar_axes(self, ar: dict) -> list:
+        """The encoder axes of an AR, created now if no cyclic frame of them came yet (like on_cyclic would)."""
+        gen = self.a.session.map_generation
+        if gen != self.map_generation:
+            self.map_generation = gen
+            self.frames.clear()
+            self.misses.clear()
+        out = []
+        for key, fm in self.a.session.frame_keys(ar):
+            fr = self.frames.get(key)
+            if fr is None:
+                fr = self._frame(key, None)
+            if fr is None or fr.fm is not fm:
+                continue
+            for o in fr.objs:
+                ax = o.ax or self.axes.get(o.key)
+                if ax is None:
+                    ax = self._axis(o, fr)
+                o.ax = ax
+                if fr.direction not in ax.checker.io_len:
+                    ax.checker.io_len[fr.direction] = o.do.length
+                    self._refine_profile(ax)
+                if ax not in out:
+                    out.append(ax)
+        return out
+
     def _startup(self, ax: _Axis, fn: int, ts: int) -> None:
-        ax.startup_checked = True
-        if ax.fm is not None and ax.fm.source == "connect" and ax.checker.cfg.std and not ax.checker.bf00_seen:
-            # 66: 0xBF00 is written at every start-up (000_37bf2397999f1108.txt:1162-1163)
-            ev = rules.violation("STARTUP-NO-PARAM-RECORD", ax.sp_frame or fn, ts,
-                                 "cyclic data exchange started without a write of 0xBF00"
-                                 + (" / 0xFFFF" if ax.profile == "psm" else "") + " in this AR", **ax.info)
-            ax.checker.counts["STARTUP-NO-PARAM-RECORD"] = {"events": 1, "cycles": 1, "first_frame": ev["frame"],
-                                                            "severity": ev["severity"], "side": ev["side"],
-                                                            "message": ev["message"]}
-            self.a.emit(ev)
+        """66: 0xBF00 (PS/PSM 0xFFFF) is written at every start-up, before PrmEnd (000_37bf2397999f1108.txt:
+        1162-1163), on its own or inside a MultipleWrite (0xE040: pndiss.session emits the inner writes)."""
+        chk = ax.checker
+        if ax.fm is None or ax.fm.source != "connect" or not chk.cfg.std or chk.bf00_seen or self._unsure(ax):
+            return
+        ev = rules.violation("STARTUP-NO-PARAM-RECORD", fn, ts,
+                             "PrmEnd without a write of 0xBF00" + (" / 0xFFFF" if ax.profile == "psm" else "")
+                             + " since the Connect of this AR", **ax.info)
+        chk.counts["STARTUP-NO-PARAM-RECORD"] = {"events": 1, "cycles": 1, "first_frame": ev["frame"],
+                                                 "severity": ev["severity"], "side": ev["side"],
+                                                 "message": ev["message"]}
+        self.a.emit(ev)
+
+    def _unsure(self, ax: _Axis) -> bool:
+        """A telegram only guessed from lengths that fit several is not judged (cyclic.md §14): nor is #66."""
+        if "length" not in str(ax.source):
+            return False
+        io = ax.checker.io_len
+        cands = [t for t in tg.telegrams_for_length(io.get("actual"), io.get("setpoint"))
+                 if ax.profile in tg.TELEGRAMS[t]["profiles"] or (ax.profile == "generic" and t in tg.STANDARD)]
+        return len(cands) > 1 and ax.telegram not in tg.STANDARD
 
     # -- records -----------------------------------------------------------------------------------
     def on_record(self, ev: dict) -> None:
@@ -367,30 +507,35 @@ class CyclicTracker:
         for ax in self.axes.values():
             if ax.info["device_mac"] == dev and (ev.get("ar_uuid") is None or ax.fm is None or ax.fm.ar_uuid is None
                                                   or ev.get("ar_uuid") == ax.fm.ar_uuid):
+                if ax.checker.prev_bf00 is None:  # an axis of a restarted AR seen before its own 0xBF00 (#31)
+                    ax.checker.prev_bf00 = self.prev_bf00.get(dev)
                 self._out(ax.checker.on_record(ev))
 
     # -- results -----------------------------------------------------------------------------------
     def finish(self) -> None:
+        self.infer.finish()
         for ax in self.axes.values():
             if ax.checker is not None:
                 self._out(ax.checker.finish())
 
     def summary(self) -> dict:
-        sev = {"error": 0, "warning": 0, "info": 0}
         encs = []
         for ax in self.axes.values():
             chk = ax.checker
             s = chk.summary()
-            for r in s["violations"].values():
-                sev[r["severity"]] += r["events"]
             encs.append({**ax.info, "telegram": ax.telegram, "telegram_source": ax.source, "profile": ax.profile,
                          "profile_reason": ax.reason, **s})
         return {"frames_mapped": self.mapped, "frames_unmapped": self.unmapped, "cycles_gated": self.gated,
-                "encoders": encs, "violations_by_severity": sev}
+                # every violation, not only the encoders' (DCP, ...): one counting point (Analyzer.violations)
+                "encoders": encs, "violations_by_severity": self.a.violations_by_severity(),
+                "capture_gaps": self.gaps.summary(), "content_inference": self.infer.summary()}
 
     def report_sections(self) -> list:
         from .cyclic_report import sections
-        return sections(self.summary())
+        from .gaps_report import section
+        summ = self.summary()
+        from .infer_report import sections as infer_sections
+        return [x for x in [section(summ["capture_gaps"])] if x is not None] + infer_sections(summ) + sections(summ)
 
 
 def tg_is_irt(frame_id: int) -> bool:

@@ -180,7 +180,7 @@ def render_report(summary: dict, analyzer, to_stderr: bool = False) -> None:
             row(t, k, f"{v:,}")
         con.print(t)
     _stations(con, summary["stations"])
-    for tracker in (analyzer.cyclic, analyzer.session, analyzer.activity):  # encoders first
+    for tracker in (analyzer.cyclic, analyzer.session, analyzer.activity, analyzer):  # encoders first
         for section in getattr(tracker, "report_sections", lambda: [])():
             con.print(section)
     if summary["malformed"]:

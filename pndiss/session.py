@@ -40,6 +40,12 @@ IDX_PARAM = (0xB02E, 0xB02F)  # PROFIdrive parameter access, local / global (spe
 IDX_IM0 = 0xAFF0
 P922 = 922  # telegram selection (spec/records.md)
 
+# An AR's phases in order (issue #12): Connect -> parameterisation (records; IOPS BAD, provider STOP) ->
+# PrmEnd -> ApplicationReady -> data exchange (first judged cycle) -> released / aborted. A phase only
+# moves forward; cyclic data of an AR in 'parameterisation' is reported, not judged (pndiss.cyclic).
+PHASES = ("parameterisation", "prm_end", "application_ready", "data_exchange", "released", "aborted")
+_PHASE_RANK = {p: i for i, p in enumerate(PHASES)}
+
 MAX_CALLS = 4096      # open requests remembered for pairing (oldest dropped first)
 MAX_RECORD_ROWS = 2000  # record accesses / Connects kept for the report (events carry all of them)
 MAX_ARS = 4096          # ARs (and their frame maps) kept for lookups
@@ -93,7 +99,6 @@ class SessionTracker:
         self.ar_list: list[dict] = []             # every Connect outcome, in order (report/summary)
         self.orphans: OrderedDict = OrderedDict()  # (act, seq) -> Connect response seen before its request
         self.maps: dict[tuple, armap.FrameMap] = {}
-        self.map_keys: dict[int, list] = {}        # id(AR record) -> keys of its maps in self.maps
         self.rt_ports = {PORT_RT_UDP}
         self.ip_datagrams: dict[tuple, bool] = {}  # IP fragment key -> PNIO? (bounded with ipr)
         self.record_rows: list[dict] = []
@@ -284,7 +289,7 @@ class SessionTracker:
             if op == 3:
                 self._writes(fn, ts, pdu, key, src, dst)
             elif op == 4:
-                self._control(pdu)  # PrmEnd from the controller, ApplicationReady from the device
+                self._control(fn, ts, pdu)  # PrmEnd from the controller, ApplicationReady from the device
             elif op == 0 and key in self.orphans and call is not None:
                 # the capture holds the response before its request (seen in profinet_io_cm_connect)
                 rfn, rts, rpdu, rsrc, rdst = self.orphans.pop(key)
@@ -300,7 +305,7 @@ class SessionTracker:
             if len(self.orphans) > 64:
                 self.orphans.popitem(last=False)
         elif op == 1:
-            self._release(fn, pdu)
+            self._release(fn, ts, pdu)
         elif op == 3:
             self._write_results(fn, ts, pdu, key)
         elif op in (2, 5):
@@ -343,7 +348,7 @@ class SessionTracker:
         station = arq.get("cminitiator_station_name")
         dev_station = self._station(device) or ((sb.get(0x8106) or [{}])[0].get("cminitiator_station_name"))
         ar_uuid = arq["ar_uuid"]
-        iocrs, frame_maps, fm_keys = [], [], []
+        iocrs, frame_maps, map_keys = [], [], []
         for cr in rb.get(0x0102, []):
             fid = res_fid.get(cr["iocr_reference"], cr["frame_id"])
             direction = {1: "input", 2: "output", 3: "input"}.get(cr["iocr_type"])
@@ -385,8 +390,8 @@ class SessionTracker:
                         fm.iocs.append(ic)
             if fm is not None:
                 self.maps[(fid, s_mac, d_mac)] = fm
-                fm_keys.append((fid, s_mac, d_mac))
                 frame_maps.append(fm)
+                map_keys.append((fid, s_mac, d_mac))
             iocrs.append(info)
         alarm = (rb.get(0x0103) or [None])[0]
         alarm_res = (sb.get(0x8103) or [None])[0]
@@ -410,13 +415,12 @@ class SessionTracker:
                                "submodules": [{"subslot": s["subslot_nr"], "state": s["submodule_state"]}
                                               for s in m["submodules"]]}
                               for b in sb.get(0x8104, []) for a in b["apis"] for m in a["modules"]],
-              "released": False}
-        rec = dict(ar, maps=frame_maps)
+              "released": False, "phase": "parameterisation" if ok else "refused",
+              "phases": [{"phase": "parameterisation", "frame": fn}] if ok else []}
+        for fm in frame_maps:
+            fm.phase = ar["phase"]
+        rec = dict(ar, maps=frame_maps, map_keys=map_keys, phases=list(ar["phases"]))
         if ok or ar_uuid not in self.ars:  # a refused retry does not hide the AR that is up
-            prev = self.ars.get(ar_uuid)
-            if prev is not None:
-                self.map_keys.pop(id(prev), None)
-            self.map_keys[id(rec)] = fm_keys   # where its maps sit in self.maps, for _forget_ar
             self.ars[ar_uuid] = rec   # bounded: the oldest AR goes, with its frame maps (_forget_ar)
         for cr in rb.get(0x0102, []):  # RT_CLASS_UDP: follow the UDP port the AR names
             if cr["iocr_properties_rtclass"] == 4:
@@ -432,7 +436,7 @@ class SessionTracker:
 
     def _forget_ar(self, _uuid, old: dict) -> None:
         """An AR evicted from the bounded table: drop its frame maps (those no newer AR replaced)."""
-        for k in self.map_keys.pop(id(old), ()):
+        for k in old["map_keys"]:   # where its maps sit in self.maps
             fm = self.maps.get(k)
             if fm is not None and any(fm is m for m in old["maps"]):
                 del self.maps[k]
@@ -461,7 +465,7 @@ class SessionTracker:
                 return note
         return None
 
-    def _release(self, fn, pdu) -> None:
+    def _release(self, fn, ts, pdu) -> None:
         self.counts["releases"] += 1
         for b in pdu["blocks"]:
             if b["block_type"] == 0x8114 and b.get("ar_uuid") in self.ars:
@@ -470,12 +474,43 @@ class SessionTracker:
                 ar["release_frame"] = fn
                 for fm in ar["maps"]:  # kept for late frames; armap.FrameMap has no field for it yet
                     fm.released = True
+                self.set_phase(ar, "released", fn, ts, "Release")
 
-    def _control(self, pdu) -> None:
+    def _control(self, fn, ts, pdu) -> None:
         for b in pdu["blocks"]:
             ar = self.ars.get(b.get("ar_uuid"))
             if ar is not None and "command" in b:
                 ar.setdefault("control", []).extend(c for c in b["command"] if c != "done")
+                if "prmend" in b["command"]:
+                    self.set_phase(ar, "prm_end", fn, ts, "PrmEnd")
+                if "applready" in b["command"]:
+                    self.set_phase(ar, "application_ready", fn, ts, "ApplicationReady")
+
+    def on_rta_error(self, fn, ts, src, dst) -> None:
+        """An ERR-RTA-PDU between an AR's controller and device aborts the AR (wire.md §7.1)."""
+        for ar in reversed(list(self.ars.values())):
+            if {src, dst} == {ar["controller_mac"], ar["device_mac"]} and ar["ok"] \
+                    and ar["phase"] not in ("released", "aborted"):
+                self.set_phase(ar, "aborted", fn, ts, "ERR-RTA-PDU")
+                return
+
+    def set_phase(self, ar: dict, phase: str, fn: int, ts: int, cause: str) -> None:
+        """Move an AR forward to ``phase``: its frame maps, an ``ar_phase`` event, the cyclic tracker
+        (STARTUP-NO-PARAM-RECORD is decided at PrmEnd). A step back (ApplicationReady after the first
+        judged cycle) is kept as a milestone of the AR, not as a phase change."""
+        old = ar.get("phase")
+        if old not in _PHASE_RANK or _PHASE_RANK[phase] <= _PHASE_RANK[old]:
+            if old in _PHASE_RANK:
+                ar.setdefault("milestones", []).append({"phase": phase, "frame": fn})
+            return
+        ar["phase"] = phase
+        ar["phases"].append({"phase": phase, "frame": fn})
+        for fm in ar["maps"]:
+            fm.phase = phase
+        self.a.emit({"frame": fn, "ts_ns": ts, "kind": "ar_phase", "ar_uuid": ar["ar_uuid"], "phase": phase,
+                     "previous": old, "cause": cause, "device_mac": ar["device_mac"], "station": ar["station"],
+                     "controller_mac": ar["controller_mac"]})
+        self.a.cyclic.on_phase(ar, phase, fn, ts)
 
     # ---------------------------------------------------------------- records
     def _ar_of(self, ar_uuid):
@@ -646,6 +681,33 @@ class SessionTracker:
         self._fallback[k] = fm
         return fm
 
+    def frame_keys(self, ar: dict) -> list:
+        """(frame ID, src, dst) lookup keys of an AR's frame maps still in force (a later AR may reuse them)."""
+        return [(k, self.maps[k]) for k in ar["map_keys"] if any(self.maps.get(k) is m for m in ar["maps"])]
+
+    def has_connect(self, controller: str, device: str) -> bool:
+        """A Connect between these MACs was seen (an AR, or a request still open): no content inference."""
+        macs = {controller, device}
+        return any(ar["device_mac"] in macs and ar["controller_mac"] in macs for ar in self.ars.values()) or \
+            any(c["opnum"] == 0 and {c["src"], c["dst"]} == macs for c in self.calls.values())
+
+    def add_inferred(self, res: dict) -> None:
+        """Frame maps found from the cyclic content (pndiss/infer.py): used like a Connect's, source said."""
+        station = self._station(res["device_mac"])
+        for s in res["streams"]:
+            do = armap.DataObject(api=0, slot=0, subslot=0, offset=s["offset"], length=s["length"],
+                                  telegram=res["telegram"], telegram_source=res["source"])
+            self.maps[(s["frame_id"], s["src"], s["dst"])] = armap.FrameMap(
+                frame_id=s["frame_id"], direction=s["direction"], controller_mac=res["controller_mac"],
+                device_mac=res["device_mac"], station=station, data_length=s["c_sdu_len"], objects=[do],
+                source="content")
+        self._fallback.clear()
+        self.map_generation += 1
+        self.a.emit({"frame": res["frame"], "ts_ns": res["ts_ns"], "kind": "ar", "source": res["source"],
+                     "station": station, "device_mac": res["device_mac"], "controller_mac": res["controller_mac"],
+                     "telegram": res["telegram"], "confidence": res["confidence"], "evidence": res["evidence"],
+                     "learnt_from": res["learnt_from"], "iocrs": res["streams"]})
+
     def profile_for(self, device_mac: str | None) -> tuple[str, str]:
         s = self.a.settings.profile
         if s and s != "auto":
@@ -700,7 +762,7 @@ def _do_row(do: armap.DataObject) -> dict:
 
 
 def _ar_summary(ar: dict) -> dict:
-    out = {k: v for k, v in ar.items() if k not in ("maps", "kind", "ts_ns")}
+    out = {k: v for k, v in ar.items() if k not in ("maps", "map_keys", "kind", "ts_ns")}
     # telegrams may have changed since the ar event (P922 read later): refresh from the maps
     objs = {(fm.frame_id, do.api, do.slot, do.subslot): do for fm in ar["maps"] for do in fm.objects}
     out["iocrs"] = [dict(cr, objects=[_do_row(objs[(cr["frame_id"], o["api"], o["slot"], o["subslot"])])

@@ -32,6 +32,8 @@ class Settings:
     mt_phys: int | None = None        # hardware revolutions; None = unknown
     xist1_shift: int | None = None    # P979 sub 3; None = P979 read, else inferred from XIST1/XIST2 [INFERENCE] §1.6
     max_position_step: int | None = None  # plausible |position change| per cycle; None = R/8 [INFERENCE] §4.2 #42
+    infer_telegrams: bool = True      # mid-session captures: find telegrams from the cyclic content (pndiss/infer.py)
+    capture_gaps: bool = True         # tell capture loss from the cycle counter (pndiss/gaps.py); lost cycles are not judged
     fail_on: str | None = None        # 'info' | 'warning' | 'error': exit 1 at or above that severity
     # Report-only runs (no JSONL/MCAP sink) take pndiss/fast.py for cyclic frames; False (or env
     # PNDISS_FAST_PATH=0) forces the reference path. Same results either way (tests/test_fastpath.py).

@@ -22,11 +22,13 @@ class ViolationLog:
         self.overflow = 0
         self.keep = None  # optional filter (--station/--time): ev -> bool
         self.on_new = None  # optional callback (--follow): called with each counted violation
+        self.by_rule: dict[str, dict] = {}  # rule -> events, cycles, first frame, ... (summary["violations"])
 
     def add(self, ev: dict) -> None:
         if self.keep is not None and not self.keep(ev):
             return
         sev, side = ev.get("severity", "error"), ev.get("side", "?")
+        self._by_rule(ev, sev, side)
         self.total += 1
         self.by_sev[sev] += 1
         self.by_sev_side[(sev, side)] += 1
@@ -46,9 +48,31 @@ class ViolationLog:
         if self.on_new is not None:
             self.on_new(ev)
 
+    def _by_rule(self, ev: dict, sev: str, side: str) -> None:
+        frame = ev.get("frame", 0)
+        v = self.by_rule.get(ev.get("rule"))
+        if v is None:
+            v = self.by_rule[ev.get("rule")] = {"events": 0, "cycles": 0, "first_frame": frame, "severity": sev,
+                                                "side": side, "message": ev.get("message"), "not_axis": 0}
+        v["events"] += 1
+        v["cycles"] += ev.get("cycles") or 1
+        v["first_frame"] = min(v["first_frame"], frame)
+        if ev.get("slot") is None:  # no encoder axis names it (DCP, ...): the report lists it on its own
+            if not v["not_axis"]:
+                v["not_axis_first"] = (frame, side, ev.get("message"))
+            v["not_axis"] += 1
+
+    def by_severity(self) -> dict:
+        return {s: self.by_sev.get(s, 0) for s in ("error", "warning", "info")}
+
+    def totals(self) -> dict:
+        """The JSON summary's ``violations`` entry: counts by severity and by rule (first frame first)."""
+        return {"by_severity": self.by_severity(),
+                "by_rule": {r: dict(v) for r, v in sorted(self.by_rule.items(), key=lambda kv: kv[1]["first_frame"])}}
+
     def summary(self) -> dict:
         """The JSON summary's ``verdict`` entry (pndiss/data/summary.schema.json)."""
-        return {"total": self.total, "by_severity": {s: self.by_sev.get(s, 0) for s in ("error", "warning", "info")},
+        return {"total": self.total, "by_severity": self.by_severity(),
                 "by_severity_side": {f"{sev}/{side}": n for (sev, side), n in sorted(self.by_sev_side.items())},
                 "rows": self.as_list(), "rows_not_listed": self.overflow}
 

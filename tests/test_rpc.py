@@ -40,7 +40,8 @@ class FakeAnalyzer:
         self.first_ts = None
         self.rt: list[tuple] = []
         self.records: list[dict] = []
-        self.cyclic = type("C", (), {"on_record": lambda _s, ev: self.records.append(ev)})()
+        self.cyclic = type("C", (), {"on_record": lambda _s, ev: self.records.append(ev),
+                                     "on_phase": lambda _s, *args: None})()
         self.session = SessionTracker(self)
 
     def emit(self, ev):

@@ -52,7 +52,9 @@ def test_help_lists_every_scenario_and_option(capsys):
     for name in SCENARIOS:
         assert name in out
     for opt in ("--scenario", "--profile", "--telegram", "--cycle-time", "--cycles", "--duration",
-                "--encoders", "--inject", "--seed", "-o"):
+                "--encoders", "--inject", "--seed", "-o", "--startup", "--records", "--good-before-prmend",
+                "--restart", "--restart-scaling", "--restart-gap", "--capture-loss", "--start-mid-session",
+                "--drift-ppm", "--jitter-us", "--irt", "--io-devices"):
         assert opt in out
     for rule in list(INJECTIONS)[:5]:
         assert rule in out
@@ -69,6 +71,18 @@ def test_help_lists_every_scenario_and_option(capsys):
     ["--encoders", "0"],
     ["--scenario", "startup", "--inject", "PRESET-NOT-STANDSTILL"],   # a preset-scenario fault
     ["--inject", "PRESET-NOT-STANDSTILL", "--inject", "PARK-ACK-MISSING"],   # two scenarios at once
+    ["--restart-scaling", "mupr=4096"],                       # without --restart
+    ["--restart", "20", "--restart-scaling", "speed=3"],
+    ["--restart", "20", "--restart-scaling", "mupr=x"],
+    ["--restart", "0"],
+    ["--capture-loss", "0.9"],
+    ["--start-mid-session", "45"],                             # fewer than 10 cycles left
+    ["--cycle-time", "1,2"],                                   # two cycle times, one encoder
+    ["--encoders", "2", "--cycle-time", "1,0.3"],
+    ["--io-devices", "17"],
+    ["--io-devices", "1", "--startup", "tidy"],
+    ["--good-before-prmend", "--startup", "tidy"],
+    ["--drift-ppm", "-1"],
 ])
 def test_impossible_combinations_exit_2(tmp_path, capsys, args):
     assert main(["simulate", "-o", str(tmp_path / "x.pcapng"), "--cycles", "50", *args]) == 2
@@ -94,7 +108,8 @@ def test_same_seed_same_bytes_other_seed_differs(tmp_path):
 
 
 def test_duration_and_cycle_time(tmp_path):
-    p = sim(tmp_path, "d.pcapng", "--duration", "0.5", "--cycle-time", "2")
+    p = sim(tmp_path, "d.pcapng", "--duration", "0.5", "--cycle-time", "2", "--startup", "tidy",
+            "--drift-ppm", "0", "--jitter-us", "0")
     exp = json.loads((tmp_path / "d.expected.json").read_text())
     assert exp["config"]["cycles"] == 250
     iocr = exp["stations"][0]["iocrs"][0]
@@ -110,21 +125,26 @@ def test_duration_and_cycle_time(tmp_path):
 def test_tshark_decodes_every_frame_type(tmp_path):
     p = sim(tmp_path, "s.pcapng", "--cycles", "400", "--scenario", "sensor-error", "--profile", "lika")
     assert tshark(p, "-Y", BAD_FILTER) == ""
+    kinds = json.loads((tmp_path / "s.expected.json").read_text())["frame_kinds"]
+    pre_in, pre_out = kinds["cyclic.in.startup"], kinds["cyclic.out.startup"]
+    assert pre_in > pre_out > 0       # the device's frames start before the Connect response
     checks = {
         "pn_dcp.service_id == 5 && pn_dcp.service_type == 0": 2,      # Identify all + by name
         "pn_dcp.service_id == 5 && pn_dcp.service_type == 1": 2,      # Identify responses
         "pn_dcp.service_id == 4 && pn_dcp.service_type == 0": 2,      # Set name, Set IP
         "lldp.tlv.type == 1": 3,                                       # controller + 2 encoder ports
         "dcerpc.opnum == 0 && dcerpc.pkt_type == 0": 1,               # Connect
-        "pn_io.index == 0xbf00 && dcerpc.pkt_type == 0": 1,           # Write 0xBF00
+        "pn_io.index == 0xbf00 && dcerpc.pkt_type == 0": 1,           # Write 0xBF00 ...
+        "pn_io.index == 0xe040 && dcerpc.pkt_type == 0": 1,           # ... inside one MultipleWrite
+        "pn_rt.frame_id == 0x8001 && pn_rt.ds == 0x25": pre_out,      # ProviderState STOP at start-up
         "pn_io.index == 0xaff0 && dcerpc.pkt_type == 2": 1,           # Read I&M0 response
         "pn_io.index == 0xb02e": 4 * 5,                                # 5 parameter reads (w+r, req+res)
         "pn_io.control_command.prmend == 1": 1,
         "pn_io.control_command.applready == 1": 1,
         "pn_io.control_command.release == 1": 1,
         "pn_io.alarm_type": 4,                                         # appears/disappears + their acks
-        "pn_rt.frame_id == 0x8000": 400,
-        "pn_rt.frame_id == 0x8001": 400,
+        "pn_rt.frame_id == 0x8000": 400 + pre_in,
+        "pn_rt.frame_id == 0x8001": 400 + pre_out,
     }
     for flt, n in checks.items():
         got = len(tshark(p, "-Y", flt).splitlines())
@@ -165,8 +185,11 @@ def test_sign_of_life_and_preset_handshake(tmp_path):
     st0 = exp["stations"][0]
     inp, out = st0["iocrs"]
     off_in = 20 + inp["objects"][-1]["offset"]
-    sp = [T.decode(81, "setpoint", d, off=20) for _, d in _cyclic(p, out["frame_id"])]
-    ac = [T.decode(81, "actual", d, off=off_in) for _, d in _cyclic(p, inp["frame_id"])]
+    iops_in = off_in + inp["objects"][-1]["length"]
+    # data exchange only: DataStatus RUN from the controller, IOPS GOOD from the device
+    sp = [T.decode(81, "setpoint", d, off=20) for _, d in _cyclic(p, out["frame_id"]) if d[-2] == 0x35]
+    ac = [T.decode(81, "actual", d, off=off_in) for _, d in _cyclic(p, inp["frame_id"]) if d[iops_in] == 0x80]
+    assert len(sp) == len(ac) == 400
     cls = [s["stw2_enc"] >> 12 for s in sp]
     dls = [a["zsw2_enc"] >> 12 for a in ac]
     assert all(b == sol_next(a) for a, b in zip(cls, cls[1:]))
@@ -220,11 +243,13 @@ def test_fast_path_matches_layout_and_is_deterministic(tmp_path):
     st0 = exp["stations"][1]
     inp = st0["iocrs"][0]
     off = 20 + inp["objects"][-1]["offset"]
-    rows = [(d, T.decode(81, "actual", d, off=off)) for fn, ts, lt, d in frames
-            if len(d) > 20 and int.from_bytes(d[18:20], "big") == inp["frame_id"]]
-    assert len(rows) == n
-    cc = [int.from_bytes(d[-4:-2], "big") for d, _ in rows]
+    iops = 20 + inp["objects"][-1]["offset"] + inp["objects"][-1]["length"]
+    every = [(d, T.decode(81, "actual", d, off=off)) for fn, ts, lt, d in frames
+             if len(d) > 20 and int.from_bytes(d[18:20], "big") == inp["frame_id"]]
+    cc = [int.from_bytes(d[-4:-2], "big") for d, _ in every]   # start-up frames and data exchange: one count
     assert all((y - x) % 65536 == 32 for x, y in zip(cc, cc[1:]))
+    rows = [r for r in every if r[0][iops] == 0x80]
+    assert len(rows) == n and 0 < len(every) - n < 100 and all(d[iops] == 0 for d, _ in every[:len(every) - n])
     pos = [a["g1_xist1"] for _, a in rows]
     assert all((y - x) % (8192 * 4096) == STEPS for x, y in zip(pos, pos[1:]))
     dls = [a["zsw2_enc"] >> 12 for _, a in rows]
@@ -304,3 +329,198 @@ def test_telegram_words_round_trip(tel, raw):
         assert len(raw) < lay.length
         return
     assert lay.encode(vals) == raw[:lay.length]
+
+
+# ------------------------------------------------------------------------------------- start-up
+
+@pytest.mark.skipif(not HAVE_TSHARK, reason="tshark not installed")
+@pytest.mark.parametrize("mode", [(), ("--records", "plain"), ("--good-before-prmend",),
+                                  ("--good-before-prmend", "--records", "plain", "--encoders", "2")])
+def test_startup_modes_order_and_tshark(tmp_path, mode):
+    p = sim(tmp_path, "u.pcapng", "--cycles", "60", *mode)
+    assert tshark(p, "-Y", BAD_FILTER) == ""
+    rows = [r.split("\t") for r in tshark(
+        p, "-Y", "pn_rt.frame_id == 0x8000 || pn_rt.frame_id == 0x8001 || pn_io.index || pn_io.control_command",
+        "-T", "fields", "-e", "frame.number", "-e", "pn_rt.frame_id", "-e", "pn_io.index", "-e", "dcerpc.pkt_type",
+        "-e", "pn_io.control_command.prmend", "-e", "pn_io.control_command.applready", "-e", "pn_io.ioxs",
+        "-E", "occurrence=f").splitlines()]
+    first_in = next(int(r[0]) for r in rows if r[1] == "32768")
+    first_out = next(int(r[0]) for r in rows if r[1] == "32769")
+    bf00 = int(tshark(p, "-Y", "pn_io.index == 0xbf00 && dcerpc.pkt_type == 0", "-T", "fields",
+                      "-e", "frame.number").split()[0])
+    prm_end = next(int(r[0]) for r in rows if r[4] == "1")
+    app_ready = next(int(r[0]) for r in rows if r[5] == "1")
+    conn_res = int(tshark(p, "-Y", "dcerpc.opnum == 0 && dcerpc.pkt_type == 2", "-T", "fields",
+                          "-e", "frame.number").split()[0])
+    assert first_in < conn_res < first_out < bf00 < prm_end < app_ready
+    good = [int(r[0]) for r in rows if r[1] == "32768" and r[6] == "0x80"]
+    if "--good-before-prmend" in mode:
+        assert good[0] == first_in                      # GOOD from the device's first frame
+        assert sum(1 for r in rows if r[1] and first_out <= int(r[0]) < bf00) >= 3
+    else:
+        assert good[0] > app_ready                      # GOOD only after ApplicationReady
+    mw = tshark(p, "-Y", "pn_io.index == 0xe040 && dcerpc.pkt_type == 0")
+    assert bool(mw) == ("plain" not in mode)
+
+
+@pytest.mark.skipif(not HAVE_TSHARK, reason="tshark not installed")
+def test_restart_new_ar_new_scaling_and_silence(tmp_path):
+    p = sim(tmp_path, "r.pcapng", "--cycles", "500", "--restart", "200", "--restart-scaling", "mupr=4096,direction=1")
+    assert tshark(p, "-Y", BAD_FILTER) == ""
+    exp = json.loads((tmp_path / "r.expected.json").read_text())
+    ar1, ar2 = exp["stations"][0]["ars"]
+    assert ar1["ar_uuid"] != ar2["ar_uuid"] and ar2["session_key"] == ar1["session_key"] + 1
+    assert (ar1["params"]["mupr"], ar2["params"]["mupr"], ar2["params"]["direction"]) == (8192, 4096, 1)
+    uuids = tshark(p, "-Y", "dcerpc.opnum == 0 && dcerpc.pkt_type == 0", "-T", "fields", "-e", "pn_io.ar_uuid",
+                   "-E", "occurrence=f").split()
+    assert uuids == [ar1["ar_uuid"], ar2["ar_uuid"]]
+    # the second AR's 0xBF00 carries the new MUPR (bytes 1-8, records.md §5.1)
+    data = tshark(p, "-Y", "pn_io.index == 0xbf00 && dcerpc.pkt_type == 0", "-T", "fields", "-e", "frame.number")
+    assert len(data.split()) == 2
+    # silence: no cyclic frame of the station between the Release response and the new Connect
+    rel = int(tshark(p, "-Y", "pn_io.control_command.release == 1", "-T", "fields",
+                     "-e", "frame.number").split()[0])         # the request; its response follows
+    assert ar1["last_frame"] <= rel + 2 and ar2["first_frame"] > rel + 2
+    ts = {fn: t for fn, t, _, _ in open_capture(str(p))}
+    assert ts[ar2["first_frame"]] - ts[ar1["last_frame"]] >= 200_000_000
+    assert main(["simulate", "-o", str(tmp_path / "x.pcapng"), "--cycles", "300", "--restart", "290"]) == 2
+
+
+def test_capture_loss_gaps_come_from_what_was_dropped(tmp_path):
+    p = sim(tmp_path, "l.pcapng", "--cycles", "800", "--capture-loss", "0.02", "--inject", "SOL-DEVICE-SKIP")
+    exp = json.loads((tmp_path / "l.expected.json").read_text())
+    assert exp["needs"] == ["capture_gap"] and exp["capture_gaps"]
+    full = sim(tmp_path, "f.pcapng", "--cycles", "800", "--inject", "SOL-DEVICE-SKIP")
+    n_full = json.loads((tmp_path / "f.expected.json").read_text())["frames"]
+    assert n_full - exp["frames"] == exp["capture_loss"]["frames_dropped"] == sum(
+        g["cycles_missing"] for g in exp["capture_gaps"])
+    frames = {fn: d for fn, _, _, d in open_capture(str(p))}
+    step = 32
+    for g in exp["capture_gaps"]:
+        a, b = frames[g["prev_frame"]], frames[g["next_frame"]]
+        for d in (a, b):
+            assert int.from_bytes(d[18:20], "big") == g["frame_id"] and d[6:12].hex(":") == g["src"]
+        # the cycle counter says how many cycles passed (wire.md §2.3)
+        cc = (int.from_bytes(b[-4:-2], "big") - int.from_bytes(a[-4:-2], "big")) % 65536
+        assert cc == step * (g["cycles_missing"] + 1)
+        between = [d for fn, d in frames.items() if g["prev_frame"] < fn < g["next_frame"]
+                   and len(d) > 20 and d[18:20] == a[18:20] and d[6:12] == a[6:12]]
+        assert not between
+    # the injected fault's frames are all there
+    f = exp["faults"][0]
+    assert f["first_frame"] is not None and frames[f["first_frame"]]
+    assert sha(p) == sha(sim(tmp_path, "l2.pcapng", "--cycles", "800", "--capture-loss", "0.02",
+                             "--inject", "SOL-DEVICE-SKIP"))
+    del full
+
+
+def test_mid_session_capture_has_no_startup(tmp_path):
+    p = sim(tmp_path, "m.pcapng", "--cycles", "600", "--telegram", "83", "--start-mid-session", "300")
+    exp = json.loads((tmp_path / "m.expected.json").read_text())
+    assert exp["needs"] == ["mid_session"]
+    frames = list(open_capture(str(p)))
+    ms = exp["mid_session"]
+    assert all(t >= ms["start_ns"] for _, t, _, _ in frames)
+    # no DCP, no Connect: PN-RT frames are cyclic only, UDP only the parameter reads' successors / Release
+    fids = {int.from_bytes(d[18:20] if d[12:14] == b"\x81\x00" else d[14:16], "big")
+            for _, _, _, d in frames if b"\x88\x92" in (d[12:14], d[16:18])}
+    assert fids and all(f < 0xFC00 for f in fids)
+    assert tshark(p, "-Y", "dcerpc.opnum == 0 || pn_io.index == 0xbf00 || pn_io.index == 0xe040") == "" \
+        if HAVE_TSHARK else True
+    inp = next(s for s in ms["streams"] if s["direction"] == "input")
+    assert (inp["telegram"], inp["data_length"]) == (83, T.length(83, "actual"))
+    rows = [d for _, _, _, d in frames if len(d) > 20 and int.from_bytes(d[18:20], "big") == inp["frame_id"]]
+    assert len(rows) == 300
+    first = T.decode(83, "actual", rows[0], off=20 + inp["data_offset"])
+    assert first["zsw2_enc"] >> 12 != 0            # sign-of-life already running
+
+
+# ------------------------------------------------------------------------------------- RT realism
+
+def _fid_order(p, lo=0x8000, hi=0x8010):
+    fids = [int.from_bytes(d[18:20], "big") for _, _, _, d in open_capture(str(p))
+            if len(d) > 20 and d[16:18] == b"\x88\x92" and lo <= int.from_bytes(d[18:20], "big") < hi]
+    return fids
+
+
+def test_drift_and_jitter_change_the_frame_order(tmp_path):
+    drift = _fid_order(sim(tmp_path, "d.pcapng", "--cycles", "3000", "--encoders", "3"))
+    fixed = _fid_order(sim(tmp_path, "f.pcapng", "--cycles", "3000", "--encoders", "3",
+                           "--drift-ppm", "0", "--jitter-us", "0"))
+    n = len(fixed)
+    assert len(drift) == n
+    orders = lambda ids: {tuple(ids[i:i + 6]) for i in range(600, n - 6, 6)}   # noqa: E731  (data exchange)
+    assert len(orders(fixed)) == 1 and len(orders(drift)) > 1
+    # each stream stays in order, its cycle counter steps by one cycle
+    frames = [(t, d) for _, t, _, d in open_capture(str(tmp_path / "d.pcapng"))]
+    assert all(a[0] <= b[0] for a, b in zip(frames, frames[1:]))
+    for fid in range(0x8000, 0x8006):
+        cc = [int.from_bytes(d[-4:-2], "big") for _, d in frames
+              if len(d) > 20 and d[16:18] == b"\x88\x92" and int.from_bytes(d[18:20], "big") == fid]
+        assert all((b - a) % 65536 == 32 for a, b in zip(cc, cc[1:]))
+
+
+def test_cycle_time_per_encoder(tmp_path):
+    p = sim(tmp_path, "c.pcapng", "--cycles", "400", "--encoders", "2", "--cycle-time", "1,4")
+    exp = json.loads((tmp_path / "c.expected.json").read_text())
+    rr = [s["iocrs"][0]["reduction_ratio"] for s in exp["stations"]]
+    assert rr == [1, 4] and {s["iocrs"][0]["send_clock_factor"] for s in exp["stations"]} == {32}
+    for st_, step, n in zip(exp["stations"], (32, 128), (400, 100)):
+        fid = st_["iocrs"][0]["frame_id"]
+        rows = [d for _, _, _, d in open_capture(str(p)) if len(d) > 20 and int.from_bytes(d[18:20], "big") == fid]
+        cc = [int.from_bytes(d[-4:-2], "big") for d in rows]
+        assert all((b - a) % 65536 == step for a, b in zip(cc, cc[1:]))
+        assert sum(1 for d in rows if d[20 + st_["iocrs"][0]["objects"][-1]["offset"]
+                                       + st_["iocrs"][0]["objects"][-1]["length"]] == 0x80) == n
+    assert main(["simulate", "-o", str(tmp_path / "x.pcapng"), "--encoders", "3", "--cycle-time", "1,2"]) == 2
+
+
+@pytest.mark.skipif(not HAVE_TSHARK, reason="tshark not installed")
+def test_irt_and_io_devices(tmp_path):
+    p = sim(tmp_path, "i.pcapng", "--cycles", "800", "--irt", "--io-devices", "2")
+    assert tshark(p, "-Y", BAD_FILTER) == ""
+    exp = json.loads((tmp_path / "i.expected.json").read_text())
+    assert exp["stations"][0]["iocrs"][0]["frame_id"] == 0x0100
+    assert exp["stations"][0]["iocrs"][0]["send_clock_factor"] == 8          # 250 us
+    rt = tshark(p, "-Y", "dcerpc.opnum == 0 && dcerpc.pkt_type == 0", "-T", "fields",
+                "-e", "pn_io.iocr_properties.rtclass").split()
+    assert len(rt) == 3 and {int(x, 16) for r in rt for x in r.split(",")} == {3}    # every IOCR RT_CLASS_3
+    names = tshark(p, "-Y", "pn_dcp.suboption_device_nameofstation", "-T", "fields",
+                   "-e", "pn_dcp.suboption_device_nameofstation").split()
+    assert {"io-device-1", "io-device-2", "encoder-1"} <= set(names)
+    io = exp["io_devices"]
+    assert [d["name"] for d in io] == ["io-device-1", "io-device-2"]
+    fid = io[0]["iocrs"][0]["frame_id"]
+    rows = [d for _, _, _, d in open_capture(str(p)) if len(d) > 20 and int.from_bytes(d[18:20], "big") == fid]
+    good = [d for d in rows if d[20 + 5] == 0x80]      # DI IOPS after 4 DAP IOPS + 1 data byte
+    assert len(good) == 800 and len({d[20 + 4] for d in good}) > 1    # the inputs change
+    assert len(rows) > len(good)                                       # start-up frames with IOPS BAD
+
+
+def test_fast_path_capture_loss(tmp_path):
+    from pndiss.sim.fastpath import FAST_THRESHOLD
+    p = sim(tmp_path, "fl.pcapng", "--cycles", str(FAST_THRESHOLD), "--capture-loss", "0.001")
+    exp = json.loads((tmp_path / "fl.expected.json").read_text())
+    frames = {fn: (t, d) for fn, t, _, d in open_capture(str(p))}
+    assert len(frames) == exp["frames"] and exp["needs"] == ["capture_gap"]
+    assert 100 < exp["capture_loss"]["frames_dropped"] < 300
+    ts = [t for t, _ in frames.values()]
+    assert all(a <= b for a, b in zip(ts, ts[1:]))
+    for g in exp["capture_gaps"]:
+        a, b = frames[g["prev_frame"]][1], frames[g["next_frame"]][1]
+        assert int.from_bytes(a[18:20], "big") == int.from_bytes(b[18:20], "big") == g["frame_id"]
+        assert a[6:12].hex(":") == g["src"]
+        assert (int.from_bytes(b[-4:-2], "big") - int.from_bytes(a[-4:-2], "big")) % 65536 == 32 * (
+            g["cycles_missing"] + 1)
+
+
+@pytest.mark.skipif(not HAVE_TSHARK, reason="tshark not installed")
+def test_restart_by_abort(tmp_path):
+    p = sim(tmp_path, "a.pcapng", "--cycles", "400", "--restart", "150", "--restart-mode", "abort")
+    assert tshark(p, "-Y", BAD_FILTER) == ""
+    err = tshark(p, "-Y", "pn_io.pdu_type.type == 4", "-T", "fields", "-e", "pn_io.error_code2").split()
+    assert err == ["13"]                                   # AR abort.req
+    assert tshark(p, "-Y", "pn_io.control_command.release == 1", "-T", "fields", "-e", "frame.number").split() \
+        and len(tshark(p, "-Y", "pn_io.control_command.release == 1").splitlines()) == 1   # only at the end
+    exp = json.loads((tmp_path / "a.expected.json").read_text())
+    assert exp["stations"][0]["ars"][0]["ended_by"] == "abort" and exp["clean"]

@@ -169,11 +169,12 @@ def test_analyzer_wiring_decodes_pairs_and_checks():
     assert act[0]["station"] == "enc1" and (act[0]["slot"], act[0]["subslot"]) == (1, 2)
     assert [e["judged"] for e in act][-2:] == [False, False]
     viol = [e for e in ev if e["kind"] == "violation"]
-    assert [v["rule"] for v in viol] == ["STARTUP-NO-PARAM-RECORD", "CTRLREQ-MISMATCH"]
-    mism = viol[1]
+    # no PrmEnd in this session: STARTUP-NO-PARAM-RECORD is decided at PrmEnd only (issue #12)
+    assert [v["rule"] for v in viol] == ["CTRLREQ-MISMATCH"]
+    mism = viol[0]
     assert mism["frame"] == 8 and mism["last_frame"] == 16 and mism["station"] == "enc1"
     s = a.summary()["cyclic"]
-    assert s["violations_by_severity"] == {"error": 2, "warning": 0, "info": 0}
+    assert s["violations_by_severity"] == {"error": 1, "warning": 0, "info": 0}
     enc = s["encoders"][0]
     assert enc["cycles"] == 8 and enc["gated_cycles"] == 2 and enc["settings"]["telegram"]["value"] == 81
     assert a.counts["malformed"] == 0

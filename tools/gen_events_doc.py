@@ -22,7 +22,12 @@ ABOUT = {
     "alarm": "an RTA alarm PDU: header, DATA/ACK/NACK/ERR, AlarmNotification with diagnosis items",
     "ip_fragment": "an IPv4 fragment of a PNIO datagram (reassembled later)",
     "rpc": "one DCE/RPC PDU: header, operation, request/response pairing, PNIO-CM blocks, PNIO status",
-    "ar": "an application relationship completed by a Connect response: IOCRs, data objects, telegrams and their source",
+    "ar": "an application relationship completed by a Connect response: IOCRs, data objects, telegrams and their "
+          "source; `phase` (parameterisation, or refused) and `phases` (phase, frame) so far; in a capture without "
+          "the Connect, one found from the cyclic content (`source` \"inferred from content\", `confidence`, "
+          "`evidence`, `learnt_from` = first/last frame learnt from)",
+    "ar_phase": "an AR moves on: parameterisation -> prm_end (PrmEnd) -> application_ready -> data_exchange (first "
+                "judged cycle) -> released / aborted (ERR-RTA-PDU); cyclic data is judged from prm_end on",
     "record": "record data on the frame that carries it (write request / read response): index, name, decoded content",
     "record_result": "the response to a record write/read: PNIO status in words",
     "param": "a paired PROFIdrive parameter access (0xB02E/0xB02F): request + response, parameters named",
@@ -30,6 +35,13 @@ ABOUT = {
     "state": "a state change of a reference encoder (control by PLC, preset, parking, sensor error, ...)",
     "violation": "a broken rule of the catalogue (contract below)",
     "malformed": "a frame (or reassembly) that could not be decoded: layer and reason",
+    "capture_gap": "cycles of a cyclic stream the capture does not hold (its cycle counter skipped): capture loss, "
+                   "not a protocol fault; `frame` is the first frame after the gap, the lost cycles are not judged",
+}
+# fields of events the shipped captures do not show (lossy or mid-session captures, issue #12)
+EXTRA = {
+    "capture_gap": {"station", "frame_id", "src", "dst", "direction", "cycles_missing", "prev_frame", "next_frame"},
+    "ar": {"source", "telegram", "confidence", "evidence", "learnt_from"},
 }
 
 
@@ -82,7 +94,7 @@ def main() -> None:
         "| kind | what | fields |", "|---|---|---|",
     ]
     for kind in sorted(set(fields) | set(ABOUT)):
-        keys = sorted(fields.get(kind, set()) - {"frame", "ts_ns", "kind"})
+        keys = sorted((fields.get(kind, set()) | EXTRA.get(kind, set())) - {"frame", "ts_ns", "kind"})
         lines.append(f"| `{kind}` | {ABOUT.get(kind, '')} | {', '.join(f'`{k}`' for k in keys) or '-'} |")
     with open(os.path.join(ROOT, "docs", "events.md"), "w", encoding="utf-8") as f:
         f.write("\n".join(lines) + "\n")

@@ -149,7 +149,13 @@ def tables() -> dict:
         "im_profile_ids": dict(im.IM_PROFILE_IDS), "vendors": dict(im.VENDORS),
         "rules": cat, "plugin_rules": list(PLUGIN_RULES), "unsupported_rules": unsupported,
         "checker": checker_tables(),
+        "content_inference": _infer_facts(),
     }
+
+
+def _infer_facts() -> dict:
+    from pndiss import infer
+    return infer.lua_facts()
 
 
 def checker_tables() -> dict:

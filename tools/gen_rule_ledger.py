@@ -29,7 +29,8 @@ PARTIAL = {
     "POSITION-DISCONTINUITY": "plausible step = settings.max_position_step, else R/8 [INFERENCE]; LIKA red-zone jumps not modelled",
     "POSITION-OUT-OF-RANGE": "needs R: 0xBF00 TMR with scaling, or settings st_phys/mt_phys",
     "PRESET860-VALUE-OUT-OF-RANGE": "needs R (as POSITION-OUT-OF-RANGE)",
-    "STARTUP-NO-PARAM-RECORD": "only for ARs whose Connect is in the capture (FrameMap.source 'connect')",
+    "STARTUP-NO-PARAM-RECORD": "decided at the AR's PrmEnd (0xBF00 / PS/PSM 0xFFFF written since the Connect, alone or "
+                               "in a MultipleWrite 0xE040); only for ARs whose Connect and PrmEnd are in the capture",
     "PRESET-WITHOUT-NEW-PARAMS": "needs two connections of the same device in one capture",
     "BMP-UNKNOWN-PNU": "needs a P980 read in the capture",
 }

@@ -45,6 +45,9 @@ class Checker:
         self.info = info or {}
         self.n = 0                     # judged cycles so far
         self.f = self.fc = 0           # frame of the actual value / of the setpoint
+        self.last_fc = None            # setpoint frame of the previous judged cycle
+        self.sp_new = True             # this cycle's setpoint frame was not judged before
+        self.sp_before = None          # the controller's setpoint frame before this one (RT drift)
         self.ts = 0
         self.out: list[dict] = []      # events produced by the current call
         self._open: dict[str, dict] = {}   # coalescing runs of per-cycle conditions
@@ -52,6 +55,7 @@ class Checker:
         self.timeline: list[dict] = []     # first state changes (capped), for the report
         self.state_changes = 0
         self.gated = 0                 # cycles reported but not judged (IOPS/DataStatus)
+        self.lost_cycles = 0           # cycles missing from the capture (not judged)
         self._reset_history()
         # acyclic knowledge (behaviour.md §2.0: state carried from cycle to cycle)
         self.p65000 = 0                # last written preset value, default 0 (000_37bf2397999f1108.txt:1787-1789)
@@ -128,6 +132,18 @@ class Checker:
             self._reset_history()
         return self.out
 
+    def lost(self, frame: int, ts: int, cycles: int) -> list[dict]:
+        """``cycles`` cycles the capture does not hold (capture loss, pndiss/gaps.py) before ``frame``: they
+        count as elapsed (n moves on, so deadlines count cycles, not captured frames) but are not judged; no
+        edge, window or pending handshake reaches across them (not judged rather than a violation)."""
+        self.lost_cycles += cycles
+        self.n += cycles
+        self.out = []
+        if self.prev_ac is not None or self._open:
+            self._flush_all()
+            self._reset_history()
+        return self.out
+
     # -- violations ------------------------------------------------------------------------------
     def _emit(self, rule: str, frame: int, ts: int, msg: str, last: int | None = None, side: str | None = None,
               cycles: int = 1) -> None:
@@ -180,11 +196,20 @@ class Checker:
         self.out.append(ev)
 
     # -- one cycle -------------------------------------------------------------------------------
-    def cycle(self, frame: int, ts: int, sp: dict, ac: dict, sp_frame: int | None = None) -> list[dict]:
-        """Judge one cycle: setpoint ``sp`` and actual value ``ac`` (signal dicts) of the same cycle."""
+    def cycle(self, frame: int, ts: int, sp: dict, ac: dict, sp_frame: int | None = None,
+              sp_before: dict | None = None) -> list[dict]:
+        """Judge one cycle: setpoint ``sp`` and actual value ``ac`` (signal dicts) of the same cycle.
+
+        In RT controller and device run on their own clocks: an actual value may be paired with the same
+        setpoint frame as the cycle before, or one setpoint frame may pass unpaired. ``sp_before`` is the
+        setpoint frame before ``sp`` in the controller's own stream: the controller's sign-of-life is judged
+        on that stream (once per new setpoint frame, against its predecessor), not on the pairing."""
         self.out = []
         self.f, self.ts = frame, ts
         self.fc = frame if sp_frame is None else sp_frame
+        self.sp_new = self.fc != self.last_fc
+        self.last_fc = self.fc
+        self.sp_before = sp_before
         if self.first_frame is None:
             self.first_frame = frame
         # Fast path: identical inputs, nothing pending, history saturated -> nothing can change.
@@ -612,7 +637,9 @@ class Checker:
     # -- sign-of-life (§3) -----------------------------------------------------------------------
     def _sign_of_life(self, CLS, pCLS, DLS, pDLS, SERR, X2, first) -> None:
         c, k = self.cfg, self.cfg.k
-        if self.started_C:
+        if self.started_C and self.sp_new:   # one judgement per controller frame (RT drift: see cycle())
+            if not first and self.sp_before is not None:
+                pCLS = self.sp_before.get("stw2_enc", 0) >> 12
             if CLS == 0:
                 # 1: C-LS 0 is never sent once started (001_9461bb7bc8c2767b.txt:484)
                 self._hit("SOL-MASTER-ZERO", "controller sign-of-life 0 after start; expected 1..15", controller=True)
@@ -842,7 +869,7 @@ class Checker:
         return self.out
 
     def summary(self) -> dict:
-        return {"cycles": self.n, "gated_cycles": self.gated, "settings": self.cfg.in_force(),
+        return {"cycles": self.n, "gated_cycles": self.gated, "lost_cycles": self.lost_cycles, "settings": self.cfg.in_force(),
                 "violations": self.counts, "state_changes": self.state_changes, "timeline": self.timeline[:50],
                 "p65000": self.p65000, "bf00_seen": self.bf00_seen}
 

@@ -40,6 +40,38 @@ CLEAN = [
 ]
 
 
+# Plant-like sessions for issue #12 (start-up phases, loss, mid-session, restarts, IO devices).
+# "needs" in a sidecar (capture_gap, mid_session) names the analyzer features such a capture tests.
+PLANT = {
+    # GOOD data from the device's first frame, 0xBF00 (plain write) a few cycles after the Connect
+    # response, still before PrmEnd: clean
+    "plant-good-before-prmend-t81": dict(telegram=81, cycles=600, good_before_prmend=True, records="plain"),
+    # the same with no 0xBF00 write at all: STARTUP-NO-PARAM-RECORD at PrmEnd
+    "plant-good-before-prmend-no-bf00": dict(telegram=81, cycles=300, good_before_prmend=True,
+                                             injects=[("STARTUP-NO-PARAM-RECORD", None)]),
+    # 0xBF00 only inside the S7-style MultipleWrite (0xE040): clean
+    "plant-bf00-in-multiplewrite-t83-lika": dict(profile="lika", telegram=83, cycles=600),
+    # isochronous (RT_CLASS_3, 250 us) with capture loss, and one genuine encoder sign-of-life skip
+    "plant-irt-loss-sol-skip": dict(telegram=81, cycle_ms=0.25, cycles=2400, irt=True, capture_loss=0.01,
+                                    injects=[("SOL-DEVICE-SKIP", 1800)]),
+    # RT with capture loss, clean
+    "plant-rt-loss-t81": dict(telegram=81, cycles=1500, encoders=2, capture_loss=0.01),
+    # captures that start in data exchange (no DCP/Connect/records), each with a cyclic fault
+    "plant-mid-session-t81": dict(telegram=81, cycles=1000, start_mid_session=300,
+                                  injects=[("ABSVAL-ACK-MISSING", 600)]),
+    "plant-mid-session-t83": dict(telegram=83, cycles=1000, start_mid_session=300,
+                                  injects=[("RESERVED-BIT-SET-G1ZSW", 600)]),
+    # encoder 1 released and connected again with other scaling (MUPR 4096, TMR 2^24, direction ccw)
+    "plant-restart-new-scaling": dict(telegram=81, cycles=1200, restart=500,
+                                      restart_scaling={"mupr": 4096, "tmr": 1 << 24, "direction": 1}),
+    # encoder 1's AR aborted by the controller (ERR-RTA-PDU), a new AR with the same settings: clean
+    "plant-restart-abort": dict(telegram=81, cycles=600, restart=250, restart_mode="abort"),
+    # three encoders at 1/2/4 ms, two IO devices, drifting clocks
+    "plant-3enc-cycles-io-devices": dict(telegram=81, cycles=1000, encoders=3, cycle_list=[1.0, 2.0, 4.0],
+                                         io_devices=2),
+}
+
+
 def fault_config(rule: str) -> Config:
     cls = INJECTIONS[rule]
     tel = cls.telegram or 81
@@ -54,6 +86,8 @@ def catalogue() -> dict[str, Config]:
            for stem, sc, p, t, c, e in CLEAN}
     for rule in sorted(INJECTIONS):
         out["fault-" + rule.lower()] = fault_config(rule)
+    for stem, kw in PLANT.items():
+        out[stem] = Config(**{"scenario": "startup", "seed": SEED, **kw})
     return out
 
 

@@ -10,7 +10,9 @@ PLC, absolute value requested and acknowledged, shaft turning at a constant ``ST
 """
 from __future__ import annotations
 
+import dataclasses
 import json
+import random
 import struct
 import sys
 from array import array
@@ -78,8 +80,8 @@ class _Stream:
                     for n in ("g1_xist1", "g1_xist2", "g1_xist3") if n in names_i]
         self.cc_out = len(out_t) - 4
         self.cc_in = len(in_t) - 4
-        self.cc0 = (sess.rng.randrange(1 << 16), sess.rng.randrange(1 << 16))
-        self.sol0 = 1 + sess.rng.randrange(15)
+        self.cc0 = st.cc0                                     # the start-up cycles' counters go on
+        self.sol0 = st.sol0
         self.ctrl_hi = 0x04                                   # STW2_ENC high byte: bit 10
         self.creq_hi = (1 << ctrl_bit) >> 8 if ctrl_bit else 0
         self.tmr = sess.params["tmr"]
@@ -96,7 +98,9 @@ class _Stream:
 
 def write_fast(cfg: Config, path: str, expected: bool = True) -> dict:
     """Start-up scenario with ``cfg.cycles`` cycles, cyclic part in bulk. Returns the ground truth."""
-    sess = SimSession(cfg, None)
+    loss = cfg.capture_loss
+    # the start-up part comes whole; frames are lost only from the bulk cyclic part (below)
+    sess = SimSession(dataclasses.replace(cfg, capture_loss=0.0), None)
     sess.with_cyclic = False
     acyclic, truth = sess.build()
     streams = [_Stream(sess, st, len(sess.stations)) for st in sess.stations]
@@ -126,6 +130,105 @@ def write_fast(cfg: Config, path: str, expected: bool = True) -> dict:
     acyc = [(f.ts, f.data) for f in acyclic]
     t_start = sess.cyc_start_ns
 
+    drift = any(st.phase != st.cycle_ns // 2 + 20_000 * st.i or st.ppb for st in sess.stations) \
+        or sess.ctrl_ppb or sess.jit_ns
+    gaps = []
+    if drift or loss:
+        with open(path, "wb") as f:
+            w = pcapng.Writer(f)
+            _write_sorted(w, acyc, sess, slots, pair, stride, epb, streams, step_cc, cc_period, loss, gaps)
+    else:
+        _write_fixed(path, acyc, cfg, sess, slots, pair, stride, epb, streams, step_cc, cc_period, t_start, T_ns)
+    if loss:
+        dropped = sum(g["cycles_missing"] for g in gaps)
+        frames_cyc -= dropped
+        truth["config"]["capture_loss"] = loss
+        truth["capture_loss"] = {"rate": loss, "frames_dropped": dropped,
+                                 "note": "bulk path: only data-exchange frames are lost"}
+        truth["capture_gaps"] = gaps
+        truth["needs"] = ["capture_gap"]
+    truth["frames"] = len(acyc) + frames_cyc
+    truth["frame_kinds"]["cyclic.in"] = truth["frame_kinds"]["cyclic.out"] = cfg.cycles * n_st
+    truth["fast_path"] = {"steps_per_cycle": STEPS, "note": "constant-speed steady state, no handshakes"}
+    if expected:
+        from .scenarios import expected_path
+        with open(expected_path(path), "w", encoding="utf-8") as f:
+            json.dump(truth, f, indent=1, sort_keys=True)
+            f.write("\n")
+    return truth
+
+
+def _write_sorted(w, acyc, sess, slots, pair, stride, epb, streams, step_cc, cc_period, loss=0.0,
+                  gaps=None) -> None:
+    """Drifting clocks and jitter: per chunk every frame's own timestamp (the session's out_ts /
+    in_ts), then the chunk's frames and the acyclic frames in time order. A frame is written once
+    no later frame can be earlier: before the first frame of the next chunk (each stream's frames
+    are in order, so that is the earliest of the streams' next frames)."""
+    cycles = sess.cfg.cycles
+    n_slots = len(slots)
+    ts_of = [(sess.out_ts if kind == "out" else sess.in_ts, s.st) for kind, s, _ in slots]
+    pending = []     # (ts, order, bytes) not yet written
+    ai = order = 0
+    # capture loss (capture_point.py does the same for the normal path): own RNG, gaps per stream
+    rng = random.Random(f"capture-loss:{sess.cfg.seed}:{loss}")
+    keys = [(st.out_fid if kind == "out" else st.in_fid, CTRL_MAC if kind == "out" else st.mac)
+            for kind, s, _ in slots for st in (s.st,)]
+    last, missing = [None] * n_slots, [0] * n_slots
+    k = 0
+    while k < cycles:
+        k1 = min(cycles, k + CHUNK)
+        n = k1 - k
+        mv = _emit_into(slots, pair, stride, epb, k, k1, sess.cyc_start_ns, sess.cycle_ns, streams, step_cc,
+                        cc_period)
+        view = memoryview(mv)
+        for j, (fn, st) in enumerate(ts_of):
+            ts = [fn(st, c) for c in range(k, k1)]
+            hi = _le32(array("I", [t >> 32 for t in ts]))
+            lo = _le32(array("I", [t & 0xFFFFFFFF for t in ts]))
+            e = j * epb
+            for b in range(4):
+                mv[e + 12 + b::stride] = hi[b::4]
+                mv[e + 16 + b::stride] = lo[b::4]
+            for c, t in enumerate(ts):
+                i = c * n_slots + j
+                pending.append((t, order + i, view[i * epb:(i + 1) * epb]))
+        order += n * n_slots
+        bound = min(fn(st, k1) for fn, st in ts_of) if k1 < cycles else None
+        while ai < len(acyc) and (bound is None or acyc[ai][0] < bound):
+            pending.append((acyc[ai][0], -1, pcapng.epb(*acyc[ai])))
+            ai += 1
+        pending.sort(key=lambda r: (r[0], r[1]))
+        cut = len(pending) if bound is None else next((x for x, r in enumerate(pending) if r[0] >= bound),
+                                                      len(pending))
+        out = pending[:cut]
+        if loss:
+            kept = []
+            for r in out:
+                if r[1] < 0:
+                    kept.append(r)
+                    continue
+                j = r[1] % n_slots
+                if rng.random() < loss:
+                    missing[j] += 1
+                    continue
+                kept.append(r)
+                num = w.frames + len(kept)
+                if missing[j] and last[j] is not None:
+                    gaps.append({"frame_id": keys[j][0], "src": keys[j][1], "prev_frame": last[j],
+                                 "next_frame": num, "cycles_missing": missing[j]})
+                missing[j] = 0
+                last[j] = num
+            out = kept
+        w.write_raw(b"".join(bytes(r[2]) if isinstance(r[2], memoryview) else r[2] for r in out), len(out))
+        pending = pending[cut:]
+        k = k1
+    while ai < len(acyc):
+        w.write(*acyc[ai])
+        ai += 1
+
+
+def _write_fixed(path, acyc, cfg, sess, slots, pair, stride, epb, streams, step_cc, cc_period, t_start, T_ns):
+    """One synchronised clock without jitter: every cycle's frames in one fixed slot order."""
     with open(path, "wb") as f:
         w = pcapng.Writer(f)
         ai = 0
@@ -158,15 +261,6 @@ def write_fast(cfg: Config, path: str, expected: bool = True) -> dict:
         while ai < len(acyc):
             w.write(*acyc[ai])
             ai += 1
-    truth["frames"] = len(acyc) + frames_cyc
-    truth["frame_kinds"]["cyclic.in"] = truth["frame_kinds"]["cyclic.out"] = cfg.cycles * n_st
-    truth["fast_path"] = {"steps_per_cycle": STEPS, "note": "constant-speed steady state, no handshakes"}
-    if expected:
-        from .scenarios import expected_path
-        with open(expected_path(path), "w", encoding="utf-8") as f:
-            json.dump(truth, f, indent=1, sort_keys=True)
-            f.write("\n")
-    return truth
 
 
 def _emit(w, slots, pair, stride, epb, k0, k1, t_start, T_ns, streams, step_cc, cc_period, sess):

@@ -163,10 +163,10 @@ def ar_block_req(ar_uuid, session_key, ctrl_mac, ctrl_obj, station: str):
                         CMInitiatorStationName=station.encode())
 
 
-def iocr_block_req(iocr_type, ref, data_length, frame_id, scf, rr, apis, watchdog=3):
+def iocr_block_req(iocr_type, ref, data_length, frame_id, scf, rr, apis, watchdog=3, rt_class=2):
     """apis: [(api, [(slot, subslot, offset)] data objects, [(slot, subslot, offset)] iocs)]."""
     return R.IOCRBlockReq(
-        IOCRType=iocr_type, IOCRReference=ref, LT=0x8892, IOCRProperties_RTClass=2,
+        IOCRType=iocr_type, IOCRReference=ref, LT=0x8892, IOCRProperties_RTClass=rt_class,
         DataLength=data_length, FrameID=frame_id, SendClockFactor=scf, ReductionRatio=rr,
         Phase=1, Sequence=0, FrameSendOffset=0xFFFFFFFF, WatchdogFactor=watchdog,
         DataHoldFactor=watchdog, IOCRTagHeader_IOUserPriority=PCP_RT, IOCRTagHeader_IOCRVLANID=0,
@@ -257,6 +257,32 @@ def write_res(seq, ar_uuid, api, slot, subslot, index, length, status=0):
                          RWPadding=b"\0" * 16)
 
 
+def multiple_write_req(seq, ar_uuid, writes: list):
+    """Index 0xE040 (wire.md §6.10): writes = [(seq, api, slot, subslot, index, data)]. Outer header
+    API/slot/subslot 0xFFFFFFFF/0xFFFF/0xFFFF as an S7-1500 sends it; each inner IODWriteReqHeader +
+    data, padded to 4 bytes from the stub start (the body starts at stub offset 20 + 64, aligned), the
+    last record not padded."""
+    body = b""
+    for j, (sq, api, slot, subslot, index, data) in enumerate(writes):
+        body += bytes(R.IODWriteReq(seqNum=sq, ARUUID=ar_uuid, API=api, slotNumber=slot, subslotNumber=subslot,
+                                    padding=b"\0\0", index=index, recordDataLength=len(data),
+                                    RWPadding=b"\0" * 24)) + data
+        if j < len(writes) - 1:
+            body += bytes(-len(body) % 4)
+    return R.IODWriteReq(seqNum=seq, ARUUID=ar_uuid, API=0xFFFFFFFF, slotNumber=0xFFFF, subslotNumber=0xFFFF,
+                         padding=b"\0\0", index=0xE040, recordDataLength=len(body), RWPadding=b"\0" * 24) / Raw(body)
+
+
+def multiple_write_res(seq, ar_uuid, writes: list, statuses: list):
+    """Outer IODWriteResHeader (index 0xE040, RecordDataLength n x 64), then one per inner write."""
+    out = [R.IODWriteRes(seqNum=seq, ARUUID=ar_uuid, API=0xFFFFFFFF, slotNumber=0xFFFF, subslotNumber=0xFFFF,
+                         padding=b"\0\0", index=0xE040, recordDataLength=64 * len(writes),
+                         status=max(statuses, default=0), RWPadding=b"\0" * 16)]
+    for (sq, api, slot, subslot, index, data), stat in zip(writes, statuses):
+        out.append(write_res(sq, ar_uuid, api, slot, subslot, index, len(data), stat))
+    return out
+
+
 def read_req(seq, ar_uuid, api, slot, subslot, index, max_len):
     return R.IODReadReq(seqNum=seq, ARUUID=ar_uuid, API=api, slotNumber=slot, subslotNumber=subslot,
                         padding=b"\0\0", index=index, recordDataLength=max_len, RWPadding=b"\0" * 24)
@@ -275,9 +301,12 @@ def read_res(seq, ar_uuid, api, slot, subslot, index, data: bytes):
 RTA_DATA, RTA_ACK = 1, 3
 
 
+RTA_ERR = 4
+
+
 def rta(src, dst, *, high: bool, dst_ep: int, src_ep: int, pdu_type: int, send_seq: int, ack_seq: int,
-        sdu: bytes = b"") -> bytes:
-    hdr = struct.pack(">HHBBHHH", dst_ep, src_ep, 0x10 | pdu_type, 0x11, send_seq, ack_seq, len(sdu))
+        sdu: bytes = b"", add_flags: int = 0x11) -> bytes:
+    hdr = struct.pack(">HHBBHHH", dst_ep, src_ep, 0x10 | pdu_type, add_flags, send_seq, ack_seq, len(sdu))
     fid = 0xFC01 if high else 0xFE01
     return _eth(src, dst, Raw(struct.pack(">H", fid) + hdr + sdu), vlan=6 if high else 5, etype=ETH_PNRT)
 

@@ -195,7 +195,9 @@ class Injection:
         sess.injected.append({"rule": self.rule, "side": self.side or RULES[self.rule]["side"],
                               "cycle": self.k, "tag": self.tag, "how": self.why,
                               "also_possible": list(getattr(self, "also", ())),
-                              "settings": dict(getattr(self, "settings", {}))})
+                              "settings": {k: v for k, v in getattr(self, "settings", {}).items()
+                                           # isochronous: sign-of-life is monitored anyway
+                                           if not (sess.cfg.irt and k == "sol_monitor_rt")}})
 
     def setup(self, sess, sc, params):
         pass

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 from .. import telegrams as T
 from . import frames as F
-from . import recdata
+from . import capture_point, recdata, startup
 from .model import Encoder, Plc, Shaft, PROFILE_TELEGRAMS
 
 EPOCH_NS = 1_767_225_600 * 10**9   # 2026-01-01T00:00:00Z, the simulator's fixed epoch
@@ -67,6 +67,20 @@ class Config:
     compat: int = 1
     class4: int = 1
     velocity_unit: int = 0
+    startup: str = "realistic"        # "realistic" (plant-like, sim/startup.py) or "tidy" (cyclic after PrmEnd)
+    records: str = "multiplewrite"    # start-up records: one 0xE040 MultipleWrite or "plain" writes
+    good_before_prmend: bool = False  # device GOOD from its first frame, records a few cycles later
+    restart: int | None = None        # cycle at which encoder 1's AR is released and set up again
+    restart_scaling: dict = field(default_factory=dict)   # 0xBF00 values of the second AR (mupr, tmr, direction, ...)
+    restart_gap_ms: float = 200.0     # silence between Release and the new Connect
+    restart_mode: str = "release"     # how the first AR ends: "release" (IODReleaseReq) or "abort" (ERR-RTA)
+    capture_loss: float = 0.0         # share of cyclic frames the capture point drops (seeded)
+    start_mid_session: int | None = None   # the capture starts at this data-exchange cycle
+    cycle_list: list | None = None    # one cycle time (ms) per encoder; None: cycle_ms for all
+    drift_ppm: float = 50.0           # each clock (controller, every device) runs off by up to +-this
+    jitter_us: float = 20.0           # send-time jitter of each cyclic frame, +-us (at most a quarter cycle)
+    irt: bool = False                 # isochronous RT_CLASS_3 (frame IDs 0x0100..), no drift or jitter
+    io_devices: int = 0               # ordinary IO devices (DI/DO module) on the same wire
 
 
 class Frame:
@@ -92,8 +106,16 @@ class Station:
         self.ip = f"192.168.0.{10 + i}"
         self.ar_uuid = uuid.UUID(int=rng.getrandbits(128), version=4)
         self.session_key = 1
-        self.in_fid = 0x8000 + 2 * i
-        self.out_fid = 0x8001 + 2 * i
+        # RT_CLASS_1 frame IDs 0x8000.. ; RT_CLASS_3 (IRT) 0x0100.. (wire.md §2.2)
+        self.in_fid = (0x0100 if cfg.irt else 0x8000) + 2 * i
+        self.out_fid = self.in_fid + 1
+        self.scf, self.rr = station_clock(cfg, i)
+        self.cycle_ns = self.scf * self.rr * 31_250
+        self.step = (self.scf * self.rr) & 0xFFFF   # cycle counter unit 31.25 us (wire.md §2.3)
+        # the same run time for every station, counted in its own cycles
+        self.cycles = max(1, round(cfg.cycles * (cfg.cycle_list[0] if cfg.cycle_list else cfg.cycle_ms)
+                                   * 1_000_000 / self.cycle_ns))
+        self.ppb = self.phase = 0
         self.rpc_port = 0xC000 + i           # controller's RPC port for this AR
         self.dev_port = 0xC100 + i           # device's port for its own requests (ApplicationReady)
         sp, ac = T.length(cfg.telegram, "setpoint"), T.length(cfg.telegram, "actual") + extra_in
@@ -111,6 +133,7 @@ class Station:
         self.out_iocs = [(API_DAP, 0, ss, sp + 1 + o) for o, ss in enumerate(DAP_SUBSLOTS)] + \
             [(API_ENC, SLOT_ENC, SUB_MAP, sp + 1 + n), (API_ENC, SLOT_ENC, SUB_TEL, sp + 2 + n)]
         self.out_csdu = max(40, sp + 3 + n)
+        self.first_in = self.first_out = self.good_from = 0   # first cycles on the wire (startup.py)
 
 
 CTRL_MAC = mac(1, 0)
@@ -129,6 +152,7 @@ def cyclic_header(src: str, dst: str, frame_id: int) -> bytes:
 # APDU status (wire.md §2.3): DataStatus 0x35 = primary, valid, run, station ok; transfer status 0
 DATA_STATUS = 0x35
 IOXS_GOOD = 0x80
+IOXS_BAD = 0x00    # bad, detected by subslot (wire.md §2.5)
 
 
 # start-up run: still, ramp to 60 rpm, constant, ramp down, still (fractions of the run)
@@ -145,8 +169,8 @@ class SimSession:
         self.cfg = cfg
         self.rng = random.Random(cfg.seed)
         self.t0 = EPOCH_NS + cfg.seed * 10**9
-        self.cycle_ns = int(round(cfg.cycle_ms * 1_000_000))
-        self.scf, self.rr = send_clock(cfg.cycle_ms)
+        self.scf, self.rr = station_clock(cfg, 0)
+        self.cycle_ns = self.scf * self.rr * 31_250
         self.ident = PROFILES[cfg.profile]
         self.stations = [Station(i, cfg, self.rng) for i in range(cfg.encoders)]
         self.frames: list[Frame] = []
@@ -182,6 +206,47 @@ class SimSession:
     def cyc_ts(self, k: int) -> int:
         return self.cyc_start_ns + k * self.cycle_ns
 
+    def out_ts(self, st, k: int) -> int:
+        """When the controller's output frame of cycle k for station st is on the wire: the
+        controller's clock (drift), its cycle start jitters, the frames go out 20 us apart."""
+        T = st.cycle_ns
+        return (self.cyc_start_ns + k * T + (k * T * self.ctrl_ppb) // 10**9 + 20_000 * st.i
+                + self.jitter(0, k, T))
+
+    def in_ts(self, st, k: int) -> int:
+        """When station st's input frame of cycle k is on the wire: the device's own clock and phase."""
+        T = st.cycle_ns
+        return (self.cyc_start_ns + st.phase + k * T + (k * T * st.ppb) // 10**9
+                + self.jitter(st.i + 1, k, T))
+
+    def set_clocks(self) -> None:
+        """Drift (ppm) and phase of every clock from their own RNG, so the frame contents do not
+        depend on them. IRT and --drift-ppm 0 --jitter-us 0: the old fixed order (inputs half a cycle
+        after the outputs, 20 us apart)."""
+        cfg = self.cfg
+        rt = not cfg.irt and (cfg.drift_ppm or cfg.jitter_us)
+        rng = random.Random(f"clocks:{cfg.seed}")
+        d = cfg.drift_ppm if rt else 0.0
+        self.ctrl_ppb = int(round(rng.uniform(-d, d) * 1000)) if d else 0
+        self.jit_ns = int(cfg.jitter_us * 1000) if rt else 0
+        self.jit_seed = rng.getrandbits(32)
+        for st in self.all_stations():
+            st.ppb = int(round(rng.uniform(-d, d) * 1000)) if d else 0
+            st.phase = rng.randrange(st.cycle_ns) if rt else st.cycle_ns // 2 + 20_000 * st.i
+
+    def jitter(self, clock: int, k: int, T: int) -> int:
+        """Deterministic send jitter in [-J, J], J <= T/4 (a stream's frames keep their order)."""
+        J = min(self.jit_ns, T // 4)
+        if not J:
+            return 0
+        x = (k * 2654435761 + clock * 40503 + self.jit_seed) & 0xFFFFFFFF
+        x = ((x ^ (x >> 16)) * 0x45D9F3B) & 0xFFFFFFFF
+        x ^= x >> 16
+        return x % (2 * J + 1) - J
+
+    def all_stations(self) -> list:
+        return self.stations + getattr(self, "io_stations", [])
+
     # ------------------------------------------------------------------ RPC
     def rpc_call(self, ts, st: Station, opnum: int, req_blocks, res_blocks, *, from_device=False,
                  status: int = 0, tags=(), what="rpc"):
@@ -192,7 +257,8 @@ class SimSession:
             obj, iface = F.object_uuid(CTRL_VENDOR, CTRL_DEVICE), F.IF_CONTROLLER
         else:
             src, dst, sip, dip, sp, dp = CTRL_MAC, st.mac, CTRL_IP, st.ip, st.rpc_port, F.RPC_PORT
-            obj, iface = F.object_uuid(self.ident["vendor_id"], self.ident["device_id"]), F.IF_DEVICE
+            ident = getattr(st, "ident", self.ident)
+            obj, iface = F.object_uuid(ident["vendor_id"], ident["device_id"]), F.IF_DEVICE
         self.seq += 1
         req = F.rpc(src, dst, sip, dip, sp, dp, ptype=0, opnum=opnum, seq=self.seq, act=act, obj=obj,
                     iface=iface, blocks=req_blocks, ip_id=self.next_ip_id())
@@ -242,15 +308,18 @@ class SimSession:
         params = self.params = self.device_params()
         if sc is not None:
             sc.prepare(self, params)
-        n = len(self.stations)
+        from .iodevice import IoStation
+        self.io_stations = [IoStation(j, len(self.stations) + j, cfg, self.rng) for j in range(cfg.io_devices)]
+        self.set_clocks()
+        n = len(self.all_stations())
         # --- LLDP from the controller and both ports of every encoder (wire.md §6)
         self.lldp_round(0)
         # --- DCP: Identify All, responses; per station Identify by name, Set NameOfStation, Set IP
         xid = self.xid
         self.add(self.ms(5), F.dcp_identify_req(CTRL_MAC, xid), "dcp.identify_all")
-        for st in self.stations:
+        for st in self.all_stations():
             self.add(self.ms(5.5 + 0.2 * st.i), self.identify_res(st, xid), "dcp.identify_res")
-        for st in self.stations:
+        for st in self.all_stations():
             base = 10 + 10 * st.i
             x = self.xid = self.xid + 1
             self.add(self.ms(base), F.dcp_identify_req(CTRL_MAC, x, name=st.name), "dcp.identify_name")
@@ -276,31 +345,26 @@ class SimSession:
                 self.add(ts + 400_000, F.dcp_set_ip(CTRL_MAC, st.mac, x, st.ip, "255.255.255.0", "0.0.0.0"),
                          "dcp.set_ip")
                 self.add(ts + 450_000, F.dcp_set_res(st.mac, CTRL_MAC, x, 1, 2), "dcp.set_res")
-        # --- Connect, 0xBF00, PrmEnd per station
+        # --- Connect, records, PrmEnd, ApplicationReady per station
         t = 10 + 10 * n + 5
-        for st in self.stations:
-            self.connect(self.ms(t), st)
-            if not (sc and sc.skip_bf00):
-                bf = recdata.bf00(cfg.profile, **params) if not (sc and sc.bf00_bytes) else sc.bf00_bytes
-                self.write_record(self.ms(t + 3), st, self.ident["bf00_index"], bf, what="bf00",
-                                  tags=sc.bf00_tags if sc else ())
-                self.facts["records"].append({"station": st.name, "op": "write", "index": self.ident["bf00_index"],
-                                              "length": len(bf)})
-            self.rpc_call(self.ms(t + 6), st, 4, [F.control_req(st.ar_uuid, st.session_key, prm_end=True)],
-                          [F.control_res(st.ar_uuid, st.session_key, block_type=0x8110)], what="prm_end")
-            t += 10
-        self.cyc_start_ns = self.ms(t)
-        # --- ApplicationReady from each device once its IO data run (legacy start-up)
-        for st in self.stations:
-            self.rpc_call(self.cyc_ts(5 + 2 * st.i), st, 4,
-                          [F.control_req(st.ar_uuid, st.session_key, app_ready=True)],
-                          [F.control_res(st.ar_uuid, st.session_key, block_type=0x8112)],
-                          from_device=True, what="app_ready")
+        if cfg.startup == "tidy":
+            self.startup_tidy(params, t)
+        else:
+            startup.realistic(self, params, t)
+        for st in self.all_stations():
+            st.cc0 = (self.rng.randrange(1 << 16), self.rng.randrange(1 << 16))
+            st.sol0 = 1 + self.rng.randrange(15)
+            st.ars = [{"ar_uuid": str(st.ar_uuid), "session_key": st.session_key, "params": dict(params),
+                       "first_cycle": min(st.first_in, st.first_out), "tag": f"ar1:{st.i}"}]
+        if cfg.restart is not None:
+            startup.restart(self, self.stations[0], params)
         # --- I&M0 and the profile parameters (P922, P964, P965, P979, P65001)
         encs = {}
         for st in self.stations:
             k = 20 + 3 * st.i
-            self.read_record(self.cyc_ts(k), st, 0xAFF0,
+            # in units of max(cycle, 1 ms): one parameter access is over before the next (records.md §3.5)
+            unit = max(self.cycle_ns, 1_000_000)
+            self.read_record(self.cyc_start_ns + k * unit, st, 0xAFF0,
                              recdata.im0(self.ident["vendor_id"], self.ident["order_id"], f"SIM{cfg.seed:04d}{st.i:04d}"),
                              what="im0")
             self.facts["records"].append({"station": st.name, "op": "read", "index": 0xAFF0})
@@ -310,39 +374,71 @@ class SimSession:
             encs[st.i] = dev
             for j, pnu in enumerate((922, 964, 965, 979, 65001)):
                 fn, tags = sc.param_override.get(pnu, (None, ())) if sc and st.i == 0 else (None, ())
-                self.read_param(self.cyc_ts(k + 10 + 5 * j), st, pnu, fn(dev) if fn else dev, tags=tags)
+                self.read_param(self.cyc_start_ns + (k + 10 + 5 * j) * unit, st, pnu, fn(dev) if fn else dev,
+                                tags=tags)
             for inj in (sc.bmp_extra if sc and st.i == 0 else ()):
                 inj.access(self, st, self.cyc_ts(inj.k), dev)
         # --- cyclic (the fast path writes it itself), LLDP again every 5 s (802.1AB msgTxInterval)
         if self.with_cyclic:
             self.run_cyclic(params, encs)
+        else:   # the fast path writes cycles 0.. itself; the start-up cycles come from here
+            self.run_startup_cycles()
+        from .iodevice import run_cycles
+        for st in self.io_stations:
+            run_cycles(self, st, with_good=self.with_cyclic)
         t_lldp = 5000.0
         while self.ms(t_lldp) < self.cyc_ts(cfg.cycles):
             self.lldp_round(t_lldp + 0.2)
             t_lldp += 5000.0
         # --- Release at the end
         t_end = self.cyc_ts(cfg.cycles) + 2_000_000
-        for st in self.stations:
+        for st in self.all_stations():
             self.rpc_call(t_end + st.i * 1_000_000, st, 1,
                           [F.control_req(st.ar_uuid, st.session_key, release=True)],
                           [F.control_res(st.ar_uuid, st.session_key, block_type=0x8114)], what="release")
         if sc is not None:
             sc.finish(self)
         self.frames.sort(key=lambda f: (f.ts, f.order))
+        self.frames, self.capture_extra = capture_point.apply(self, self.frames)
         return self.frames, self.truth()
+
+    def startup_tidy(self, params, t: float) -> None:
+        """The old tidy start-up: Connect, 0xBF00, PrmEnd per station; cyclic data from cycle 0 after
+        the last PrmEnd, GOOD from the first frame; ApplicationReady once the IO data run."""
+        sc = self.scenario
+        if self.io_stations:
+            raise ValueError("IO devices need the realistic start-up (not --startup tidy)")
+        for st in self.stations:
+            self.connect(self.ms(t), st)
+            if not (sc and sc.skip_bf00):
+                bf = recdata.bf00(self.cfg.profile, **params) if not (sc and sc.bf00_bytes) else sc.bf00_bytes
+                self.write_record(self.ms(t + 3), st, self.ident["bf00_index"], bf, what="bf00",
+                                  tags=sc.bf00_tags if sc else ())
+                self.facts["records"].append({"station": st.name, "op": "write", "index": self.ident["bf00_index"],
+                                              "length": len(bf)})
+            self.rpc_call(self.ms(t + 6), st, 4, [F.control_req(st.ar_uuid, st.session_key, prm_end=True)],
+                          [F.control_res(st.ar_uuid, st.session_key, block_type=0x8110)], what="prm_end")
+            t += 10
+        self.cyc_start_ns = self.ms(t)
+        for st in self.stations:
+            self.rpc_call(self.cyc_ts(5 + 2 * st.i), st, 4,
+                          [F.control_req(st.ar_uuid, st.session_key, app_ready=True)],
+                          [F.control_res(st.ar_uuid, st.session_key, block_type=0x8112)],
+                          from_device=True, what="app_ready")
 
     def lldp_round(self, t_ms):
         self.add(self.ms(t_ms), F.lldp_frame(CTRL_PORT_MAC, chassis=CTRL_NAME, port_id=f"port-001.{CTRL_NAME}",
                                               mgmt_ip=CTRL_IP), "lldp")
-        for st in self.stations:
+        for st in self.all_stations():
             for p, pm in enumerate(st.port_macs):
                 self.add(self.ms(t_ms + 0.1 + 0.05 * (2 * st.i + p)),
                          F.lldp_frame(pm, chassis=st.name, port_id=f"port-00{p + 1}.{st.name}", mgmt_ip=st.ip),
                          "lldp")
 
     def identify_res(self, st, xid):
-        return F.dcp_identify_res(st.mac, CTRL_MAC, xid, name=st.name, vendor_text=self.ident["vendor_text"],
-                                  vendor_id=self.ident["vendor_id"], device_id=self.ident["device_id"],
+        ident = getattr(st, "ident", self.ident)
+        return F.dcp_identify_res(st.mac, CTRL_MAC, xid, name=st.name, vendor_text=ident["vendor_text"],
+                                  vendor_id=ident["vendor_id"], device_id=ident["device_id"],
                                   ip=st.ip, mask="255.255.255.0", gw="0.0.0.0")
 
     def dcp_set_name(self, ts, st, name: bytes, tags=()):
@@ -352,6 +448,13 @@ class SimSession:
 
     def connect(self, ts, st: Station):
         cfg = self.cfg
+        if hasattr(st, "connect_blocks"):    # an IO device (iodevice.py)
+            req = [F.ar_block_req(st.ar_uuid, st.session_key, CTRL_MAC, F.object_uuid(CTRL_VENDOR, CTRL_DEVICE),
+                                  CTRL_NAME)] + st.connect_blocks(cfg)
+            res = [F.ar_block_res(st.ar_uuid, st.session_key, st.mac), F.iocr_block_res(1, 1, st.in_fid),
+                   F.iocr_block_res(2, 2, st.out_fid), F.alarm_cr_block_res()]
+            self.rpc_call(ts, st, 0, req, res, what="connect")
+            return
         ctrl_obj = F.object_uuid(CTRL_VENDOR, CTRL_DEVICE)
         in_apis = [(API_DAP, [(s, ss, o) for a, s, ss, o in st.in_objs if a == API_DAP], []),
                    (API_ENC, [(s, ss, o) for a, s, ss, o in st.in_objs if a == API_ENC],
@@ -363,8 +466,8 @@ class SimSession:
         subs_enc = [(SUB_MAP, MAP_SUBMODULE, None, None),
                     (SUB_TEL, submodule_ident(cfg.telegram), st.in_len, st.out_len)]
         req = [F.ar_block_req(st.ar_uuid, st.session_key, CTRL_MAC, ctrl_obj, CTRL_NAME),
-               F.iocr_block_req(1, 1, st.in_csdu, st.in_fid, self.scf, self.rr, in_apis),
-               F.iocr_block_req(2, 2, st.out_csdu, st.out_fid, self.scf, self.rr, out_apis),
+               F.iocr_block_req(1, 1, st.in_csdu, st.in_fid, st.scf, st.rr, in_apis, rt_class=3 if cfg.irt else 2),
+               F.iocr_block_req(2, 2, st.out_csdu, st.out_fid, st.scf, st.rr, out_apis, rt_class=3 if cfg.irt else 2),
                F.alarm_cr_block_req(),
                F.expected_submodules([(API_DAP, 0, DAP_MODULE, subs_dap),
                                       (API_ENC, SLOT_ENC, module_ident(cfg.telegram), subs_enc)])]
@@ -418,52 +521,76 @@ class SimSession:
                                      "channel_error_type": channel_error})
 
     # ------------------------------------------------------------------ cyclic
+    def run_startup_cycles(self) -> None:
+        """Start-up cycles (k < 0) with IOxS BAD, zero data (realistic start-up, not GOOD before PrmEnd)."""
+        if self.cfg.good_before_prmend or self.cfg.startup == "tidy":
+            return
+        for st in self.stations:
+            step = st.step
+            o_t, i_t = frame_templates(st, IOXS_BAD, startup.DATA_STATUS_STOP, DATA_STATUS)
+            for k in range(min(st.first_in, st.first_out), 0):
+                if k >= st.first_out:
+                    o = bytearray(o_t)
+                    struct.pack_into(">H", o, len(o) - 4, (st.cc0[0] + k * step) & 0xFFFF)
+                    self.add(self.out_ts(st, k), bytes(o), "cyclic.out.startup", {st.ars[0]["tag"]})
+                if k >= st.first_in:
+                    i = bytearray(i_t)
+                    struct.pack_into(">H", i, len(i) - 4, (st.cc0[1] + k * step) & 0xFFFF)
+                    self.add(self.in_ts(st, k), bytes(i), "cyclic.in.startup", {st.ars[0]["tag"]})
+
     def run_cyclic(self, params, devs):
         cfg, sc = self.cfg, self.scenario
         cyc_s = self.cycle_ns / 1e9
-        step = (self.scf * self.rr) & 0xFFFF   # cycle counter unit 31.25 us (wire.md §2.3)
         # shaft segments are given in fractions of the run (so short and long runs look alike)
         frac = sc.shaft if sc is not None and sc.shaft else DEFAULT_SHAFT
         run_s = cfg.cycles * cyc_s
         shaft_segs = tuple((f * run_s, r0, r1) for f, r0, r1 in frac)
         out_l, in_l = T.layout(cfg.telegram, "setpoint"), T.layout(cfg.telegram, "actual")
+        self.run_startup_cycles()
         per = []
         for st in self.stations:
-            enc = Encoder(cfg.profile, cfg.telegram, params=params, shaft=Shaft(shaft_segs), cycle_s=cyc_s)
-            plc = Plc(cfg.telegram, sol_start=1 + self.rng.randrange(15))
-            out_t = bytearray(cyclic_header(CTRL_MAC, st.mac, st.out_fid) + bytes(st.out_csdu) + bytes(4))
-            in_t = bytearray(cyclic_header(st.mac, CTRL_MAC, st.in_fid) + bytes(st.in_csdu) + bytes(4))
-            h = 20  # dst, src, 802.1Q, type, FrameID
-            for _a, _s, _ss, o in st.out_objs:
-                out_t[h + o + st.out_len] = IOXS_GOOD
-            for _a, _s, _ss, o in st.out_iocs:
-                out_t[h + o] = IOXS_GOOD
-            for _a, s, ss, o in st.in_objs:
-                out_len = st.in_len if (s, ss) == (SLOT_ENC, SUB_TEL) else 0
-                in_t[h + o + out_len] = IOXS_GOOD
-            for _a, _s, _ss, o in st.in_iocs:
-                in_t[h + o] = IOXS_GOOD
-            out_t[-2], in_t[-2] = DATA_STATUS, DATA_STATUS
+            enc = Encoder(cfg.profile, cfg.telegram, params=params, shaft=Shaft(shaft_segs), cycle_s=st.cycle_ns / 1e9)
+            plc = Plc(cfg.telegram, sol_start=st.sol0)
+            out_t, in_t = frame_templates(st, IOXS_GOOD, DATA_STATUS, DATA_STATUS)
             if sc is not None and sc.reject_bf00:
                 # a conforming device refuses a bad 0xBF00: parameterisation error 0x1002 in G1_XIST2
                 # and a 0x9011 channel diagnosis (cyclic.md §9; 000_37bf2397999f1108.txt:2605-2639)
                 enc.error_code = 0x1002
                 self.alarm(self.cyc_ts(2) + 300_000, st, appears=True, channel_error=0x9011,
                            tags=sc.bf00_tags)
-            cc0 = (self.rng.randrange(1 << 16), self.rng.randrange(1 << 16))
-            per.append((st, enc, plc, out_t, in_t, cc0))
+            per.append([st, enc, plc, out_t, in_t, st.cc0, st.ars[0]["tag"]])
         last_in = {st.i: None for st in self.stations}
-        for k in range(cfg.cycles):
-            t = self.cyc_ts(k)
-            for st, enc, plc, out_t, in_t, cc0 in per:
-                tags_o, tags_i = set(), set()
-                if sc is not None:
+        # GOOD before PrmEnd: the model runs from the first start-up frame (hooks from cycle 0)
+        k0 = min([0] + [min(st.good_from, st.first_in, st.first_out) for st in self.stations
+                        if st.good_from < 0])
+        for k in range(k0, max(st.cycles for st in self.stations)):
+            for row in per:
+                st, enc, plc, out_t, in_t, cc0, ar_tag = row
+                if k >= st.cycles:
+                    continue
+                step = st.step
+                rs = getattr(st, "restart", None)
+                if rs is not None and k >= rs["end"]:
+                    # Release, silence, the second AR's start-up, then its data exchange (a new model)
+                    if k < rs["first"] or (k < rs["good_from"] and not self.restart_cycle(st, k, rs)):
+                        continue
+                    if k == rs["good_from"]:
+                        enc = row[1] = Encoder(cfg.profile, cfg.telegram, params=rs["params"],
+                                               shaft=Shaft(shaft_segs), cycle_s=st.cycle_ns / 1e9)
+                        plc = row[2] = Plc(cfg.telegram, sol_start=rs["sol0"])
+                        ar_tag = row[6] = rs["tag"]
+                        last_in[st.i] = None
+                tags_o, tags_i = {ar_tag}, {ar_tag}
+                if rs is not None and k == rs["good_from"] and "fault_tag" in rs:
+                    tags_i.add(rs["fault_tag"])
+                hooks = sc is not None and k >= 0
+                if hooks:
                     sc.before_cycle(self, k, st, plc, enc, last_in[st.i])
                 out = plc.step(k, last_in[st.i])
-                if sc is not None:
+                if hooks:
                     sc.after_plc(self, k, st, out, tags_o)
                 actual = enc.step(k, out)
-                if sc is not None:
+                if hooks:
                     sc.after_enc(self, k, st, actual, tags_i)
                 last_in[st.i] = actual
                 ob = out_l.encode(out)
@@ -474,15 +601,47 @@ class SimSession:
                 i[20 + st.in_data_off:20 + st.in_data_off + len(ib)] = ib
                 struct.pack_into(">H", o, len(o) - 4, (cc0[0] + k * step) & 0xFFFF)
                 struct.pack_into(">H", i, len(i) - 4, (cc0[1] + k * step) & 0xFFFF)
-                if sc is not None:
+                if hooks:
                     sc.patch(self, k, st, o, i, tags_o, tags_i)
                     if k == 0 and st.i == 0:
                         tags_o |= set(sc.first_cyclic_tags)
-                self.add(t + 20_000 * st.i, bytes(o), "cyclic.out", tags_o)
-                self.add(t + self.cycle_ns // 2 + 20_000 * st.i, bytes(i), "cyclic.in", tags_i)
+                if k >= st.first_out and (rs is None or k < rs["end"] or k >= rs["first_out"]):
+                    self.add(self.out_ts(st, k), bytes(o), "cyclic.out", tags_o)
+                if k >= st.first_in and (rs is None or k < rs["end"] or k >= rs["first_in"]):
+                    self.add(self.in_ts(st, k), bytes(i), "cyclic.in", tags_i)
+
+    def restart_cycle(self, st, k, rs) -> bool:
+        """A start-up cycle of the second AR: BAD frames (False), or GOOD already (True, model runs)."""
+        if self.cfg.good_before_prmend:
+            return True
+        step = st.step
+        o_t, i_t = rs.setdefault("bad", frame_templates(st, IOXS_BAD, startup.DATA_STATUS_STOP, DATA_STATUS))
+        if k >= rs["first_out"]:
+            o = bytearray(o_t)
+            struct.pack_into(">H", o, len(o) - 4, (st.cc0[0] + k * step) & 0xFFFF)
+            self.add(self.out_ts(st, k), bytes(o), "cyclic.out.startup", {rs["tag"]})
+        if k >= rs["first_in"]:
+            i = bytearray(i_t)
+            struct.pack_into(">H", i, len(i) - 4, (st.cc0[1] + k * step) & 0xFFFF)
+            self.add(self.in_ts(st, k), bytes(i), "cyclic.in.startup", {rs["tag"]})
+        return False
 
     # ------------------------------------------------------------------ ground truth
+    def ar_truth(self, st) -> list:
+        """Each AR of a station: UUID, session key, its 0xBF00 values, cycles and cyclic frames."""
+        out = []
+        for ar in st.ars:
+            tagged = [n for n, f in enumerate(self.frames, 1) if ar["tag"] in f.tags]
+            d = {k: v for k, v in ar.items() if k != "tag"}
+            d["params"] = {k: v for k, v in ar["params"].items()
+                           if k in ("mupr", "tmr", "direction", "velocity_unit", "class4", "compat")}
+            d["first_frame"] = tagged[0] if tagged else None
+            d["last_frame"] = tagged[-1] if tagged else None
+            out.append(d)
+        return out
+
     def truth(self) -> dict:
+        from . import iodevice
         cfg = self.cfg
         num = {id(f): n for n, f in enumerate(self.frames, 1)}
         faults = []
@@ -504,15 +663,15 @@ class SimSession:
             stations.append({
                 "name": st.name, "mac": st.mac, "ip": st.ip, "profile": cfg.profile,
                 "vendor_id": self.ident["vendor_id"], "device_id": self.ident["device_id"],
-                "ar_uuid": str(st.ar_uuid), "telegram": cfg.telegram,
+                "ar_uuid": st.ars[0]["ar_uuid"], "telegram": cfg.telegram, "ars": self.ar_truth(st),
                 "telegram_slot": SLOT_ENC, "telegram_subslot": SUB_TEL,
                 "module_ident": module_ident(cfg.telegram), "submodule_ident": submodule_ident(cfg.telegram),
                 "iocrs": [
                     {"direction": "input", "frame_id": st.in_fid, "src": st.mac, "dst": CTRL_MAC,
-                     "data_length": st.in_csdu, "send_clock_factor": self.scf, "reduction_ratio": self.rr,
+                     "data_length": st.in_csdu, "send_clock_factor": st.scf, "reduction_ratio": st.rr,
                      "objects": objs(st.in_objs, st.in_len), "iocs": iocs(st.in_iocs)},
                     {"direction": "output", "frame_id": st.out_fid, "src": CTRL_MAC, "dst": st.mac,
-                     "data_length": st.out_csdu, "send_clock_factor": self.scf, "reduction_ratio": self.rr,
+                     "data_length": st.out_csdu, "send_clock_factor": st.scf, "reduction_ratio": st.rr,
                      "objects": objs(st.out_objs, st.out_len), "iocs": iocs(st.out_iocs)},
                 ],
             })
@@ -523,7 +682,17 @@ class SimSession:
             "generator": "pndiss simulate",
             "config": {"scenario": cfg.scenario, "profile": cfg.profile, "telegram": cfg.telegram,
                        "cycle_ms": cfg.cycle_ms, "cycles": cfg.cycles, "encoders": cfg.encoders,
-                       "seed": cfg.seed, "inject": [f"{r}@{c}" if c is not None else r for r, c in cfg.injects]},
+                       "seed": cfg.seed, "inject": [f"{r}@{c}" if c is not None else r for r, c in cfg.injects],
+                       "startup": cfg.startup, "records": cfg.records, "good_before_prmend": cfg.good_before_prmend,
+                       **({"restart": cfg.restart, "restart_scaling": cfg.restart_scaling,
+                           "restart_mode": cfg.restart_mode}
+                          if cfg.restart is not None else {}),
+                       **({"capture_loss": cfg.capture_loss} if cfg.capture_loss else {}),
+                       "drift_ppm": cfg.drift_ppm if not cfg.irt else 0, "jitter_us": cfg.jitter_us if not cfg.irt else 0,
+                       **({"cycle_list": cfg.cycle_list} if cfg.cycle_list else {}),
+                       **({"irt": True} if cfg.irt else {}), **({"io_devices": cfg.io_devices} if cfg.io_devices else {}),
+                       **({"start_mid_session": cfg.start_mid_session} if cfg.start_mid_session is not None
+                          else {})},
             "frames": len(self.frames),
             "frame_kinds": dict(sorted(whats.items())),
             "controller": {"name": CTRL_NAME, "mac": CTRL_MAC, "ip": CTRL_IP},
@@ -533,7 +702,41 @@ class SimSession:
             "alarms": self.facts["alarms"],
             "faults": faults,
             "clean": not faults,
+            **getattr(self, "capture_extra", {"capture_gaps": []}),
+            **({"io_devices": [iodevice.truth(self, st) for st in self.io_stations]} if self.io_stations else {}),
         }
+
+
+def frame_templates(st: Station, ioxs: int, ds_out: int, ds_in: int) -> tuple[bytes, bytes]:
+    """(output, input) cyclic frames of a station with zero data, every IOPS/IOCS = ioxs, the
+    DataStatus bytes given and cycle counter 0 (wire.md §2.3-2.6)."""
+    out_t = bytearray(cyclic_header(CTRL_MAC, st.mac, st.out_fid) + bytes(st.out_csdu) + bytes(4))
+    in_t = bytearray(cyclic_header(st.mac, CTRL_MAC, st.in_fid) + bytes(st.in_csdu) + bytes(4))
+    h = 20  # dst, src, 802.1Q, type, FrameID
+    for _a, _s, _ss, o in st.out_objs:
+        out_t[h + o + st.out_len] = ioxs
+    for _a, _s, _ss, o in st.out_iocs:
+        out_t[h + o] = ioxs
+    for _a, s, ss, o in st.in_objs:
+        in_t[h + o + (st.in_len if (s, ss) == (SLOT_ENC, SUB_TEL) else 0)] = ioxs
+    for _a, _s, _ss, o in st.in_iocs:
+        in_t[h + o] = ioxs
+    out_t[-2], in_t[-2] = ds_out, ds_in
+    return bytes(out_t), bytes(in_t)
+
+
+def station_clock(cfg: Config, i: int) -> tuple[int, int]:
+    """(SCF, RR) of encoder i: one send clock for the controller (that of the shortest cycle, or the
+    cycle's own below 1 ms), the reduction ratio gives each encoder its cycle time."""
+    cycles = cfg.cycle_list or [cfg.cycle_ms]
+    mine = cycles[i] if i < len(cycles) else cycles[0]
+    scf = send_clock(min(cycles))[0]
+    send_clock(mine)                        # refuses a cycle time that is not SCF x RR
+    rr = int(round(mine * 32 / scf))
+    if rr * scf != mine * 32 or rr & (rr - 1) or rr > 512:
+        raise ValueError(f"cycle time {mine} ms is not a power-of-two multiple of the send clock "
+                         f"{scf * 31.25:g} us")
+    return scf, rr
 
 
 def send_clock(cycle_ms: float) -> tuple[int, int]:

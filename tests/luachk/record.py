@@ -154,7 +154,7 @@ class Recorder:
         self._saved = {"from_settings": EncoderConfig.__dict__["from_settings"], "__init__": Checker.__init__}
         EncoderConfig.from_settings = classmethod(from_settings)
         Checker.__init__ = init
-        for name, opname in (("cycle", "cycle"), ("gap", "gap"), ("on_record", "rec"), ("finish", "finish"),
+        for name, opname in (("cycle", "cycle"), ("gap", "gap"), ("lost", "lost"), ("on_record", "rec"), ("finish", "finish"),
                              ("_apply_cfg", "apply"), ("_flush_all", "flush"), ("_reset_history", "reset")):
             self._saved[name] = Checker.__dict__[name]
             setattr(Checker, name, self._wrap(Checker.__dict__[name], opname))
@@ -196,6 +196,8 @@ class Recorder:
                 rec._last_in[k] = (sp, ac)
             elif opname == "gap":
                 op.update(f=args[0], ts=args[1])
+            elif opname == "lost":
+                op.update(f=args[0], ts=args[1], n=args[2])
             elif opname == "rec":
                 op["ev"] = copy.deepcopy(args[0])
             before = len(chk.out)
@@ -208,7 +210,7 @@ class Recorder:
             rec.ops.append(op)
             if opname == "flush":
                 res = chk.out[before:]   # Python appends to the previous call's list
-            if opname in ("cycle", "gap", "rec", "finish", "flush"):
+            if opname in ("cycle", "gap", "lost", "rec", "finish", "flush"):
                 got = violations(res)
                 if got:
                     rec.expect[idx] = got

@@ -103,6 +103,8 @@ for line in io.lines(path) do
     report(i, k, chk:cycle(op.f, op.ts, sp, ac, op.spf))
   elseif kind == "gap" then
     report(i, k, chk:gap(op.f, op.ts, "not valid"))
+  elseif kind == "lost" then
+    report(i, k, chk:lost(op.f, op.ts, op.n))
   elseif kind == "rec" then
     report(i, k, chk:on_record(op.ev))
     state(i, chk)

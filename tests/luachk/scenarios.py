@@ -358,6 +358,8 @@ def run(rnd) -> Checker:
         r = rnd.random()
         if r < 0.02:
             chk.gap(frame, ts, "not valid")
+        elif r < 0.025:  # capture loss (pndiss/gaps.py): cycles elapse unjudged
+            chk.lost(frame, ts, rnd.randrange(1, 4))
         elif r < 0.06:
             chk.on_record(record_event(rnd, frame, ts, chk))
         elif r < 0.065:  # cyclic.py _refine_profile / _relabel from outside

@@ -1,0 +1,137 @@
+"""Capture loss: cycles a cyclic stream sent that the capture does not hold (issue #12).
+
+A mirror port or a busy capture PC drops frames; the protocol did not. Each cyclic PN-RT frame
+carries the provider's CycleCounter (u16, unit 31.25 us) that advances by SendClockFactor x
+ReductionRatio per frame (wire.md §2.3), so between two captured frames of one (FrameID, src, dst)
+stream round(delta / step) - 1 cycles are missing. The step comes from the Connect's IOCR when the
+stream is mapped, else it is learnt from the stream itself (the smallest advance seen). A stream
+whose counter does not advance in multiples of its step (a provider with a free-running counter)
+is marked non-uniform and judged without gap detection. The two directions of an AR have their own
+counters (RT: independent clocks), so each stream is followed on its own.
+"""
+from __future__ import annotations
+
+from math import gcd
+
+WRAP = 0x10000
+UNIT_NS = 31250              # CycleCounter unit, 31.25 us (wire.md §2.3)
+HALF_WRAP_NS = WRAP * UNIT_NS // 2
+LEARN = 4            # advances seen before a learnt step is trusted
+IRREGULAR_MAX = 3    # advances off the step before the stream counts as non-uniform
+MAX_EVENTS = 1000    # gaps kept for the summary/report (events carry all of them)
+
+
+class Stream:
+    __slots__ = ("cc", "frame", "ts", "step", "known", "seen", "irregular", "uniform", "gaps", "missing")
+
+    def __init__(self):
+        self.cc = None
+        self.frame = None
+        self.ts = None
+        self.step = 0         # counter units per cycle; 0 = not known yet
+        self.known = False    # step from the Connect (not learnt)
+        self.seen = 0         # advances of exactly one step since the step last changed
+        self.irregular = 0
+        self.uniform = True
+        self.gaps = 0
+        self.missing = 0
+
+
+class GapTracker:
+    """Per cyclic stream: the counter of its last captured frame; says how many cycles a new frame skipped."""
+
+    def __init__(self, enabled: bool = True):
+        self.enabled = enabled
+        self.streams: dict = {}
+        self.rows: list[dict] = []
+        self.count = 0
+        self.missing = 0
+        self.prev = None      # the stream's previous captured frame, set by advance()
+
+    def step_from(self, key, step: int | None) -> None:
+        """The stream's cycle step from its IOCR (SendClockFactor x ReductionRatio), when the Connect says it."""
+        st = self.streams.get(key)
+        if st is None:
+            st = self.streams[key] = Stream()
+        if step and 0 < step < WRAP and st.step == 0:
+            st.step, st.known = step, True
+
+    def restart(self, key) -> None:
+        """The stream's AR ended (Release / abort): its counter starts afresh with the next AR, the pause
+        between them is not capture loss."""
+        st = self.streams.get(key)
+        if st is not None:
+            st.cc = st.frame = st.ts = None
+
+    def advance(self, key, fn: int, ts: int, cc: int) -> int:
+        """Cycles missing between the stream's previous captured frame (then in ``self.prev``) and this one:
+        0 when none, or when it cannot be told (step not confirmed yet, counter not uniform)."""
+        st = self.streams.get(key)
+        if st is None:
+            st = self.streams[key] = Stream()
+        prev, pts = st.cc, st.ts
+        self.prev = st.frame
+        st.cc, st.frame, st.ts = cc, fn, ts
+        if prev is None or not self.enabled:
+            return 0
+        d = (cc - prev) % WRAP
+        if d != st.step and pts is not None and ts - pts >= HALF_WRAP_NS and st.uniform \
+                and (st.known or st.seen >= LEARN):
+            # the counter may have wrapped during the gap (every 2.048 s): the time stamps tell the cycles. An
+            # advance of exactly one step is taken as one cycle (as the batch path does, pndiss/batch.py)
+            period = st.step * UNIT_NS
+            k = (ts - pts + period // 2) // period - 1
+            if k > 0:
+                return self._count(st, k)
+        if d == 0:
+            return 0              # a repeated counter: no new cycle, nothing to say
+        if st.step == 0:
+            st.step = d
+            return 0
+        if d % st.step:
+            # off the step: a smaller true step (the first advance already skipped cycles) or a counter
+            # that does not advance uniformly; a step is trusted only once seen LEARN times exactly
+            st.irregular += 1
+            st.step = gcd(st.step, d)
+            st.seen = 0
+            st.known = False
+            if st.irregular >= IRREGULAR_MAX:
+                st.uniform = False
+            return 0
+        if d == st.step:
+            st.seen += 1
+            if st.seen >= LEARN:
+                st.irregular = 0   # confirmed: an AR restart now and then does not make it non-uniform
+            return 0
+        if not st.uniform or (not st.known and st.seen < LEARN):
+            if st.irregular and not st.known:
+                st.irregular += 1  # a step shrunk by an odd advance and never seen exactly: a free-running counter
+                if st.irregular >= IRREGULAR_MAX:
+                    st.uniform = False
+            return 0
+        return self._count(st, d // st.step - 1)
+
+    def _count(self, st: Stream, k: int) -> int:
+        st.gaps += 1
+        st.missing += k
+        self.count += 1
+        self.missing += k
+        return k
+
+    def same_step(self, a, b) -> bool:
+        """Both streams advance by one confirmed step per cycle (a setpoint and an actual stream of one
+        AR at one reduction ratio): each actual value then has its own setpoint."""
+        sa, sb = self.streams.get(a), self.streams.get(b)
+        return (sa is not None and sb is not None and sa.step == sb.step and sa.uniform and sb.uniform
+                and (sa.known or sa.seen >= LEARN) and (sb.known or sb.seen >= LEARN))
+
+    def summary(self) -> dict:
+        streams = []
+        for key, st in self.streams.items():
+            if st.gaps or not st.uniform:
+                streams.append({"frame_id": key[0], "src": key[1], "dst": key[2], "gaps": st.gaps,
+                                "cycles_missing": st.missing, "step": st.step,
+                                "step_source": "connect" if st.known else "learnt",
+                                "uniform": st.uniform})
+        return {"count": self.count, "cycles_missing": self.missing, "streams": streams,
+                "checked": self.enabled, "gaps": self.rows}

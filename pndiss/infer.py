@@ -1,0 +1,287 @@
+"""Mid-session captures: find the telegram in a cyclic frame from its content (issue #12).
+
+A capture started after the Connect has no AR map. For cyclic streams the session cannot map, the
+first SAMPLES C_SDUs of each stream are kept; once a stream and its partner (MACs reversed: the
+controller's output stream and the device's input stream) both have them, every candidate telegram
+(the table's telegrams with a sign-of-life word in both directions, pndiss/data/telegrams.json
+"content_inference") at every offset of both C_SDUs is scored on what the table says a telegram
+looks like:
+
+- the IOPS byte right after the data object is GOOD (0x80) in every sample (gate);
+- no bit outside the bit maps of every profile is set in the control/status words (gate);
+- the sign-of-life nibbles of STW2_ENC / ZSW2_ENC count 1..15 from frame to frame;
+- ZSW2_ENC "control requested" mirrors STW2_ENC "control by PLC", and is set;
+- the position (G1_XIST1 / G1_XIST3) moves continuously.
+
+A layout passes only with positive evidence (a counting sign-of-life, or control requested mirrored
+and set); all-zero IO data proves nothing. The best candidate becomes an AR map of source
+"inferred from content" (the session's ``add_inferred``) with a confidence and the frames it was
+learnt from; streams nothing fits are listed for a ready-to-edit --map template (docs/map.md).
+Frames used for learning are counted, not judged.
+"""
+from __future__ import annotations
+
+from . import telegrams as tg
+from .encoder.config import next_ls
+
+SAMPLES = 48          # C_SDUs per stream before a decision
+MAX_STREAMS = 256     # streams sampled at once (bounded memory)
+SOURCE = "inferred from content"
+
+_CI = tg.TABLE["content_inference"]
+IOPS_GOOD = _CI["iops_good"]
+
+
+def _bit(direction: str, what: str) -> tuple[str, tuple[int, ...]]:
+    """(signal, bit positions over every profile) of a named field of the inference table."""
+    sig, name = _CI[what][direction]
+    pos = set()
+    for p in tg.PROFILES:
+        for n, shift, _mask in tg.bit_fields(sig, p):
+            if n == name:
+                pos.add(shift)
+    return sig, tuple(sorted(pos))
+
+
+def _reserved(sig: str) -> int:
+    """Bits no profile gives a meaning to."""
+    m = (1 << (8 * tg.SIGNALS[sig]["size"])) - 1
+    for p in tg.PROFILES:
+        m &= tg.reserved_mask(sig, p)
+    return m
+
+
+def candidates() -> list[int]:
+    """Telegrams with the sign-of-life words in both directions, standard ones first (table order)."""
+    sp_sig, ac_sig = _CI["sign_of_life"]["setpoint"][0], _CI["sign_of_life"]["actual"][0]
+    out = [t for t in sorted(tg.TELEGRAMS, key=lambda t: (t not in tg.STANDARD, t))
+           if any(n == sp_sig for n, _ in tg.TELEGRAMS[t]["setpoint"])
+           and any(n == ac_sig for n, _ in tg.TELEGRAMS[t]["actual"])]
+    return out
+
+
+def _offsets(t: int, direction: str) -> dict:
+    return {n: o for n, o in tg.TELEGRAMS[t][direction]}
+
+
+def _word(c: bytes, off: int, size: int) -> int:
+    return int.from_bytes(c[off:off + size], "big")
+
+
+def _counting(vals: list[int]) -> float:
+    """Share of consecutive sign-of-life values that step 1..15 (or hold: k > 1 controller cycles)."""
+    if len(vals) < 2:
+        return 0.0
+    good = moves = 0
+    for a, b in zip(vals, vals[1:]):
+        if a == 0 or b == 0:
+            continue
+        if b != a:
+            moves += 1
+        if b == next_ls(a) or b == a:
+            good += 1
+    return good / (len(vals) - 1) if moves >= (len(vals) - 1) // 4 else 0.0
+
+
+def _continuous(vals: list[int], bits: int) -> float | None:
+    """Share of small steps; None when the value never changes (a standstill proves nothing)."""
+    m = 1 << bits
+    if len(vals) < 2 or len(set(vals)) < 2:
+        return None
+    ok = 0
+    for a, b in zip(vals, vals[1:]):
+        d = (b - a) % m
+        d = d - m if d > m // 2 else d
+        ok += abs(d) < (m >> 8)
+    return ok / (len(vals) - 1)
+
+
+def lua_facts() -> dict:
+    """What the plugin's port of this module reads (tools/gen_lua.py): the same numbers, computed once."""
+    words = ("stw2_enc", "g1_stw", "zsw2_enc", "g1_zsw")
+    cands = []
+    for t in candidates():
+        cands.append({"telegram": t, "setpoint": _offsets(t, "setpoint"), "actual": _offsets(t, "actual"),
+                      "len_setpoint": tg.length(t, "setpoint"), "len_actual": tg.length(t, "actual")})
+    return {"samples": SAMPLES, "max_streams": MAX_STREAMS, "source": SOURCE, "iops_good": IOPS_GOOD,
+            "reserved": {w: _reserved(w) for w in words}, "sizes": {w: tg.SIGNALS[w]["size"] for w in words},
+            "sol": {d: _bit(d, "sign_of_life")[0] for d in tg.DIRECTIONS},
+            "mirror": {d: {"signal": _bit(d, "mirror")[0], "bits": list(_bit(d, "mirror")[1])} for d in tg.DIRECTIONS},
+            "positions": [{"name": n, "size": tg.SIGNALS[n]["size"]} for n in _CI["positions"]],
+            "candidates": cands}
+
+
+class Stream:
+    __slots__ = ("key", "samples", "frames", "done")
+
+    def __init__(self, key):
+        self.key = key            # (frame_id, src, dst)
+        self.samples: list[bytes] = []
+        self.frames: list[int] = []
+        self.done = False
+
+
+class Inference:
+    def __init__(self, analyzer, enabled: bool = True):
+        self.a = analyzer
+        self.enabled = enabled
+        self.streams: dict = {}
+        self.results: list[dict] = []     # one per inferred AR (report, summary)
+        self.failed: dict = {}            # key -> {frame_id, src, dst, c_sdu_len, frames}: nothing fits
+        self.ts = None                    # time stamp of the frame that completed the samples
+
+    def offer(self, key: tuple, fn: int, csdu: bytes, ts: int | None = None) -> None:
+        """A cyclic frame the session could not map (cyclic.py); decides once both directions have samples."""
+        st = self.streams.get(key)
+        if st is None:
+            if not self.enabled or len(self.streams) >= MAX_STREAMS:
+                return
+            st = self.streams[key] = Stream(key)
+        if st.done or len(st.samples) >= SAMPLES:
+            return
+        st.samples.append(bytes(csdu))
+        st.frames.append(fn)
+        if len(st.samples) == SAMPLES:
+            self.ts = ts
+            self._try(st, fn)
+
+    def wants(self, key: tuple) -> bool:
+        """Frames of this stream are still needed (the batch path must hand them over one by one)."""
+        if not self.enabled:
+            return False
+        st = self.streams.get(key)
+        return st is None and len(self.streams) < MAX_STREAMS or (st is not None and not st.done
+                                                                   and len(st.samples) < SAMPLES)
+
+    def _try(self, st: Stream, fn: int) -> None:
+        partners = [p for p in self.streams.values() if p is not st and not p.done and len(p.samples) == SAMPLES
+                    and p.key[1] == st.key[2] and p.key[2] == st.key[1]]
+        if not partners:
+            return   # the partner may still come; finish() lists the stream if it never does
+        sess = self.a.session
+        if sess.has_connect(st.key[1], st.key[2]):
+            for s in [st] + partners:   # the session knows (or is learning) this AR: its Connect decides
+                s.done, s.samples = True, []
+            return
+        best = None
+        for p in partners:
+            for out_s, in_s in ((st, p), (p, st)):
+                got = self._score(out_s, in_s)
+                if got is not None and (best is None or got["score"] > best["score"]):
+                    best = got
+        if best is None:
+            for s in [st] + partners:
+                self._fail(s)
+            return
+        out_s, in_s = best["out"], best["in"]
+        res = {"frame": fn, "ts_ns": self.ts, "controller_mac": out_s.key[1], "device_mac": out_s.key[2], "telegram": best["t"],
+               "source": SOURCE, "confidence": best["confidence"], "evidence": best["evidence"],
+               "learnt_from": [min(out_s.frames[0], in_s.frames[0]), max(out_s.frames[-1], in_s.frames[-1])],
+               "streams": [{"frame_id": s.key[0], "src": s.key[1], "dst": s.key[2], "direction": d,
+                            "c_sdu_len": len(s.samples[0]), "offset": o, "length": tg.length(best["t"], tdir)}
+                           for s, d, tdir, o in ((out_s, "output", "setpoint", best["os"]),
+                                                 (in_s, "input", "actual", best["oa"]))]}
+        for s in (out_s, in_s):
+            s.done = True
+            s.samples = []
+        self.results.append(res)
+        sess.add_inferred(res)
+
+    def _fail(self, s: Stream) -> None:
+        s.done = True
+        if s.samples and self.a.session.lookup(*s.key) is None:
+            self.failed[s.key] = {"frame_id": s.key[0], "src": s.key[1], "dst": s.key[2],
+                                  "c_sdu_len": len(s.samples[0]), "frames": [s.frames[0], s.frames[-1]]}
+        s.samples = []
+
+    def finish(self) -> None:
+        """End of capture: streams that never found a partner or never filled their samples are listed."""
+        for s in self.streams.values():
+            if not s.done:
+                self._fail(s)
+
+    def _score(self, out_s: Stream, in_s: Stream) -> dict | None:
+        sp_sol, sp_sol_bits = _bit("setpoint", "sign_of_life")
+        ac_sol, ac_sol_bits = _bit("actual", "sign_of_life")
+        sp_m, sp_m_bits = _bit("setpoint", "mirror")
+        ac_m, ac_m_bits = _bit("actual", "mirror")
+        S, A = out_s.samples, in_s.samples
+        ls, la = min(map(len, S)), min(map(len, A))
+        # pair each actual sample with the latest setpoint before it (capture order)
+        pairs = []
+        j = -1
+        for i, f in enumerate(in_s.frames):
+            while j + 1 < len(out_s.frames) and out_s.frames[j + 1] < f:
+                j += 1
+            if j >= 0:
+                pairs.append((j, i))
+        best = None
+        for t in candidates():
+            spo, aco = _offsets(t, "setpoint"), _offsets(t, "actual")
+            Ls, La = tg.length(t, "setpoint"), tg.length(t, "actual")
+            for os_ in self._placements(S, ls, Ls, spo):
+                for oa in self._placements(A, la, La, aco):
+                    r = self._evidence(t, S, A, pairs, os_, oa, spo, aco, sp_sol, ac_sol, sp_m, sp_m_bits, ac_m,
+                                       ac_m_bits)
+                    if r is None:
+                        continue
+                    score, ev = r
+                    if best is None or score > best["score"] + 1e-9:
+                        best = {"t": t, "os": os_, "oa": oa, "score": score, "evidence": ev, "out": out_s, "in": in_s,
+                                "runner_up": best["score"] if best else 0.0}
+                    elif best["runner_up"] < score:
+                        best["runner_up"] = score
+        if best is None:
+            return None
+        margin = best["score"] - best["runner_up"]
+        share = best["evidence"].pop("share")
+        best["confidence"] = round(share * (1.0 if margin >= 0.5 else 0.5 + margin), 2)
+        return best
+
+    @staticmethod
+    def _placements(samples, n, L, offs):
+        """Offsets where a data object of length L is followed by an IOPS GOOD in every sample."""
+        for o in range(0, n - L):
+            if all(c[o + L] == IOPS_GOOD for c in samples):
+                yield o
+
+    @staticmethod
+    def _evidence(t, S, A, pairs, os_, oa, spo, aco, sp_sol, ac_sol, sp_m, sp_m_bits, ac_m, ac_m_bits):
+        for sig, samples, base, offs in (("stw2_enc", S, os_, spo), ("g1_stw", S, os_, spo),
+                                         ("zsw2_enc", A, oa, aco), ("g1_zsw", A, oa, aco)):
+            if sig in offs:
+                res = _reserved(sig)
+                size = tg.SIGNALS[sig]["size"]
+                if any(_word(c, base + offs[sig], size) & res for c in samples):
+                    return None
+        cls = [_word(c, os_ + spo[sp_sol], 2) >> 12 for c in S]
+        dls = [_word(c, oa + aco[ac_sol], 2) >> 12 for c in A]
+        sol_s, sol_a = _counting(cls), _counting(dls)
+        mirror = 0.0
+        if pairs:
+            hits = 0
+            for j, i in pairs:
+                ctrl = any((_word(S[j], os_ + spo[sp_m], 2) >> b) & 1 for b in sp_m_bits)
+                creq = [(_word(A[i], oa + aco[ac_m], 2) >> b) & 1 for b in ac_m_bits]
+                hits += bool(ctrl and any(creq))
+            mirror = hits / len(pairs)
+        cont = None
+        for name in _CI["positions"]:
+            if name in aco:
+                size = tg.SIGNALS[name]["size"]
+                lo = oa + aco[name] + size - 4   # the low 32 bits (of a 64-bit G1_XIST3 too): same in the plugin
+                c = _continuous([_word(x, lo, 4) for x in A], 32)
+                if c is not None:
+                    cont = max(cont or 0.0, c)
+        if max(sol_s, sol_a) < 0.8 and mirror < 0.9:
+            return None   # no positive evidence: zeros and constants fit anything
+        parts = [sol_s, sol_a, mirror] + ([cont] if cont is not None else [])
+        return sum(parts), {"sign_of_life_setpoint": round(sol_s, 2), "sign_of_life_actual": round(sol_a, 2),
+                            "control_mirrored": round(mirror, 2),
+                            "position_continuous": None if cont is None else round(cont, 2),
+                            "share": sum(parts) / len(parts)}
+
+    def summary(self) -> dict:
+        lookup = self.a.session.lookup   # a Connect later in the capture may have mapped a stream since
+        return {"inferred": self.results,
+                "not_inferred": [f for k, f in self.failed.items() if lookup(*k) is None]}

@@ -1,0 +1,54 @@
+"""Terminal report sections for mid-session captures (pndiss/infer.py): telegrams found from the content,
+the settings assumed for them, and a ready-to-edit --map template (docs/map.md, TOML) for the cyclic
+streams nothing fitted."""
+from __future__ import annotations
+
+from rich.table import Table
+from rich.text import Text
+
+from . import telegrams as tg
+
+
+def map_template(streams: list[dict]) -> str:
+    """A --map file (TOML) listing the streams; the user fills in direction, slot/subslot and telegram."""
+    out = ["# pndiss --map template (docs/map.md): one [[frames]] entry per cyclic stream pndiss could not place.",
+           "# Set direction (input = device -> controller), the data object's slot/subslot, offset and telegram;",
+           "# delete the entries of streams that are not encoders."]
+    for s in streams:
+        out += ["", "[[frames]]", f'frame_id = "0x{s["frame_id"]:04X}"', f'src = "{s["src"]}"', f'dst = "{s["dst"]}"',
+                'direction = "input"      # or "output"',
+                f'# C_SDU length {s["c_sdu_len"]} bytes; seen in frames {s["frames"][0]}..{s["frames"][1]}',
+                "[[frames.objects]]", "api = 0x3D00", "slot = 1", "subslot = 1", "offset = 0",
+                "telegram = 81            # 81..84, 86..89, 100, 101, 860"]
+    return "\n".join(out) + "\n"
+
+
+def sections(summary: dict) -> list:
+    ci = summary.get("content_inference") or {}
+    out = []
+    inferred = ci.get("inferred", [])
+    if inferred:
+        t = Table(title="Telegrams inferred from content (no Connect in the capture for these devices)")
+        for col in ("device", "controller", "telegram", "confidence", "learnt from frames", "streams (frame ID @ offset)",
+                    "evidence"):
+            t.add_column(col)
+        for r in inferred:
+            streams = ", ".join(f"0x{s['frame_id']:04X} {s['direction']} @{s['offset']}" for s in r["streams"])
+            ev = ", ".join(f"{k} {v}" for k, v in r["evidence"].items())
+            t.add_row(r["device_mac"], r["controller_mac"], str(r["telegram"]), f"{r['confidence']:.2f}",
+                      f"{r['learnt_from'][0]}..{r['learnt_from'][1]}", streams, ev)
+        out.append(t)
+        profiles = {e.get("profile", "generic") for e in summary.get("encoders", [])
+                    if e.get("telegram_source") == "inferred from content"} or {"generic"}
+        for p in sorted(profiles):
+            d = {k: v for k, v in tg.PROFILE_DEFAULTS.get(p, {}).items() if k not in ("source", "_doc")}
+            out.append(Text(f"No 0xBF00 write in the capture for these devices: rules that need the user parameters "
+                            f"run with the {p} profile defaults ({', '.join(f'{k}={v}' for k, v in d.items())}); "
+                            f"slot/subslot are unknown (shown as 0/0)."))
+    failed = ci.get("not_inferred", [])
+    if failed:
+        out.append(Text(f"{len(failed)} cyclic stream(s) have no AR map (no Connect in the capture) and pndiss could "
+                        "not find a telegram in their content. Tell pndiss with --map FILE; a template to edit:",
+                        style="yellow"))
+        out.append(Text(map_template(failed)))
+    return out

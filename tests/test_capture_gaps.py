@@ -1,0 +1,219 @@
+"""Capture loss is not a protocol fault (issue #12 item 2).
+
+Simulated sessions with sign-of-life monitoring (sol_monitor_rt) lose frames the way a mirror port does:
+a setpoint here, an actual value there, both frames of a cycle, runs of either, one across the 16-bit
+cycle counter wrap. The cycle counter says how many cycles each gap hides: each becomes a
+``capture_gap`` event, the summary counts them, the report says so, and no sign-of-life rule fires
+for them; the injected fault elsewhere in the same file is still found, exactly. The batch path, the
+frame-by-frame path and the Lua plugin agree.
+"""
+from __future__ import annotations
+
+import collections
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import pytest
+from hypothesis import given, settings as hsettings, strategies as st
+
+import capedit
+from pndiss.analyzer import analyze_file
+from pndiss.gaps import GapTracker
+from pndiss.settings import Settings
+
+ROOT = capedit.ROOT
+SP, AC = 0x8001, 0x8000          # the simulator's output / input frame IDs (controller -> device, device -> controller)
+
+
+def _streams(path):
+    by = {fid: fns for (fid, _src), fns in capedit.cyclic_streams(path).items()}
+    return by[SP], by[AC]
+
+
+def _lossy(tmp, name, inject, drops):
+    """A simulated session with `inject` and the cyclic frames drops = [(stream, [cycle indexes])] removed;
+    returns (path, expected gaps [(frame_id, prev, next, missing)] in the new numbering, fault frame)."""
+    src = capedit.simulate(os.path.join(tmp, name + "-full.pcapng"), "--cycles", "400", *inject)
+    exp = json.load(open(src[:-len(".pcapng")] + ".expected.json", encoding="utf-8"))
+    sp, ac = _streams(src)
+    gone = set()
+    for fid, idx in drops:
+        gone |= {(sp if fid == SP else ac)[i] for i in idx}
+    dst = os.path.join(tmp, name + ".pcapng")
+    ren = capedit.rewrite(src, dst, lambda fn, _d: fn not in gone)
+    want = []
+    for fid, fns in ((SP, sp), (AC, ac)):
+        kept = [f for f in fns if f not in gone]
+        for a, b in zip(kept, kept[1:]):
+            k = fns.index(b) - fns.index(a) - 1
+            if k:
+                want.append((fid, ren[a], ren[b], k))
+    fault = exp["faults"][0]
+    return dst, sorted(want), fault["rule"], ren[fault["first_frame"]]
+
+
+# cycle indexes: the fault sits at cycle 150 (SOL-DEVICE-SKIP) / 200 (SOL-MASTER-SKIP, the scenario's)
+DROPS = [(SP, [40]), (AC, [60]), (SP, [90]), (AC, [90]), (SP, [250, 251, 252]), (AC, [300, 301, 302, 303]),
+         (SP, [320, 322]), (AC, [341, 342, 343, 344])]   # the input stream's counter wraps near cycle 343
+
+
+@pytest.fixture(scope="module")
+def lossy(tmp_path_factory):
+    tmp = str(tmp_path_factory.mktemp("gaps"))
+    return {
+        "device": _lossy(tmp, "dev", ["--inject", "SOL-DEVICE-SKIP@150"], DROPS),
+        "master": _lossy(tmp, "mst", ["--scenario", "sol-master-skip"], [d for d in DROPS if 200 not in d[1]]),
+    }
+
+
+def _analyze(path, **kw):
+    evs = []
+    a = analyze_file(path, Settings(sol_monitor_rt=True, fast_path=False, **kw),
+                     sink=lambda e: evs.append(e) if e["kind"] in ("violation", "capture_gap") else None)
+    return a, evs
+
+
+@pytest.mark.parametrize("which", ("device", "master"))
+def test_gaps_reported_and_only_the_real_fault(lossy, which):
+    path, want, rule, frame = lossy[which]
+    a, evs = _analyze(path)
+    viol = [(e["rule"], e["frame"]) for e in evs if e["kind"] == "violation"]
+    assert viol == [(rule, frame)]
+    gaps = [e for e in evs if e["kind"] == "capture_gap"]
+    assert sorted((e["frame_id"], e["prev_frame"], e["next_frame"], e["cycles_missing"]) for e in gaps) == want
+    for e in gaps:
+        assert e["frame"] == e["next_frame"]
+        assert e["direction"] == ("output" if e["frame_id"] == SP else "input")
+        assert e["src"] == ("02:00:00:00:00:01" if e["frame_id"] == SP else "02:00:00:00:01:01")
+    summ = a.summary()["cyclic"]
+    assert summ["capture_gaps"]["count"] == len(want)
+    assert summ["capture_gaps"]["cycles_missing"] == sum(w[3] for w in want)
+    enc = summ["encoders"][0]
+    assert enc["lost_cycles"] > 0 and enc["violations"].keys() == {rule}
+
+
+def test_without_gap_detection_the_loss_looks_like_faults(lossy):
+    """The same file with capture_gaps off (what the analysis did before): the lost frames become
+    sign-of-life violations, so the test above really tells loss from faults."""
+    path, _want, rule, _frame = lossy["device"]
+    _a, evs = _analyze(path, capture_gaps=False)
+    rules = collections.Counter(e["rule"] for e in evs if e["kind"] == "violation")
+    assert set(rules) - {rule}
+
+
+def test_batch_path_same(lossy):
+    """A gap breaks a steady run: the batch path (no sink) gives the reference path's summary."""
+    for path, *_ in lossy.values():
+        ref = analyze_file(path, Settings(sol_monitor_rt=True, fast_path=False)).summary()
+        bat = analyze_file(path, Settings(sol_monitor_rt=True)).summary()
+        ref.pop("settings"), bat.pop("settings")
+        assert json.dumps(ref, sort_keys=True, default=str) == json.dumps(bat, sort_keys=True, default=str)
+        off = analyze_file(path).summary()   # sign-of-life monitoring off: the batch engine runs in bulk
+        assert off["cyclic"]["capture_gaps"] == ref["cyclic"]["capture_gaps"]
+
+
+def test_report_and_summary_json(lossy, tmp_path):
+    path, want, *_ = lossy["device"]
+    out = tmp_path / "s.json"
+    p = subprocess.run([sys.executable, "-m", "pndiss", "analyze", path, "--set", "sol_monitor_rt=1",
+                        "--summary-json", str(out)], capture_output=True, text=True, cwd=ROOT,
+                       env=dict(os.environ, PYTHONPATH=ROOT, COLUMNS="200"))
+    assert p.returncode == 0, p.stderr
+    assert f"Capture loss: {len(want)} gap(s), {sum(w[3] for w in want)} cycle(s) missing" in p.stdout
+    g = json.load(open(out, encoding="utf-8"))["cyclic"]["capture_gaps"]
+    assert g["count"] == len(want)
+    assert {(r["frame_id"], r["prev_frame"], r["next_frame"], r["cycles_missing"]) for r in g["gaps"]} == set(want)
+
+
+@pytest.mark.skipif(shutil.which("tshark") is None, reason="tshark not installed")
+def test_lua_plugin_same_violations(lossy):
+    from test_lua_plugin import rule_rows, settings_pref
+    for path, _want, rule, frame in lossy.values():
+        rows = {(fn, r) for fn, r, _d in rule_rows(path, *settings_pref({"sol_monitor_rt": True}))}
+        assert rows == {(frame, rule)}
+
+
+# -- the counter arithmetic on its own -------------------------------------------------------------
+
+def _feed(g, key, counters):
+    return [g.advance(key, i, i, c) for i, c in enumerate(counters)]
+
+
+def test_wrap_learnt_step_and_connect_step():
+    g = GapTracker()
+    cc = [(65000 + 32 * i) % 65536 for i in range(40)]
+    del cc[20:23]
+    got = _feed(g, (1, "a", "b"), cc)
+    assert got[20] == 3 and sum(got) == 3
+    g.step_from((2, "a", "b"), 64)
+    assert _feed(g, (2, "a", "b"), [0, 192, 256])[1:] == [2, 0]   # step from the Connect: trusted at once
+
+
+def test_non_uniform_counter_never_gaps():
+    g = GapTracker()
+    got = _feed(g, (1, "a", "b"), [(31 * i + (i % 3)) % 65536 for i in range(200)])
+    assert sum(got) == 0 and not g.summary()["streams"][0]["uniform"]
+
+
+def test_repeated_counter_is_no_gap():
+    g = GapTracker()
+    assert sum(_feed(g, (1, "a", "b"), [32 * (i // 2) for i in range(40)])) == 0
+
+
+@hsettings(max_examples=200, deadline=None)
+@given(step=st.sampled_from((1, 8, 16, 32, 64, 128, 256, 1024)), start=st.integers(0, 65535),
+       n=st.integers(12, 200), drops=st.lists(st.integers(8, 199), max_size=30))
+def test_missing_cycles_add_up(step, start, n, drops):
+    """Any frames dropped after the first eight (the step is learnt): the gaps add up to the drops."""
+    keep = [i for i in range(n) if i not in set(drops)]
+    cc = [(start + step * i) % 65536 for i in keep]
+    g = GapTracker()
+    got = _feed(g, (1, "a", "b"), cc)
+    want = sum(b - a - 1 for a, b in zip(keep, keep[1:]))
+    if step * (max((b - a for a, b in zip(keep, keep[1:])), default=1)) < 65536:
+        assert sum(got) == want
+
+
+@pytest.fixture(scope="module")
+def flipped(tmp_path_factory):
+    """RT: controller and device on their own clocks, so the order of setpoint and actual frames flips
+    (cycles 60-119 actual first; 200-229 alternating, a jittery crossing). No frame is lost."""
+    tmp = str(tmp_path_factory.mktemp("flip"))
+    src = capedit.simulate(os.path.join(tmp, "full.pcapng"), "--cycles", "400", "--inject", "SOL-DEVICE-SKIP@150")
+    exp = json.load(open(src[:-len(".pcapng")] + ".expected.json", encoding="utf-8"))
+    sp, _ac = _streams(src)
+    dst = os.path.join(tmp, "flip.pcapng")
+    capedit.swap(src, dst, {sp[i] for i in range(60, 120)} | {sp[i] for i in range(200, 230, 2)})
+    return dst, exp["faults"][0]
+
+
+def test_order_flips_pair_each_value_with_its_setpoint(flipped):
+    path, fault = flipped
+    a, evs = _analyze(path)
+    assert [(e["rule"], e["frame"]) for e in evs if e["kind"] == "violation"] == [(fault["rule"], fault["first_frame"])]
+    assert not [e for e in evs if e["kind"] == "capture_gap"]
+    enc = a.summary()["cyclic"]["encoders"][0]
+    assert enc["cycles"] == 400 and enc["lost_cycles"] == 0   # every cycle judged, none lost
+    bat = analyze_file(path, Settings(sol_monitor_rt=True)).summary()["cyclic"]["encoders"][0]
+    assert bat["cycles"] == 400 and bat["violations"].keys() == {fault["rule"]}
+
+
+@pytest.mark.skipif(shutil.which("tshark") is None, reason="tshark not installed")
+def test_lua_plugin_same_on_flips(flipped):
+    from test_lua_plugin import rule_rows, settings_pref
+    path, fault = flipped
+    rows = {(fn, r) for fn, r, _d in rule_rows(path, *settings_pref({"sol_monitor_rt": True}))}
+    assert rows == {(fault["first_frame"], fault["rule"])}
+
+
+def test_pause_longer_than_the_counter_wraps():
+    """2.5 s without frames (the 16-bit counter wraps every 2.048 s at 31.25 us): the time stamps count."""
+    g = GapTracker()
+    key = (1, "a", "b")
+    for i in range(10):
+        assert g.advance(key, i, i * 1_000_000, (32 * i) % 65536) == 0
+    i = 10 + 2500
+    assert g.advance(key, 10, i * 1_000_000, (32 * i) % 65536) == 2500   # cycles 10..2509 missing
