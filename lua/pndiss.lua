@@ -542,10 +542,7 @@ local function connect_response(key, pinfo)
     local res_fid = {}
     local server_name
     for _, b in ipairs(bl) do
-        if b.type == 0x8106 and server_name == nil then
-            local n = inside(all("pn_io.cminitiator_station_name"), b)
-            if n[1] then server_name = tostring(n[1].value) end
-        elseif b.type == 0x8101 then
+        if b.type == 0x8101 then
             local m = inside(all("pn_io.cmresponder_macadd"), b)
             if m[1] then device = tostring(m[1].value) end
         elseif b.type == 0x8102 then
