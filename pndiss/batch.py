@@ -623,11 +623,11 @@ class _Run:
             st.ts = self.ts_of(buf, self._frame_pos(last, j))
             st.seen += cnt
             if c.kind == "unmapped":
-                t.unmapped += cnt
+                t.count_unmapped(c.s.key, cnt)
                 t.misses[c.s.key] += cnt
                 continue
             if c.kind == "empty":
-                t.unmapped += cnt
+                t.no_telegram += cnt
                 continue
             t.mapped += cnt
             d = self._frame_pos(last, j) + c.data - c.boff

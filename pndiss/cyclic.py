@@ -108,6 +108,10 @@ class CyclicTracker:
         self.map_generation = None    # session.map_generation the cached layouts belong to
         self.axes: dict = lim.table(self.s.max_streams, "streams")   # axis key -> _Axis
         self.unmapped = 0
+        # unmapped key -> frames: those of a stream an AR maps later (a device sending before the Connect
+        # response, as real devices do) are not "unknown streams" in the verdict's trust signals
+        self.unmapped_by_key: dict = lim.table(self.s.max_streams, "streams")
+        self.no_telegram = 0          # frames of a known AR that carry no encoder telegram (IO devices)
         self.mapped = 0
         self.gated = 0
         cap = self.s.max_stations
@@ -120,6 +124,15 @@ class CyclicTracker:
         self.telegram_sink = None
         self.gaps = GapTracker(getattr(self.s, "capture_gaps", True))
         self.infer = Inference(analyzer, getattr(self.s, "infer_telegrams", True))
+
+    def count_unmapped(self, key: tuple, n: int) -> None:
+        self.unmapped += n
+        self.unmapped_by_key[key] = self.unmapped_by_key.get(key, 0) + n
+
+    def unmapped_before_ar(self) -> int:
+        """Unmapped frames of streams that an AR of the capture maps by now (sent before its Connect response)."""
+        maps = self.a.session.maps
+        return sum(n for k, n in self.unmapped_by_key.items() if k in maps)
 
     # -- frame layout ------------------------------------------------------------------------------
     def _frame(self, key, rt_ev) -> _Frame | None:
@@ -180,12 +193,15 @@ class CyclicTracker:
                     self._capture_gap(key, fn, ts, miss, fr)
                 if fr is None and self.infer.enabled:
                     self.infer.offer(key, fn, pdu[csdu_off:len(pdu) - 4], ts)   # mid-session: learn from the content
-                self.unmapped += 1
+                if fr is None:
+                    self.count_unmapped(key, 1)
+                else:
+                    self.no_telegram += 1
                 return
-        elif not fr.objs:
+        elif not fr.objs:  # an AR's frame without an encoder telegram (an ordinary IO device)
             if miss:
                 self._capture_gap(key, fn, ts, miss, fr)
-            self.unmapped += 1
+            self.no_telegram += 1
             return
         if miss:
             self._capture_gap(key, fn, ts, miss, fr)
@@ -525,7 +541,9 @@ class CyclicTracker:
             s = chk.summary()
             encs.append({**ax.info, "telegram": ax.telegram, "telegram_source": ax.source, "profile": ax.profile,
                          "profile_reason": ax.reason, **s})
-        return {"frames_mapped": self.mapped, "frames_unmapped": self.unmapped, "cycles_gated": self.gated,
+        before = self.unmapped_before_ar()
+        return {"frames_mapped": self.mapped, "frames_unmapped": self.unmapped - before,
+                "frames_before_ar": before, "frames_no_telegram": self.no_telegram, "cycles_gated": self.gated,
                 # every violation, not only the encoders' (DCP, ...): one counting point (Analyzer.violations)
                 "encoders": encs, "violations_by_severity": self.a.violations_by_severity(),
                 "capture_gaps": self.gaps.summary(), "content_inference": self.infer.summary()}

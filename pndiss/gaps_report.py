@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from rich.table import Table
 
+from .textsafe import visible
+
 SHOWN = 20
 
 
@@ -24,7 +26,7 @@ def section(g: dict):
         first = ", ".join(f"{r['prev_frame']}..{r['next_frame']} ({r['cycles_missing']})" for r in mine[:3])
         if not s["uniform"]:
             first = "cycle counter does not advance uniformly: gaps not detected"
-        t.add_row(f"0x{s['frame_id']:04X} {s['src']} -> {s['dst']}", str(mine[0]["station"] if mine and mine[0]["station"]
-                                                                            else "-"),
-                  str(mine[0]["direction"] if mine else "-"), str(s["gaps"]), str(s["cycles_missing"]), first)
+        station = mine[0]["station"] if mine and mine[0]["station"] else "-"   # a NameOfStation: wire text
+        t.add_row(visible(f"0x{s['frame_id']:04X} {s['src']} -> {s['dst']}"), visible(station),
+                  visible(mine[0]["direction"] if mine else "-"), str(s["gaps"]), str(s["cycles_missing"]), first)
     return t

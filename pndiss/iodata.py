@@ -11,6 +11,9 @@ from __future__ import annotations
 
 # IOxS bits (tshark pn_io.ioxs.*): DataState 0x80, Instance 0x60, reserved 0x1E, Extension 0x01
 IOXS_BITS = (("datastate", 0x80, 7), ("instance", 0x60, 5), ("res14", 0x1E, 1), ("extension", 0x01, 0))
+# tshark 4.0 decodes per-submodule IO data (dissect_PNIO_C_SDU_RTC1) for RT_CLASS_1 and RT_CLASS_UDP
+# frame IDs only (wire.md §2.2); an RTC3 C_SDU is shown as "PROFINET IO Cyclic Service Data Unit: N byte"
+RTC1_FIRST, RTC_UDP_LAST = 0x8000, 0xFBFF
 IOXS_INSTANCE = {0: "Detected by subslot", 1: "Detected by slot", 2: "Detected by IO device",
                  3: "Detected by IO controller"}
 
@@ -31,6 +34,8 @@ def decode(fm, csdu: bytes) -> dict | None:
     released (tshark shows nothing then)."""
     if fm is None or fm.source != "connect" or fm.released:  # tshark forgets the AR at its Release too
         return None
+    if not RTC1_FIRST <= fm.frame_id <= RTC_UDP_LAST:
+        return None  # RT_CLASS_3 (IRT) frames: tshark 4.0 shows their C_SDU as one block, no IOxS
     n = len(csdu)
     # tshark walks the C_SDU from byte 0 in frame-offset order and calls everything from the first
     # byte no IOCS / data object / IOPS starts at "GAP and RTCPadding": items after a gap are not shown

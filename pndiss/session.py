@@ -508,7 +508,7 @@ class SessionTracker:
         for fm in ar["maps"]:
             fm.phase = phase
         self.a.emit({"frame": fn, "ts_ns": ts, "kind": "ar_phase", "ar_uuid": ar["ar_uuid"], "phase": phase,
-                     "previous": old, "cause": cause, "device_mac": ar["device_mac"], "station": ar["station"],
+                     "previous_phase": old, "cause": cause, "device_mac": ar["device_mac"], "station": ar["station"],
                      "controller_mac": ar["controller_mac"]})
         self.a.cyclic.on_phase(ar, phase, fn, ts)
 

@@ -123,23 +123,18 @@ def trust(summary: dict) -> list[str]:
     """Signals on how far the capture can be trusted: gaps, unmapped streams, malformed frames."""
     out = []
     acc = summary.get("accounting", {})
-    gaps = summary.get("capture_gaps")
-    ngap_ev = summary.get("events", {}).get("capture_gap", 0)
-    if gaps or ngap_ev:
-        n = ngap_ev
-        if isinstance(gaps, dict):
-            n = gaps.get("count", gaps.get("gaps", n))
-            lost = gaps.get("cycles_lost", gaps.get("lost_cycles"))
-            extra = f", {lost:,} cycles lost" if isinstance(lost, int) else ""
-        else:
-            n = len(gaps) if isinstance(gaps, list) and not n else n
-            extra = ""
+    cyc = summary.get("cyclic", {})
+    gaps = cyc.get("capture_gaps") or {}
+    n = gaps.get("count") or summary.get("events", {}).get("capture_gap", 0)
+    if n:
+        lost = gaps.get("cycles_missing")
+        extra = f", {lost:,} cycles lost" if isinstance(lost, int) else ""
         out.append(f"capture gaps: {n:,} (frames the capture missed, seen in the cycle counter{extra}); "
                    "rules over those cycles are not judged")
-    cyc = summary.get("cyclic", {})
     if cyc.get("frames_unmapped"):
-        out.append(f"unmapped streams: {cyc['frames_unmapped']:,} cyclic frames whose telegram is unknown "
-                   "(no Connect in the capture): give it with --map or --set telegram=N")
+        out.append(f"unmapped streams: {cyc['frames_unmapped']:,} cyclic frames of no AR the capture shows "
+                   "(no Connect in the capture, nothing inferred from the content): give them with --map or "
+                   "--set telegram=N")
     if acc.get("malformed"):
         out.append(f"malformed frames: {acc['malformed']:,} (listed below)")
     for e in cyc.get("encoders", []):

@@ -3,6 +3,9 @@ count like every other (Analyzer.violations); the encoder tables show the rest."
 from __future__ import annotations
 
 from rich.table import Table
+from rich.text import Text
+
+from .textsafe import visible
 
 SEV_STYLE = {"error": "red", "warning": "yellow", "info": "cyan"}
 
@@ -16,6 +19,6 @@ def sections(violations: dict) -> list:
         t.add_column(col)
     for rule, v in sorted(rows, key=lambda kv: kv[1]["not_axis_first"][0]):
         frame, side, msg = v["not_axis_first"]
-        t.add_row(rule, str(side or "-"), f"[{SEV_STYLE.get(v['severity'], '')}]{v['severity']}[/]",
-                  str(v["not_axis"]), str(frame), str(msg or ""))
+        t.add_row(visible(rule), visible(side or "-"), Text(visible(v["severity"]), style=SEV_STYLE.get(v["severity"], "")),
+                  str(v["not_axis"]), str(frame), visible(msg or ""))  # message and side may carry wire text
     return [t]

@@ -274,7 +274,8 @@ def test_pcapng_writer_round_trips(recs):
         got = [(ts, bytes(d)) for _, ts, _, d in open_capture(f.name)]
     finally:
         os.unlink(f.name)
-    assert got == [(ts, d) for ts, d in recs]
+    from pndiss.capture import TS_MAX   # the reader clamps what no sink can show (issue #17)
+    assert got == [(min(ts, TS_MAX), d) for ts, d in recs]
 
 
 @settings(max_examples=200, deadline=None)
