@@ -147,7 +147,7 @@ def _stations(summary: dict) -> str:
     st = [[s.get("name"), s.get("mac"), s.get("ip"), s.get("type_of_station"),
            f"0x{s['vendor_id']:04x}/0x{s['device_id']:04x}" if isinstance(s.get("vendor_id"), int)
            and isinstance(s.get("device_id"), int) else "", s.get("chassis_id"), s.get("port_id"), s.get("frames")]
-          for s in summary.get("stations", [])]
+          for s in summary.get("stations", []) if not s.get("lldp_port_of")]   # a station's LLDP port is no station
     ars = [[a.get("ar_uuid"), f"{a.get('controller_station') or a.get('controller_mac')} → "
             f"{a.get('station') or a.get('device_mac')}", a.get("ar_type_name"),
             (a.get("status") or {}).get("text") if isinstance(a.get("status"), dict) else a.get("status"),

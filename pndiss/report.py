@@ -195,25 +195,10 @@ def render_report(summary: dict, analyzer, to_stderr: bool = False) -> None:
     con.print(Text("pndiss " + visible(vd.one_line(summary, log, with_name=False), 300), style="bold"))
 
 
-def lldp_ports(stations: list[dict]) -> dict[str, str]:
-    """MAC -> device MAC for LLDP port MACs: a source known only from LLDP whose system name is a
-    station that DCP or an AR knows under another MAC is that station's port, not a station."""
-    by_name = {}
-    for s in stations:
-        if s.get("name") and (s.get("vendor_id") is not None or s.get("ip") or s.get("role") is not None):
-            by_name.setdefault(s["name"], s["mac"])
-    out = {}
-    for s in stations:
-        if s.get("port_id") is not None and s.get("vendor_id") is None and s.get("name") in by_name \
-                and by_name[s["name"]] != s["mac"]:
-            out[s["mac"]] = by_name[s["name"]]
-    return out
-
-
 def _stations(con: Console, stations: list[dict]) -> None:
     if not stations:
         return
-    ports = lldp_ports(stations)
+    ports = {s["mac"]: s["lldp_port_of"] for s in stations if s.get("lldp_port_of")}  # stations.as_list
     port_list: dict[str, list[str]] = {}
     for p, dev in ports.items():
         port_list.setdefault(dev, []).append(p)

@@ -43,4 +43,23 @@ class Stations:
             self.update(src, **info)
 
     def as_list(self) -> list[dict]:
-        return sorted(self.by_mac.values(), key=lambda s: s["mac"])
+        """Every station by MAC; an LLDP port MAC of a known station carries ``lldp_port_of`` (that
+        station's MAC) so readers do not take a device's ports for devices of their own."""
+        out = sorted(self.by_mac.values(), key=lambda s: s["mac"])
+        ports = lldp_ports(out)
+        return [dict(s, lldp_port_of=ports[s["mac"]]) if s["mac"] in ports else s for s in out]
+
+
+def lldp_ports(stations: list[dict]) -> dict[str, str]:
+    """MAC -> device MAC for LLDP port MACs: a source known only from LLDP whose system name is a
+    station that DCP or an AR knows under another MAC is that station's port, not a station."""
+    by_name = {}
+    for s in stations:
+        if s.get("name") and (s.get("vendor_id") is not None or s.get("ip") or s.get("role") is not None):
+            by_name.setdefault(s["name"], s["mac"])
+    out = {}
+    for s in stations:
+        if s.get("port_id") is not None and s.get("vendor_id") is None and s.get("name") in by_name \
+                and by_name[s["name"]] != s["mac"]:
+            out[s["mac"]] = by_name[s["name"]]
+    return out

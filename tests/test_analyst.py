@@ -106,6 +106,9 @@ def test_2_lldp_port_macs_are_not_stations():
     rows = [x for x in table.splitlines() if x.startswith("│ 02:")]
     assert not any(x.startswith("│ 02:00:00:00:01:02") or x.startswith("│ 02:00:00:00:01:03") for x in rows)
     assert "02:00:00:00:01:02" in table  # named as a port of encoder-1
+    stations = {s["mac"]: s for s in _summary(T81)["stations"]}   # the summary says so too
+    enc = stations["02:00:00:00:01:02"]["lldp_port_of"]
+    assert stations[enc]["name"] == stations["02:00:00:00:01:02"]["name"] and "lldp_port_of" not in stations[enc]
 
 
 # -- 3. inputs -------------------------------------------------------------------------------------
