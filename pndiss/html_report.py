@@ -115,6 +115,8 @@ def _verdict(summary: dict, col: ReportCollector) -> str:
         head = "<p class='verdict good'>No violations.</p>"
     cyc = summary.get("cyclic", {})
     unjudged = [f"{n} {what}" for n, what in ((cyc.get("frames_unmapped", 0), "cyclic frames not mapped to a telegram"),
+                                              (cyc.get("frames_no_telegram", 0),
+                                               "cyclic frames of ARs without an encoder telegram (IO devices)"),
                                               (cyc.get("cycles_gated", 0), "cycles not judged")) if n]
     if unjudged:
         head += f"<p class='warn'>Not checked: {esc(', '.join(unjudged))} (see below).</p>"

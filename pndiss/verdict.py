@@ -174,7 +174,11 @@ def not_checked(summary: dict) -> list[str]:
     gated = sum(e.get("gated_cycles", 0) for e in encs)
     if gated:
         out.append(f"{gated:,} cycles not judged (provider stopped, DataValid 0 or IOPS bad)")
-    if summary.get("frames") and not encs and not no_profinet(summary):
+    io = summary.get("cyclic", {}).get("frames_no_telegram", 0)
+    if io:
+        out.append(f"{io:,} cyclic frames of ARs without an encoder telegram (ordinary IO devices): decoded "
+                   "(IOPS/IOCS in the rt events), no encoder rules apply")
+    if summary.get("frames") and not encs and not no_profinet(summary) and not io:
         out.append("cyclic data: no encoder telegram found (no Connect, --map or --set telegram)")
     return out
 
