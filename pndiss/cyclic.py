@@ -354,7 +354,11 @@ class CyclicTracker:
         """A length guess is judged when both data lengths leave one candidate among the profile's telegrams,
         or a standard telegram among several (81 is mandatory in every class, 002_d69f444daf0f8af2.txt:528);
         otherwise cycles are reported, not judged, until P922 names the telegram (cyclic.md §14)."""
-        if "length" not in str(o.source):
+        return self._guess_fits_several(ax, o.source)
+
+    @staticmethod
+    def _guess_fits_several(ax, source) -> bool:
+        if "length" not in str(source):
             return False
         io = ax.checker.io_len
         cands = [t for t in tg.telegrams_for_length(io.get("actual"), io.get("setpoint"))
@@ -501,12 +505,7 @@ class CyclicTracker:
 
     def _unsure(self, ax: _Axis) -> bool:
         """A telegram only guessed from lengths that fit several is not judged (cyclic.md §14): nor is #66."""
-        if "length" not in str(ax.source):
-            return False
-        io = ax.checker.io_len
-        cands = [t for t in tg.telegrams_for_length(io.get("actual"), io.get("setpoint"))
-                 if ax.profile in tg.TELEGRAMS[t]["profiles"] or (ax.profile == "generic" and t in tg.STANDARD)]
-        return len(cands) > 1 and ax.telegram not in tg.STANDARD
+        return self._guess_fits_several(ax, ax.source)
 
     # -- records -----------------------------------------------------------------------------------
     def on_record(self, ev: dict) -> None:
