@@ -363,8 +363,8 @@ end
 Checker._reset_history = Checker.reset_history
 
 -- A cycle that is reported, not judged (provider STOP, DataValid = 0, IOPS bad).
-function Checker:gap(frame, ts, reason)
-  self.gated = self.gated + 1
+-- No judged cycle joins the next one: open runs end, the edge history starts afresh (_state.py _break).
+local function break_history(self)
   self.out = nil
   if self.prev_ac ~= nil or self.open_order[1] ~= nil then
     flush_all(self)
@@ -373,17 +373,17 @@ function Checker:gap(frame, ts, reason)
   return self.out or EMPTY
 end
 
+function Checker:gap(frame, ts, reason)
+  self.gated = self.gated + 1
+  return break_history(self)
+end
+
 -- `cycles` cycles missing from the capture before `frame` (capture loss, pndiss/gaps.py): they count
 -- as elapsed (n moves on) but are not judged; no edge, window or pending handshake reaches across them.
 function Checker:lost(frame, ts, cycles)
   self.lost_cycles = self.lost_cycles + cycles
   self.n = self.n + cycles
-  self.out = nil
-  if self.prev_ac ~= nil or self.open_order[1] ~= nil then
-    flush_all(self)
-    self:reset_history()
-  end
-  return self.out or EMPTY
+  return break_history(self)
 end
 
 -- ------------------------------------------------------------------------------ violations

@@ -126,11 +126,7 @@ class Checker:
     def gap(self, frame: int, ts: int, reason: str) -> list[dict]:
         """A cycle that is reported, not judged (provider STOP, DataValid = 0, IOPS bad)."""
         self.gated += 1
-        self.out = []
-        if self.prev_ac is not None or self._open:
-            self._flush_all()
-            self._reset_history()
-        return self.out
+        return self._break()
 
     def lost(self, frame: int, ts: int, cycles: int) -> list[dict]:
         """``cycles`` cycles the capture does not hold (capture loss, pndiss/gaps.py) before ``frame``: they
@@ -138,6 +134,10 @@ class Checker:
         edge, window or pending handshake reaches across them (not judged rather than a violation)."""
         self.lost_cycles += cycles
         self.n += cycles
+        return self._break()
+
+    def _break(self) -> list[dict]:
+        """No judged cycle joins the next one: open runs end, the edge history starts afresh."""
         self.out = []
         if self.prev_ac is not None or self._open:
             self._flush_all()
