@@ -48,10 +48,8 @@ class Analyzer:
         self.stations = st.Stations(self.limits.table(cap, "stations"))
         self.activity = Activity()
         self.violations = ViolationLog()
-        self.dcp_tracker = dcp.DcpTracker()
-        t = self.dcp_tracker   # its per-name / per-IP / per-MAC claims: bounded like the stations
-        t.name_at, t.ip_at = self.limits.table(cap, "dcp_claims"), self.limits.table(cap, "dcp_claims")
-        t.mac_name, t.mac_ip = self.limits.table(cap, "dcp_claims"), self.limits.table(cap, "dcp_claims")
+        # its per-name / per-IP / per-MAC claims: bounded like the stations
+        self.dcp_tracker = dcp.DcpTracker(lambda: self.limits.table(cap, "dcp_claims"))
         self.session = SessionTracker(self)
         self.cyclic = CyclicTracker(self)
         self.rt_frags = rtfrag.Reassembler()  # FRAG_PDUs (FrameID 0xFF80-0xFF8F)

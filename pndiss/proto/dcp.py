@@ -494,11 +494,12 @@ class DcpTracker:
     Each (rule, value, MAC pair) is reported once.
     """
 
-    def __init__(self):
-        self.name_at: dict[str, tuple[str, int]] = {}   # name -> (mac, frame seen)
-        self.ip_at: dict[str, tuple[str, int]] = {}     # ip -> (mac, frame seen)
-        self.mac_name: dict[str, str] = {}
-        self.mac_ip: dict[str, str] = {}
+    def __init__(self, table=dict):
+        # ``table()`` makes each per-key table (the analyzer passes bounded ones: pndiss/limits.py)
+        self.name_at: dict[str, tuple[str, int]] = table()   # name -> (mac, frame seen)
+        self.ip_at: dict[str, tuple[str, int]] = table()     # ip -> (mac, frame seen)
+        self.mac_name: dict[str, str] = table()
+        self.mac_ip: dict[str, str] = table()
         self.reported: set = set()
 
     def on_dcp(self, ev: dict, src: str, dst: str) -> list[dict]:
