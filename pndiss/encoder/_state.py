@@ -611,6 +611,17 @@ class Checker:
         if SERR:
             self._state("sensor_error", X2 if X2 is not None else 1)
 
+    # -- what a bulk engine may ask (pndiss/engine.py): read-only views of the state ------------------------
+    def bulk_ready(self) -> bool:
+        """The next cycle may go through advance_steady: a previous cycle on both sides, no open run, the
+        key steady for more than L+1 cycles, nothing pending (no deadline open)."""
+        return (self.prev_ac is not None and self.prev_sp is not None and not self._open
+                and self.steady_n > self.L + 1 and not self._pending_steady())
+
+    def idle(self) -> bool:
+        """No history and no open run: gated cycles only count (gap() would flush nothing)."""
+        return self.prev_ac is None and not self._open
+
     def advance_steady(self, cycles: int, frame: int, ts: int, sp_frame: int | None, sp: dict, ac: dict,
                        motion_refs: list, cls_seen: bool, dls_seen: bool) -> None:
         """``cycles`` calls of cycle() that all take the _cycle_steady branch and hit no rule, at once
