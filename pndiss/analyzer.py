@@ -36,6 +36,10 @@ class Analyzer:
 
         self.settings = settings or Settings()
         self.sink = sink
+        # per-frame events (rt / telegram dicts) are built only when a sink wants them (pndiss/sinks.py)
+        self.frame_events = sink is not None
+        self._held = None     # events held while the engine walks stream groups (hold / release)
+        self._hold_fn = 0
         self.counts = {"decoded": 0, "not_profinet": 0, "malformed": 0}
         self.kinds: Counter = Counter()
         self.frame_classes: Counter = Counter()
@@ -61,12 +65,31 @@ class Analyzer:
 
     # -- output ---------------------------------------------------------------------------
     def emit(self, ev: dict) -> None:
+        if self._held is not None:
+            self._held.append((self._hold_fn, len(self._held), ev))
+            return
         kind = ev["kind"]
         self.kinds[kind] += 1
         if kind == "violation":  # the verdict (pndiss/verdict.py) sees every one, with or without a sink
             self.violations.add(ev)
         if self.sink is not None:
             self.sink(ev)
+
+    # -- the engine walks independent stream groups one after the other (pndiss/engine.py): their events
+    # are held, tagged with the frame being processed, and released in the reference path's order
+    def hold(self):
+        prev, self._held = self._held, []
+        return prev
+
+    def hold_at(self, fn: int) -> None:
+        self._hold_fn = fn
+
+    def release(self, prev) -> None:
+        held, self._held = self._held, prev
+        if held:
+            held.sort(key=lambda h: (h[0], h[1]))
+            for h in held:
+                self.emit(h[2])
 
     def violations_by_severity(self) -> dict:
         return self.violations.by_severity()
@@ -77,6 +100,10 @@ class Analyzer:
         ev.update(fields)
         self.emit(ev)
         return ev
+
+    def report_malformed(self, fn: int, ts: int, layer: str, reason: str) -> None:
+        """A frame that could not be decoded: kept for the summary (the first ones) and emitted."""
+        self._malformed(fn, ts, layer, reason)
 
     def _malformed(self, fn: int, ts: int, layer: str, reason: str) -> None:
         ev = {"frame": fn, "ts_ns": ts, "kind": "malformed", "layer": layer, "reason": reason}
@@ -131,7 +158,7 @@ class Analyzer:
                 self.emit(ev)
                 raise Malformed("pn_rt", f"cyclic PDU of {len(pdu) - off} bytes has no room for the APDU status")
             ev.update(rt.decode_apdu_status(pdu, off))
-            if self.sink is not None:  # IOPS/IOCS of every submodule (pndiss/iodata.py), for event readers
+            if self.frame_events:  # IOPS/IOCS of every submodule (pndiss/iodata.py), for event readers
                 io = iodata.decode(self.session.lookup(frame_id, src, dst), pdu[off + 2:len(pdu) - 4])
                 if io is not None:
                     ev["iodata"] = io

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from . import limits, rules
 from . import telegrams as tg
-from .gaps import MAX_EVENTS, GapTracker
+from .gaps import GapTracker
 from .infer import Inference
 from .encoder import Checker, EncoderConfig
 from .encoder.acyclic import tg_length_problem
@@ -213,7 +213,7 @@ class CyclicTracker:
         csdu = pdu[csdu_off:len(pdu) - 4]
         same = csdu == fr.last_csdu
         fr.last_csdu = csdu
-        sink = self.a.sink
+        sink = self.a.frame_events or None
         direction = fr.direction
         n_csdu = len(csdu)
         for o in fr.objs:
@@ -319,9 +319,8 @@ class CyclicTracker:
         ev = {"frame": fn, "ts_ns": ts, "kind": "capture_gap", "station": station, "frame_id": key[0],
               "src": key[1], "dst": key[2], "direction": fm.direction if fm is not None else None,
               "cycles_missing": miss, "prev_frame": self.gaps.prev, "next_frame": fn}
-        if len(self.gaps.rows) < MAX_EVENTS:
-            self.gaps.rows.append({k: ev[k] for k in ("frame_id", "src", "dst", "station", "direction",
-                                                      "prev_frame", "next_frame", "cycles_missing")})
+        self.gaps.keep({k: ev[k] for k in ("frame_id", "src", "dst", "station", "direction",
+                                          "prev_frame", "next_frame", "cycles_missing")})
         self.a.emit(ev)
 
     def _relabel(self, o: _Obj, fr: _Frame) -> None:

@@ -42,24 +42,26 @@ class _Stream:
 
 
 def batch_enabled() -> bool:
-    """Steady runs in batches (pndiss/batch.py); env PNDISS_BATCH=0 keeps the frame-by-frame fast path."""
+    """Cyclic streams demultiplexed and judged per axis (pndiss/engine.py); env PNDISS_BATCH=0 keeps the
+    frame-by-frame fast path."""
     return os.environ.get("PNDISS_BATCH", "1") != "0"
 
 
 def run_file(a, path: str, progress=None) -> None:
-    """The capture at ``path`` into analyzer ``a``: steady runs of known cyclic streams go to the
-    batch engine straight from the reader's buffer, every other frame through run()."""
+    """The capture at ``path`` into analyzer ``a``: the reader's buffered windows go to the engine, which
+    takes every frame it can index; the rest come one by one through run()."""
     from .capture import open_capture
 
     streams = new_streams(a)
+    one = stepper(a, streams)
     engine = None
     if batch_enabled():
-        from .batch import Engine
-        engine = Engine(a, streams, progress)
+        from .engine import Engine
+        engine = Engine(a, streams, one, progress)
     frames = open_capture(path, batch=engine, info=a.reader)
     if progress is not None:
         frames = _with_progress(frames, progress)
-    run(a, frames, streams, engine)
+    run(a, frames, streams, engine, one)
 
 
 def _with_progress(frames, progress):
@@ -69,41 +71,52 @@ def _with_progress(frames, progress):
             progress(f[0])
 
 
-def run(a, frames, streams: dict | None = None, engine=None) -> None:
-    """Feed ``frames`` ((fn, ts, linktype, data) tuples) into analyzer ``a``. ``streams`` is shared
-    with the batch ``engine`` (which takes frames of the streams learned here)."""
-    if streams is None:
-        streams = new_streams(a)   # data[:16] -> _Stream of a fast cyclic stream (nothing for other frames)
+def stepper(a, streams: dict):
+    """The per-frame step: a frame of a known cyclic stream straight to the cyclic tracker, any other
+    through Analyzer.feed (learning the stream of a cyclic PN-RT frame on the way)."""
     get = streams.get
     feed = a.feed
     on_cyclic = a.cyclic.on_cyclic
+
+    def one(fn, ts, lt, data):
+        if lt == 1 and len(data) >= 24:
+            # untagged: MACs + EtherType + FrameID; one 802.1Q tag (the usual priority tag): 4 more
+            off = 18 if data[12] == 0x81 else 14
+            key = data[:off + 2]
+            s = get(key, False)
+            if s:
+                s.n += 1
+                try:
+                    # DataStatus: DataValid (0x04) and ProviderState RUN (0x10), wire.md §2.3
+                    on_cyclic(s.key, fn, ts, data[-2] & 0x14 == 0x14, data, off + 2)
+                except Malformed as e:
+                    s.bad += 1
+                    a.report_malformed(fn, ts, e.layer, e.reason)
+                return
+            feed(fn, ts, lt, data)
+            if data[off - 2:off] == ETH_PNRT:   # no per-header state for frames that are no PN-RT
+                s = learn_stream(data, off)
+                if s is not None:
+                    streams[key] = s
+        else:
+            feed(fn, ts, lt, data)
+    return one
+
+
+def run(a, frames, streams: dict | None = None, engine=None, one=None) -> None:
+    """Feed ``frames`` ((fn, ts, linktype, data) tuples) into analyzer ``a``. ``streams`` is shared
+    with the ``engine`` (which takes frames of the streams learned here)."""
+    if streams is None:
+        streams = new_streams(a)   # data[:16] -> _Stream of a fast cyclic stream (nothing for other frames)
+    if one is None:
+        one = stepper(a, streams)
     fn = ts = None
     try:
         for fn, ts, lt, data in frames:
-            if lt == 1 and len(data) >= 24:
-                # untagged: MACs + EtherType + FrameID; one 802.1Q tag (the usual priority tag): 4 more
-                off = 18 if data[12] == 0x81 else 14
-                key = data[:off + 2]
-                s = get(key, False)
-                if s:
-                    s.n += 1
-                    try:
-                        # DataStatus: DataValid (0x04) and ProviderState RUN (0x10), wire.md §2.3
-                        on_cyclic(s.key, fn, ts, data[-2] & 0x14 == 0x14, data, off + 2)
-                    except Malformed as e:
-                        s.bad += 1
-                        a._malformed(fn, ts, e.layer, e.reason)
-                    continue
-                feed(fn, ts, lt, data)
-                if data[off - 2:off] == ETH_PNRT:   # no per-header state for frames that are no PN-RT
-                    s = learn_stream(data, off)
-                    if s is not None:
-                        streams[key] = s
-            else:
-                feed(fn, ts, lt, data)
+            one(fn, ts, lt, data)
     finally:
         if engine is not None and engine.last_fn > (fn or 0):
-            fn, ts = engine.last_fn, engine.last_ts   # the capture ended in a batched run
+            fn, ts = engine.last_fn, engine.last_ts   # the capture ended in a window the engine took
         _settle(a, streams, fn, ts)
 
 

@@ -118,6 +118,17 @@ class GapTracker:
         self.missing += k
         return k
 
+    def keep(self, row: dict) -> None:
+        """A gap for the summary: the first MAX_EVENTS in frame order are kept (the engine may find them
+        stream by stream within a stretch of the capture, not in frame order)."""
+        self.rows.append(row)
+        if len(self.rows) >= 2 * MAX_EVENTS:
+            self.rows.sort(key=lambda r: r["next_frame"])
+            del self.rows[MAX_EVENTS:]
+
+    def kept(self) -> list[dict]:
+        return sorted(self.rows, key=lambda r: r["next_frame"])[:MAX_EVENTS]
+
     def same_step(self, a, b) -> bool:
         """Both streams advance by one confirmed step per cycle (a setpoint and an actual stream of one
         AR at one reduction ratio): each actual value then has its own setpoint."""
@@ -134,4 +145,4 @@ class GapTracker:
                                 "step_source": "connect" if st.known else "learnt",
                                 "uniform": st.uniform})
         return {"count": self.count, "cycles_missing": self.missing, "streams": streams,
-                "checked": self.enabled, "gaps": self.rows}
+                "checked": self.enabled, "gaps": self.kept()}

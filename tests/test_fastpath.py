@@ -136,35 +136,34 @@ def test_mutated_frames_same_both_ways(muts):
     assert sum(s_fast["accounting"].values()) == len(frames)
 
 
-# -- the batch path (pndiss/batch.py): steady runs handled per run -----------------------------------
+# -- the engine (pndiss/engine.py): streams demultiplexed, steady pairs applied at once -----------------------------------
 
 import struct
 import subprocess
 import sys
 
-from pndiss import batch
+from pndiss import engine
 from pndiss.capture import CaptureError
 
 
 def _run_file(path: str, batched: bool):
     """(summary without settings, events other than rt, capture error, engine) of one pass over the file:
     the batch path (fast.run_file) or the reference path (Analyzer.feed on every frame)."""
-    a = Analyzer(Settings(fast_path=batched))
     seen = []
-    emit = a.emit
 
     def record(ev):
         if ev["kind"] != "rt":
             seen.append(json.dumps(ev, sort_keys=True, default=str))
-        emit(ev)
 
-    a.emit = record
+    a = Analyzer(Settings(fast_path=batched), record)
+    a.frame_events = False   # a sink of the engine's kinds: no per-frame telegram events on either path
     err = eng = None
     try:
         if batched:
             streams: dict = {}
-            eng = batch.Engine(a, streams)
-            fast.run(a, open_capture(path, batch=eng), streams, eng)
+            one = fast.stepper(a, streams)
+            eng = engine.Engine(a, streams, one)
+            fast.run(a, open_capture(path, batch=eng), streams, eng, one)
         else:
             for f in open_capture(path):
                 a.feed(*f)
@@ -194,15 +193,15 @@ def test_analyze_file_takes_the_batch_path(monkeypatch):
     """analyze_file without a sink goes through the engine; PNDISS_BATCH=0 keeps the frame-by-frame path."""
     path = next(p for p in CAPTURES if os.path.basename(p).startswith("fault-sol-device-zero-rt"))
     made = []
-    real = batch.Engine
+    real = engine.Engine
 
     def spy(*args, **kw):
         made.append(real(*args, **kw))
         return made[-1]
 
-    monkeypatch.setattr(batch, "Engine", spy)
+    monkeypatch.setattr(engine, "Engine", spy)
     a = analyze_file(path)
-    assert made and made[0].rows_bulk > 0
+    assert made and made[0].frames_bulk > 0
     assert a.summary()["accounting"]["decoded"] == a.frames
     monkeypatch.setenv("PNDISS_BATCH", "0")
     analyze_file(path)
@@ -268,7 +267,7 @@ def test_batch_long_sessions(sessions, tmp_path, name, fmt):
     path = str(tmp_path / ("s." + fmt.split("-")[0]))
     _write(path, sessions[name], fmt)
     eng = _same_both_ways(path)
-    assert eng.rows_bulk > 10 * eng.rows_single
+    assert eng.frames_bulk > 10 * eng.frames_single
 
 
 def test_batch_snaplen_truncated(sessions, tmp_path):

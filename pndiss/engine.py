@@ -1,0 +1,289 @@
+"""The engine: a window of the capture demultiplexed into streams, steady cyclic data judged per axis.
+
+Real traffic has no repeating frame order (devices at 1/2/4 ms, drifting clocks, jitter, IO devices,
+capture loss), so nothing here looks for one. For each window the reader offers (pndiss/capture.py,
+``batch=``):
+
+1. pndiss/frameindex.py finds every record (offset, length, time stamp) with NumPy;
+2. each frame's 16/20-byte prefix (MACs, VLAN tag, EtherType, FrameID) is hashed; the distinct
+   prefixes are looked up once in the fast path's stream table, so every frame gets a stream id
+   (-1: no known cyclic stream);
+3. frames that are no known cyclic stream -- RPC, DCP, LLDP, alarms, PTCP, a stream's first frame,
+   an unmapped stream's periodic re-lookup, streams still sampled by content inference -- are
+   *global*: they go through the analyzer one by one, in capture order, exactly as pndiss/fast.py
+   does. They split the window into segments;
+4. within a segment the cyclic streams are independent groups (an encoder axis: its setpoint and
+   actual streams; an IO device's or an unmapped stream: alone). pndiss/pairing.py walks each
+   group: stretches where the reference encoder provably does nothing but advance are applied at
+   once, every other frame goes through ``CyclicTracker.on_cyclic`` -- the reference code, so no
+   rule is written twice. Events of those frames are held and released in processing order at the
+   segment's end, so the event stream is the reference path's.
+
+Order, drift, jitter, the number of devices, cycle times and capture gaps change which frames go
+one by one (few), not the speed. tests/test_engine.py compares it with the reference path.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import frameindex
+from .capture import TS_MAX
+from .cyclic import RELOOKUP_EVERY
+from .pairing import Group, walk_group
+from .proto.common import Malformed
+
+ETH_PNRT = 0x8892
+K2 = np.uint64(0x9E3779B97F4A7C15)
+K3 = np.uint64(0xC2B2AE3D27D4EB4F)
+SMALL = 48          # fewer frames between two global ones go one by one
+MIN_FRAMES = 8          # a window with fewer indexed frames is left to the reader
+_MISSING = object()
+
+
+class Engine:
+    def __init__(self, a, streams: dict, feed_one, progress=None, sinks=()):
+        self.a = a
+        self.t = a.cyclic
+        self.streams = streams      # fast.run's prefix -> _Stream
+        self.feed_one = feed_one    # fast.run's per-frame step: (fn, ts, lt, data) -> None
+        self.progress = progress
+        self.sinks = sinks
+        self.last_fn = 0
+        self.last_ts = None
+        self.frames_bulk = 0        # diagnostics (bench/NOTES.md)
+        self.frames_single = 0
+        self.frames_global = 0
+
+    # -- reader interface (pndiss/capture.py) ------------------------------------------------------
+    def pcapng(self, bo: str, ifaces: list):
+        nif = len(ifaces)
+        lts = np.array([i[0] for i in ifaces], dtype=np.int64)
+        mult = np.array([i[3] for i in ifaces], dtype=np.int64)
+        off = np.array([i[2] for i in ifaces], dtype=np.int64)
+        lim = np.array([min(max(i[5], -1), (1 << 63) - 1) for i in ifaces], dtype=np.int64)
+
+        def take(buf, pos, end, n):
+            ix = frameindex.pcapng(buf, pos, end, bo, nif)
+            m = len(ix)
+            if m < MIN_FRAMES:
+                return 1
+            # frames the reader must take itself: not Ethernet, or a time stamp it would clamp (and count)
+            raw = ix.raw_ts
+            good = (lts[ix.ifid] == 1) & (raw <= lim[ix.ifid].astype(np.uint64))
+            if not good.all():
+                m = int(np.argmin(good))
+                if m < MIN_FRAMES:
+                    return 1 if m == 0 else m
+            ifid = ix.ifid[:m]
+            ts = raw[:m].astype(np.int64) * mult[ifid] + off[ifid]
+            return self._window(buf, n, ix.block[:m], ix.data[:m], ix.cap[:m], ts,
+                                ix.end if m == len(ix) else int(ix.block[m]))
+        return take
+
+    def pcap(self, bo: str, linktype: int, mult: int):
+        def take(buf, pos, end, n):
+            if linktype != 1:
+                return 1 << 20
+            ix = frameindex.pcap(buf, pos, end, bo)
+            if len(ix) < MIN_FRAMES:
+                return 1
+            raw = ix.raw_ts
+            ts = (raw >> np.uint64(32)).astype(np.int64) * 1_000_000_000 + \
+                (raw & np.uint64(0xFFFFFFFF)).astype(np.int64) * mult
+            return self._window(buf, n, ix.block, ix.data, ix.cap, ts, ix.end)
+        return take
+
+    # -- one window --------------------------------------------------------------------------------
+    def _window(self, buf, n: int, block, data, cap, ts, stop: int):
+        w = Window(self, buf, n, data, cap, ts)
+        w.run()
+        m = len(data)
+        self.last_fn = n + m
+        self.last_ts = int(ts[-1])
+        if self.progress is not None and (self.last_fn >> 12) != (n >> 12):
+            self.progress(self.last_fn & ~0xFFF)
+        return stop, n + m
+
+
+class Window:
+    """The frames of one window: stream ids, and the walk over segments and global frames."""
+
+    def __init__(self, eng: Engine, buf, n: int, data, cap, ts):
+        self.e = eng
+        self.buf = buf
+        self.u8 = np.frombuffer(buf, dtype=np.uint8)
+        self.n = n                  # frame number before the window's first frame
+        self.data = data
+        self.cap = cap
+        self.ts = ts
+        self.m = len(data)
+        self._sid()
+
+    def _sid(self) -> None:
+        """Per frame the index of its known cyclic stream in self.ss (-1: a global frame): the 16-byte
+        prefix (20 with an 802.1Q tag) hashed per frame, each distinct one looked up once."""
+        d, cap = self.data, self.cap
+        m = self.m
+        big = cap >= 24
+        dd = np.where(big, d, 0)
+        if not (dd & 3).any():   # pcapng: packet data is 4-byte aligned, the prefix is 5 words
+            W = np.frombuffer(self.buf, dtype="<u4", count=len(self.buf) >> 2)
+            dw = dd >> 2
+            w = [W[dw + k] for k in range(5)]
+        else:
+            P = self.u8[dd[:, None] + np.arange(20)]
+            w = [P[:, 4 * k:4 * k + 4].copy().view("<u4").reshape(m) for k in range(5)]
+        w3 = w[3] & 0xFFFF                    # bytes 12, 13 (little-endian view)
+        tagged = w3 == 0x0081                 # 802.1Q TPID 0x8100
+        cand = big & ((w3 == 0x9288) | (tagged & ((w[4] & 0xFFFF) == 0x9288)))   # EtherType 0x8892
+        w4 = np.where(tagged, w[4], 0)
+        h = (w[0].astype(np.uint64) | (w[1].astype(np.uint64) << np.uint64(32))) * K2
+        h ^= (w[2].astype(np.uint64) | (w[3].astype(np.uint64) << np.uint64(32))) * K3
+        h ^= w4.astype(np.uint64)
+        h = np.where(cand, h, np.uint64(0))
+        uh, first, inv = np.unique(h, return_index=True, return_inverse=True)
+        same = (w[0] == w[0][first][inv]) & (w[1] == w[1][first][inv]) & (w[2] == w[2][first][inv]) \
+            & (w[3] == w[3][first][inv]) & (w4 == w4[first][inv])
+        if not (same | ~cand).all():
+            cand = np.zeros(m, dtype=bool)   # a hash collision: every frame the careful way
+        self.ss = []
+        self.uid_sid = np.full(len(uh), -1, dtype=np.int64)
+        self.first, self.inv, self.cand, self.tagged = first, inv, cand, tagged
+        self.known = -1
+        self._resolve()
+
+    def _resolve(self) -> bool:
+        """Look the window's distinct prefixes up in the stream table (again after it learnt streams)."""
+        streams = self.e.streams
+        if len(streams) == self.known:
+            return False
+        self.known = len(streams)
+        get = streams.get
+        changed = False
+        for u in np.flatnonzero(self.uid_sid < 0).tolist():
+            f = self.first[u]
+            if not self.cand[f]:
+                continue
+            p = int(self.data[f])
+            s = get(self.buf[p:p + (20 if self.tagged[f] else 16)], False)
+            if s:
+                self.uid_sid[u] = len(self.ss)
+                self.ss.append(s)
+                changed = True
+        if changed or not hasattr(self, "sid"):
+            self.sid = self.uid_sid[self.inv]
+            self._split()
+        return changed
+
+    def _split(self) -> None:
+        sid = self.sid
+        # small integers: NumPy's stable sort is a radix sort (linear) for 16-bit keys
+        order = np.argsort(sid.astype(np.int16) if len(self.ss) < 32000 else sid, kind="stable")
+        counts = np.bincount(sid + 1, minlength=len(self.ss) + 1)
+        bounds = np.concatenate(([0], np.cumsum(counts)))
+        self.glob = order[:counts[0]]                    # frames of no known stream, in order
+        self.pos = [order[bounds[k + 1]:bounds[k + 2]] for k in range(len(self.ss))]
+
+    def frame(self, i: int):
+        p = int(self.data[i])
+        return self.buf[p:p + int(self.cap[i])]
+
+    def fn(self, i: int) -> int:
+        return self.n + 1 + i
+
+    # -- the walk --------------------------------------------------------------------------------
+    def run(self) -> None:
+        m = self.m
+        i = 0
+        one = self.e.feed_one
+        while i < m:
+            glob = self.glob
+            gi = int(np.searchsorted(glob, i))
+            j = int(glob[gi]) if gi < len(glob) else m
+            if j - i < SMALL:
+                # a few frames between two global ones (start-up): cheaper one by one than set up as columns
+                for k in range(i, min(j + 1, m)):
+                    one(self.fn(k), int(self.ts[k]), 1, self.frame(k))
+                self.e.frames_global += min(j + 1, m) - i
+                if len(self.e.streams) != self.known:
+                    self._resolve()
+                i = j + 1
+                continue
+            present = np.unique(self.sid[i:j]).tolist()
+            cats = self._categories(present)
+            j = self._stream_stop(i, j, cats)
+            if j > i:
+                self._segment(i, j, cats)
+            if j < m:
+                self._global(j)
+                j += 1
+                if len(self.e.streams) != self.known:
+                    self._resolve()   # the frame taught the fast path a stream: its later frames are no longer global
+            i = j
+
+    def _categories(self, present) -> dict:
+        """Per stream present: None when its frames must go one by one in capture order (not looked up yet,
+        the maps changed, content inference still samples it), else ("ok", its _Frame or None: unmapped)
+        -- decided on the tracker's state, which changes only at global frames."""
+        t = self.e.t
+        gen_ok = t.map_generation == self.e.a.session.map_generation
+        out = {}
+        for k in present:
+            key = self.ss[k].key
+            fr = t.frames.get(key, _MISSING) if gen_ok else _MISSING
+            if fr is _MISSING or (fr is None and t.infer.wants(key)):
+                out[k] = None
+            else:
+                out[k] = ("ok", fr)
+        return out
+
+    def _stream_stop(self, i: int, j: int, cats: dict) -> int:
+        """The first frame in [i, j) that must be global: a stream of category None, or an unmapped stream's
+        periodic re-lookup when the session would now find its map."""
+        t = self.e.t
+        for k, c in cats.items():
+            if c is not None and (c[1] is not None or t.a.session.lookup(*self.ss[k].key) is None):
+                continue
+            p = self.pos[k]
+            a = int(np.searchsorted(p, i))
+            if c is None:
+                j = min(j, int(p[a]))
+                continue
+            left = RELOOKUP_EVERY - t.misses.get(self.ss[k].key, 0) % RELOOKUP_EVERY
+            if a + left - 1 < len(p) and p[a + left - 1] < j:
+                j = int(p[a + left - 1])
+        return j
+
+    def _global(self, i: int) -> None:
+        self.e.frames_global += 1
+        self.e.feed_one(self.fn(i), int(self.ts[i]), 1, self.frame(i))
+
+    def _segment(self, i: int, j: int, cats) -> None:
+        """Frames [i, j): only known streams, each in a settled category; groups walked independently."""
+        a = self.e.a
+        groups = Group.build(self, i, j, cats)
+        held = a.hold()
+        try:
+            for g in groups:
+                walk_group(self, g)
+        finally:
+            a.release(held)
+
+    def single(self, i: int, s) -> None:
+        """Frame i of known stream s the frame-by-frame way (pndiss/fast.py)."""
+        a = self.e.a
+        self.e.frames_single += 1
+        fn, ts = self.fn(i), int(self.ts[i])
+        a.hold_at(fn)
+        data = self.frame(i)
+        s.n += 1
+        try:
+            off = 18 if data[12] == 0x81 else 14
+            self.e.t.on_cyclic(s.key, fn, ts, data[-2] & 0x14 == 0x14, data, off + 2)
+        except Malformed as e:
+            s.bad += 1
+            a.report_malformed(fn, ts, e.layer, e.reason)
+
+
+def ts_ok(ts) -> bool:
+    return bool(((ts >= 0) & (ts <= TS_MAX)).all())
