@@ -30,14 +30,18 @@ MAX_KEPT_MALFORMED = 1000  # the summary keeps the first ones; the JSONL stream 
 
 
 class Analyzer:
-    def __init__(self, settings: Settings | None = None, sink: Callable[[dict], None] | None = None):
+    def __init__(self, settings: Settings | None = None, sink: Callable[[dict], None] | None = None,
+                 sink_kinds: frozenset | None = None):
         from .session import SessionTracker  # PNIO-CM / AR map (imports records)
         from .cyclic import CyclicTracker    # telegrams + reference encoder
 
         self.settings = settings or Settings()
         self.sink = sink
-        # per-frame events (rt / telegram dicts) are built only when a sink wants them (pndiss/sinks.py)
-        self.frame_events = sink is not None
+        # the event kinds the sink consumes (None: all); per-frame events (rt / telegram dicts) are built
+        # only when it wants them (pndiss/sinks.py)
+        from .sinks import FRAME_KINDS
+        self.sink_kinds = sink_kinds
+        self.frame_events = sink is not None and (sink_kinds is None or bool(sink_kinds & FRAME_KINDS))
         self._held = None     # events held while the engine walks stream groups (hold / release)
         self._hold_fn = 0
         self.counts = {"decoded": 0, "not_profinet": 0, "malformed": 0}
@@ -72,7 +76,7 @@ class Analyzer:
         self.kinds[kind] += 1
         if kind == "violation":  # the verdict (pndiss/verdict.py) sees every one, with or without a sink
             self.violations.add(ev)
-        if self.sink is not None:
+        if self.sink is not None and (self.sink_kinds is None or kind in self.sink_kinds):
             self.sink(ev)
 
     # -- the engine walks independent stream groups one after the other (pndiss/engine.py): their events
@@ -248,38 +252,11 @@ class Analyzer:
 
 def analyze_file(path: str, settings: Settings | None = None, sink=None, progress=None,
                  verdict_hooks: dict | None = None) -> Analyzer:
-    """Run the whole pipeline over a capture file. Raises capture.CaptureError on bad files
-    (after feeding every complete frame, so ``exc.frames`` frames were analysed).
-    ``verdict_hooks``: ``keep`` / ``on_new`` of the ViolationLog (--station/--time, --follow)."""
-    from .capture import open_capture
+    """Run the whole pipeline over a capture file (pndiss/driver.py with ``sink`` consuming every event
+    kind). Raises capture.CaptureError on bad files after feeding every complete frame (``exc.analyzer``)."""
+    from .driver import analyze
 
-    from .capture import CaptureError
-
-    from . import fast
-
-    a = Analyzer(settings, sink)
-    hooks = dict(verdict_hooks or {})
-    scope = hooks.pop("scope", None)
-    if scope is not None:  # --station/--time: the verdict counts only what is in scope
-        scope.bind(a)
-        a.violations.keep = scope.keep
-    for k, v in hooks.items():
-        setattr(a.violations, k, v)
-    try:
-        if fast.enabled(a.settings, sink):
-            fast.run_file(a, path, progress)   # same results: steady runs batched, cyclic frames without the dispatch
-        else:
-            frames = open_capture(path, info=a.reader)
-            if progress is not None:
-                frames = _with_progress(frames, progress)
-            for fn, ts, lt, data in frames:
-                a.feed(fn, ts, lt, data)
-    except CaptureError as e:
-        a.finish()
-        e.analyzer = a
-        raise
-    a.finish()
-    return a
+    return analyze(path, settings, [sink] if sink is not None else [], progress, verdict_hooks)
 
 
 def _with_progress(frames, progress):

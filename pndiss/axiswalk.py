@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .cyclic import IOPS_GOOD, JUDGED_FIRST, NOT_JUDGED_PHASES
-from .pairing import BLOCK, RETRY_MAX, Cols, unsafe_rows
+from .pairing import BLOCK, RETRY_MAX, Cols, sol_unsafe, unsafe_rows
 
 ENDED = ("released", "aborted")
 
@@ -81,7 +81,9 @@ class AxisWalk:
         ax = self.ax
         chk = ax.checker
         if ax.sp_new or ax.pend is not None or ax.sp_break or ax.sp is None or ax.ambiguous is None \
-                or ax.sp_key != self.S.s.key or not chk.std or chk.solmon:
+                or ax.sp_key != self.S.s.key or not chk.std:
+            return False
+        if chk.solmon and not (ax.sp_ok and ax.sp is chk.prev_sp and chk.sol_bulk_ready()):
             return False
         for o, fr in ((self.oS, self.frS), (self.oA, self.frA)):
             dt = o.do.telegram
@@ -125,6 +127,9 @@ class AxisWalk:
             bad |= ~ok | ident | keydiff
             if not bad[0]:
                 bad |= unsafe_rows(chk, {**sS, **sA}, "g1_stw" in sS and "g1_zsw" in sA)
+            if chk.solmon:
+                bad |= sol_unsafe(sS.get("stw2_enc", z), sA.get("zsw2_enc", z), ax.sp.get("stw2_enc", 0),
+                                  chk.prev_ac.get("zsw2_enc", 0))
         else:
             if not chk.idle():
                 return 0
@@ -179,3 +184,5 @@ class AxisWalk:
         cls = bool((stw2[sr:sr + e] >> 12).any()) if stw2 is not None else False
         dls = bool((zsw2[ar:ar + e] >> 12).any()) if zsw2 is not None else False
         chk.advance_steady(e, int(A.fn[al]), int(A.ts[al]), ax.sp_frame, ax.sp, self.oA.sig, motion, cls, dls)
+        if chk.solmon:
+            chk.advance_sign_of_life(e, ax.sp_before)

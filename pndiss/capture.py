@@ -182,13 +182,15 @@ def refuse_non_capture(path: str) -> None:
     _check_magic(path, head)
 
 
-def open_capture(path: str, batch=None, info: ReadInfo | None = None) -> Iterator[tuple[int, int, int, bytes]]:
+def open_capture(path: str, batch=None, info: ReadInfo | None = None,
+                 first: int = 0) -> Iterator[tuple[int, int, int, bytes]]:
     """Yield frames of the pcap/pcapng file at ``path``; raise CaptureError on bad input.
 
     ``batch`` (pndiss/batch.py) is offered the buffered records now and then: it may consume a
     whole steady run of them itself (those frames are then not yielded; frame numbers still count
     them) or say after how many frames to ask again. ``info`` (a ReadInfo) receives the input's
-    hash and the count of clamped time stamps."""
+    hash and the count of clamped time stamps. ``first``: frames before this file (the pieces of a ring
+    buffer are numbered as one capture)."""
     from .inputs import open_input  # '-', pipes, gzip/zstd/xz (pndiss/inputs.py)
 
     f = open_input(path)
@@ -197,22 +199,22 @@ def open_capture(path: str, batch=None, info: ReadInfo | None = None) -> Iterato
         b.need(4)
         magic = _check_magic(path, b.buf[b.pos:b.pos + 4])
         if magic in PCAP_MAGICS:
-            yield from _read_pcap(path, b, *PCAP_MAGICS[magic], batch)
+            yield from _read_pcap(path, b, *PCAP_MAGICS[magic], batch, first)
         else:
-            yield from _read_pcapng(path, b, batch)
+            yield from _read_pcapng(path, b, batch, first)
 
 
 NEVER = 1 << 62  # frame number at which to offer records to the batch path when there is none
 
 
-def _read_pcap(path: str, b: _Buffer, bo: str, ns: bool, batch=None) -> Iterator[tuple[int, int, int, bytes]]:
+def _read_pcap(path: str, b: _Buffer, bo: str, ns: bool, batch=None, first: int = 0) -> Iterator[tuple[int, int, int, bytes]]:
     if not b.need(24):
         raise CaptureError(f"{path}: pcap file header truncated")
     linktype = struct.unpack_from(bo + "I", b.buf, b.pos + 20)[0] & 0x0FFFFFFF  # upper bits: FCS info
     b.pos += 24
     unpack = struct.Struct(bo + "IIII").unpack_from
     mult = 1 if ns else 1000
-    n = 0
+    n = first
     take = batch.pcap(bo, linktype, mult) if batch is not None else None
     retry = 0 if take is not None else NEVER
     while True:
@@ -269,8 +271,8 @@ def _ts_limit(mult: int, off: int) -> int:
     return max(-1, (TS_MAX - off) // mult)
 
 
-def _read_pcapng(path: str, b: _Buffer, batch=None) -> Iterator[tuple[int, int, int, bytes]]:
-    n = 0
+def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[tuple[int, int, int, bytes]]:
+    n = first
     retry = 0 if batch is not None else NEVER
     bo = "<"
     epb_bo = {"<": struct.Struct("<IIIIII"), ">": struct.Struct(">IIIIII")}  # type, length, if, ts hi/lo, caplen

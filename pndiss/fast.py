@@ -48,8 +48,13 @@ def batch_enabled() -> bool:
 
 
 def run_file(a, path: str, progress=None) -> None:
-    """The capture at ``path`` into analyzer ``a``: the reader's buffered windows go to the engine, which
-    takes every frame it can index; the rest come one by one through run()."""
+    run_files(a, [path], progress)
+
+
+def run_files(a, paths, progress=None, check=None) -> None:
+    """The capture (one file, or the pieces of one ring buffer in order) into analyzer ``a``: the reader's
+    buffered windows go to the engine, which takes every frame it can index; the rest come one by one
+    through run(). ``check(a, previous, path)`` runs before each further piece."""
     from .capture import open_capture
 
     streams = new_streams(a)
@@ -58,10 +63,29 @@ def run_file(a, path: str, progress=None) -> None:
     if batch_enabled():
         from .engine import Engine
         engine = Engine(a, streams, one, progress)
-    frames = open_capture(path, batch=engine, info=a.reader)
+
+    def frames():
+        first = 0
+        for k, path in enumerate(paths):
+            if k and check is not None:
+                fn, ts = last[0], last[1]
+                if engine is not None and engine.last_fn > (fn or 0):
+                    fn, ts = engine.last_fn, engine.last_ts
+                _settle(a, streams, fn, ts)   # the time reached so far, for the check
+                check(a, paths[k - 1], path)
+            for f in open_capture(path, batch=engine, info=a.reader, first=first):
+                yield f
+            first = max(last[2], engine.last_fn if engine is not None else 0)
+    last = [None, None, 0]
+
+    def tracked():
+        for f in frames():
+            last[0], last[1], last[2] = f[0], f[1], f[0]
+            yield f
+    src = tracked() if len(paths) > 1 else open_capture(paths[0], batch=engine, info=a.reader)
     if progress is not None:
-        frames = _with_progress(frames, progress)
-    run(a, frames, streams, engine, one)
+        src = _with_progress(src, progress)
+    run(a, src, streams, engine, one)
 
 
 def _with_progress(frames, progress):

@@ -244,6 +244,19 @@ def unsafe_rows(chk, v: dict, has_g1: bool):
     return _value_unsafe(chk, v, has_g1)
 
 
+def sol_unsafe(stw2, zsw2, stw2_before: int, zsw2_before: int):
+    """Rows where sign-of-life monitoring (k = 1) would see anything but both counters stepping by one
+    (behaviour.md §3: C-LS and DLS run 1..15, 15 -> 1, never 0): those go through the checker."""
+    n = len(stw2)
+    cls = stw2 >> 12
+    dls = zsw2 >> 12
+    pc = np.empty(n, dtype=np.int64)
+    pd = np.empty(n, dtype=np.int64)
+    pc[0], pd[0] = stw2_before >> 12, zsw2_before >> 12
+    pc[1:], pd[1:] = cls[:-1], dls[:-1]
+    return (cls == 0) | (cls != pc % 15 + 1) | (dls == 0) | (dls != pd % 15 + 1)
+
+
 def _value_unsafe(chk, v: dict, has_g1: bool):
     """Until the registry's twins land: today's vectorised value-rule checks (was batch._Run._not_simple)."""
     c = chk.cfg

@@ -231,6 +231,15 @@ def sessions(tmp_path_factory):
         "scancon84": _simulate(d, "s", "--scenario", "startup", "--profile", "scancon", "--telegram", "84",
                                "--cycles", "1200", "--inject", "RESERVED-BIT-SET-G1ZSW@600",
                                "--inject", "SOL-DEVICE-ZERO-RT@300"),
+        # plant traffic: 3 moving encoders at 1/2/4 ms + 2 IO devices, drifting clocks and jitter (the frame
+        # order changes all the time), 0.2 % capture loss
+        "plant": _simulate(d, "p", "--scenario", "motion", "--encoders", "3", "--io-devices", "2",
+                           "--cycle-time", "1,2,4", "--capture-loss", "0.002", "--cycles", "1500"),
+        # isochronous with sign-of-life monitoring, loss, and a controller sign-of-life skip
+        "irt": _simulate(d, "i", "--scenario", "motion", "--irt", "--encoders", "2", "--capture-loss", "0.001",
+                         "--cycles", "3000", "--inject", "SOL-MASTER-SKIP@2000"),
+        # presets, parking and sensor errors over and over (benchmark set (c))
+        "routine": _simulate(d, "r", "--scenario", "routine", "--cycles", "7000"),
     }
 
 
@@ -261,13 +270,14 @@ FORMATS = ("pcapng-le", "pcapng-be", "pcap-le", "pcap-be", "pcap-ns-le", "pcap-n
 
 
 @pytest.mark.parametrize("fmt", FORMATS)
-@pytest.mark.parametrize("name", ("motion83", "two81", "scancon84"))
+@pytest.mark.parametrize("name", ("motion83", "two81", "scancon84", "plant", "irt", "routine"))
 def test_batch_long_sessions(sessions, tmp_path, name, fmt):
     """Every format, both byte orders: same results, and most cycles really went through in runs."""
     path = str(tmp_path / ("s." + fmt.split("-")[0]))
     _write(path, sessions[name], fmt)
     eng = _same_both_ways(path)
-    assert eng.frames_bulk > 10 * eng.frames_single
+    # presets, parking and sensor errors every 3 s: their cycles (and L+1 after each change) go one by one
+    assert eng.frames_bulk > (5 if name == "routine" else 10) * eng.frames_single
 
 
 def test_batch_snaplen_truncated(sessions, tmp_path):
@@ -283,7 +293,7 @@ _OTHER = bytes.fromhex("ffffffffffff020000000099" "0806") + bytes(46)   # an ARP
 
 @hsettings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow,
                                                                    HealthCheck.function_scoped_fixture])
-@given(name=st.sampled_from(("motion83", "two81", "scancon84")), fmt=st.sampled_from(FORMATS),
+@given(name=st.sampled_from(("motion83", "two81", "scancon84", "plant", "irt", "routine")), fmt=st.sampled_from(FORMATS),
        muts=st.lists(st.tuples(st.sampled_from(("byte", "bit", "zero2", "burst", "freeze", "cut", "drop", "insert",
                                                 "dup")),
                                st.floats(0, 1, exclude_max=True), st.integers(0, 10_000), st.integers(0, 255)),

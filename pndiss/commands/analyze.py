@@ -12,8 +12,13 @@ SEVERITY_ORDER = {"info": 0, "warning": 1, "error": 2}
 
 def add_parser(sub) -> None:
     p = sub.add_parser("analyze", help="decode a capture and report stations, telegrams and violations")
-    p.add_argument("capture", help="pcap or pcapng file, also .gz/.zst/.xz; '-' = stdin (a pipe from dumpcap -w -)")
+    p.add_argument("capture", nargs="+",
+                   help="pcap or pcapng file, also .gz/.zst/.xz; '-' = stdin (a pipe from dumpcap -w -); several "
+                        "files = the pieces of one ring buffer (dumpcap -b), analysed as one capture in time order")
     p.add_argument("--jsonl", metavar="PATH", help="write one JSON event per line to PATH ('-' = stdout)")
+    p.add_argument("--events", metavar="KINDS",
+                   help="only these event kinds in --jsonl, comma-separated (e.g. violation,param,record,state,"
+                        "capture_gap); without rt/telegram the JSONL runs at the engine's speed")
     p.add_argument("--summary-json", metavar="PATH", help="write the summary as JSON to PATH ('-' = stdout)")
     add_settings_args(p)
     p.add_argument("--fail-on", choices=("info", "warning", "error"),
@@ -140,9 +145,29 @@ def check_capture_path(path: str) -> None:
         raise UsageError(f"{path}: is a directory, not a capture file")
 
 
+# event kinds the analyzer emits (docs/events.md); --events checks against them
+EVENT_KINDS = ("alarm", "ar", "ar_phase", "capture_gap", "dcp", "dcp_name_invalid", "ip_fragment", "lldp",
+               "malformed", "mrp", "param", "ptcp", "record", "record_result", "rpc", "rt", "state", "telegram",
+               "violation")
+
+
+def event_kinds(text: str | None):
+    """--events KINDS as a frozenset (None: every kind)."""
+    from ..errors import UsageError, did_you_mean
+
+    if text is None:
+        return None
+    kinds = [k.strip() for k in text.split(",") if k.strip()]
+    for k in kinds:
+        if k not in EVENT_KINDS:
+            raise UsageError(f"--events: unknown event kind {k!r}{did_you_mean(k, EVENT_KINDS)} "
+                             f"(kinds: {', '.join(EVENT_KINDS)})")
+    return frozenset(kinds)
+
+
 def run(args) -> int:
-    from ..analyzer import analyze_file
     from ..capture import CaptureError
+    from ..driver import analyze
     from ..errors import UsageError
     from ..events import FrameTimes, Scope
     from ..report import ProgressReporter, render_report, render_violation
@@ -151,9 +176,17 @@ def run(args) -> int:
     if args.jsonl == "-" and args.summary_json == "-":
         raise UsageError("--jsonl - and --summary-json - would mix two formats on stdout: "
                          "send one of them to a file")
-    check_capture_path(args.capture)
+    captures = args.capture
+    if len(captures) > 1 and "-" in captures:
+        raise UsageError("- (stdin) cannot be one piece of a ring buffer: give the files")
     from ..capture import refuse_non_capture
-    refuse_non_capture(args.capture)   # the refusal every command shares (export, plot, report)
+    for c in captures:
+        check_capture_path(c)
+        refuse_non_capture(c)   # the refusal every command shares (export, plot, report)
+    args.capture = captures[0]
+    kinds = event_kinds(args.events)
+    if kinds is not None and not args.jsonl:
+        raise UsageError("--events selects what --jsonl writes: give --jsonl PATH too")
     settings = settings_from_args(args)
     scope = Scope.from_args(args.station, args.time)
     sinks = []
@@ -173,7 +206,8 @@ def run(args) -> int:
                     raise
                 except OSError as e:
                     raise UsageError(f"cannot write {where}: {e.strerror}") from None
-        sinks.append(to_jsonl)
+        from ..sinks import FuncSink
+        sinks.append(FuncSink(to_jsonl, kinds))
     mcap_writer = None
     if args.mcap:
         from ..mcap_export import McapExporter
@@ -182,7 +216,7 @@ def run(args) -> int:
         except OSError as e:
             raise UsageError(f"cannot write {args.mcap}: {e.strerror}") from None
         sinks.append(mcap_writer.on_event)
-    sink = sinks[0] if len(sinks) == 1 else (lambda ev: [s(ev) for s in sinks]) if sinks else None
+
     # the terminal report goes to stderr when stdout carries data
     to_stderr = args.jsonl == "-" or args.summary_json == "-"
     progress = None if args.no_progress or args.quiet or args.follow else ProgressReporter(args.capture, to_stderr)
@@ -195,11 +229,10 @@ def run(args) -> int:
     error = None
     try:
         try:
-            if mcap_writer is not None and len(sinks) == 1 and not hooks:  # the exporter alone: its fast path
-                a = mcap_writer.run(args.capture, settings, progress.update if progress else None)
+            if mcap_writer is not None and len(sinks) == 1 and not hooks and len(captures) == 1:
+                a = mcap_writer.run(args.capture, settings, progress.update if progress else None)  # its fast path
             else:
-                a = analyze_file(args.capture, settings, sink, progress.update if progress else None,
-                                 **_hooks(hooks))
+                a = analyze(captures, settings, sinks, progress.update if progress else None, hooks)
         except CaptureError as e:
             error = e
             a = e.analyzer if hasattr(e, "analyzer") else None
@@ -214,7 +247,7 @@ def run(args) -> int:
         print(f"pndiss: error: {error} ({error.frames} frames read before it)", file=sys.stderr)
         return 2
     summary = a.summary()
-    summary["capture"] = args.capture
+    summary["capture"] = args.capture if len(captures) == 1 else captures
     if scope is not None:
         summary["scope"] = scope.describe()
     summary["verdict"] = {**a.violations.summary(), "line": one_line(summary, a.violations)}

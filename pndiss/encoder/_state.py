@@ -622,6 +622,22 @@ class Checker:
         """No history and no open run: gated cycles only count (gap() would flush nothing)."""
         return self.prev_ac is None and not self._open
 
+    def sol_bulk_ready(self) -> bool:
+        """Sign-of-life monitoring can be advanced at once (advance_sign_of_life) when both counters run, each
+        value is held one cycle (k = 1), the failure counter is 0 and no fault report is awaited."""
+        return (self.cfg.k == 1 and self.started_C and self.started_D and self.C == 0 and self.solf_due is None)
+
+    def advance_sign_of_life(self, cycles: int, sp_before: dict | None) -> None:
+        """``cycles`` monitored cycles in which C-LS and DLS each stepped by one (next_ls) and no sensor error
+        was reported -- what the caller checked on its arrays: each is a new controller frame judged good,
+        so the failure counter stays 0 and the values' runs are one cycle long (§3.3)."""
+        self.cls_runs_done += cycles
+        self.cls_run = 1
+        self.C_hist.extend([0] * min(cycles, self.C_hist.maxlen or cycles))
+        self.sol_fault_seen = False
+        self.last_fc = self.fc
+        self.sp_before = sp_before
+
     def advance_steady(self, cycles: int, frame: int, ts: int, sp_frame: int | None, sp: dict, ac: dict,
                        motion_refs: list, cls_seen: bool, dls_seen: bool) -> None:
         """``cycles`` calls of cycle() that all take the _cycle_steady branch and hit no rule, at once
@@ -636,6 +652,7 @@ class Checker:
         self.n += cycles
         self.f, self.ts = frame, ts
         self.fc = frame if sp_frame is None else sp_frame
+        self.last_fc = self.fc
         self.same = 0
         self.pos_hist.extend(motion_refs)
         if cls_seen:

@@ -167,7 +167,50 @@ class Motion(Scenario):
              (0.75, -300.0, 0.0), (0.9, 0.0, 0.0))
 
 
-SCENARIOS = {c.name: c for c in (Scenario, Preset, Parking, SensorError, SolMasterSkip, Motion)}
+class Routine(Scenario):
+    """A plant's working day on one axis, over and over: every ``period`` cycles a preset handshake, a
+    parking request and its release, and a sensor error that goes away and is acknowledged -- the
+    traffic between them is steady, the events are where a checker earns its keep (the engine's
+    benchmark set (c), bench/run)."""
+    name = "routine"
+    help = "standstill; every 3 s a preset handshake, parking and its release, a sensor error with its acknowledgement"
+    shaft = STANDSTILL
+    period = 3000            # cycles between two rounds (3 s at 1 ms)
+    value = 1000
+
+    def prepare(self, sess, params):
+        super().prepare(sess, params)
+        self.acked = self.ackip = None
+
+    def cycle(self, sess, k, st, plc, enc, last_in):
+        if k == 1:   # the preset value, written once over 0xB02E (the cyclic time base exists only now)
+            sess.write_param(sess.cyc_ts(2), st, 65000, self.value)
+        ph = k % self.period
+        P = self.period
+        if ph == P // 10:
+            plc.preset_req, plc.preset_mode = True, 0
+            enc.preset_value = self.value
+            self.acked = None
+        elif plc.preset_req and last_in and last_in.get("g1_zsw", 0) & 0x1000:
+            plc.preset_req = False       # step 3 of the handshake (cyclic.md §7.2)
+        elif plc.preset_req and ph == P // 10 + 200:
+            plc.preset_req = False
+        if ph == 3 * P // 10:
+            plc.park = True
+        elif ph == 4 * P // 10:
+            plc.park = False
+        if ph == 6 * P // 10:
+            enc.error_code, enc.error_cleared = SensorError.code, False
+        elif ph == 65 * P // 100:
+            enc.error_cleared = True
+        elif ph == 7 * P // 10:
+            plc.ack = True
+            self.ackip = None
+        if plc.ack and last_in and last_in.get("g1_zsw", 0) & 0x0800:
+            plc.ack = False
+
+
+SCENARIOS = {c.name: c for c in (Scenario, Preset, Parking, SensorError, SolMasterSkip, Motion, Routine)}
 
 
 # --------------------------------------------------------------------------------- injections

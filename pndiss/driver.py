@@ -1,0 +1,129 @@
+"""The one driver: reads the capture once, runs the engine, serves every sink (pndiss/sinks.py).
+
+Every command that analyses a capture comes here (``analyze``; analyzer.analyze_file is this with
+one plain callable as the sink). The driver owns the reader, progress, the frame loop, the finish
+and the counting; sinks only say what they consume:
+
+- no sink wants per-frame events (``rt`` / ``telegram``): the engine (pndiss/engine.py) takes the
+  steady cyclic traffic in bulk, sinks get the events of their kinds -- at engine speed;
+- some sink wants per-frame events: the reference path (Analyzer.feed on every frame), the oracle
+  of the tests (also chosen by ``Settings.fast_path = False`` / env PNDISS_FAST_PATH=0).
+
+Several files are one capture when they are the pieces of one ring buffer (dumpcap -b): they are
+read in the order of their first time stamp, frame numbers run on across them (as after mergecap
+-a), so an axis' history -- its pairing, deadlines, capture gaps -- runs across file boundaries.
+Pieces that overlap in time are not a ring buffer: refused, as mergecap would interleave them.
+"""
+from __future__ import annotations
+
+import os
+
+from .sinks import FRAME_KINDS, FuncSink, Sink
+
+
+def _as_sinks(sinks) -> list:
+    out = []
+    for s in sinks or ():
+        if s is None:
+            continue
+        out.append(s if isinstance(s, Sink) else FuncSink(s))
+    return out
+
+
+def _dispatch(sinks: list):
+    """One callable for the analyzer: each event to the sinks that want its kind; and the union of kinds."""
+    if not sinks:
+        return None, frozenset()
+    if any(s.kinds is None for s in sinks):
+        kinds = None
+    else:
+        kinds = frozenset().union(*(s.kinds for s in sinks))
+    if len(sinks) == 1:
+        s = sinks[0]
+        return s.event, kinds
+    def emit(ev, _sinks=tuple(sinks)):
+        k = ev["kind"]
+        for s in _sinks:
+            if s.kinds is None or k in s.kinds:
+                s.event(ev)
+    return emit, kinds
+
+
+def engine_allowed(settings, sinks) -> bool:
+    """The engine serves the sinks unless one of them wants per-frame events (or it is switched off)."""
+    if not settings.fast_path or os.environ.get("PNDISS_FAST_PATH", "1") == "0":
+        return False
+    return not any(s.kinds is None or s.kinds & FRAME_KINDS or s.cycles or s.streams for s in sinks)
+
+
+def analyze(paths, settings=None, sinks=(), progress=None, verdict_hooks: dict | None = None):
+    """Analyse the capture (one path, or the pieces of one ring buffer) and return the Analyzer.
+    Raises capture.CaptureError on bad input after every complete frame was analysed (``e.analyzer``)."""
+    from .analyzer import Analyzer
+    from .capture import CaptureError
+
+    if isinstance(paths, (str, os.PathLike)):
+        paths = [paths]
+    sinks = _as_sinks(sinks)
+    sink, kinds = _dispatch(sinks)
+    a = Analyzer(settings, sink, sink_kinds=kinds)
+    hooks = dict(verdict_hooks or {})
+    scope = hooks.pop("scope", None)
+    if scope is not None:  # --station/--time: the verdict counts only what is in scope
+        scope.bind(a)
+        a.violations.keep = scope.keep
+    for k, v in hooks.items():
+        setattr(a.violations, k, v)
+    fast_ok = engine_allowed(a.settings, sinks)
+    try:
+        _run(a, ring_order(paths) if len(paths) > 1 else paths, fast_ok, progress)
+    except CaptureError as e:
+        a.finish()
+        e.analyzer = a
+        raise
+    a.finish()
+    return a
+
+
+def _run(a, paths, fast_ok: bool, progress) -> None:
+    from . import fast
+    from .capture import open_capture
+
+    if fast_ok:
+        fast.run_files(a, paths, progress, check=_check_order)
+        return
+    first = 0
+    for k, path in enumerate(paths):
+        if k:
+            _check_order(a, paths[k - 1], path)
+        for fn, ts, lt, data in open_capture(path, info=a.reader, first=first):
+            a.feed(fn, ts, lt, data)
+            if progress is not None and not fn & 0xFFF:
+                progress(fn)
+        first = a.frames
+
+
+def ring_order(paths) -> list:
+    """The pieces of one ring buffer in the order of their first time stamps."""
+    from .capture import open_capture
+
+    firsts = []
+    for p in paths:
+        ts0 = None
+        for _fn, ts, _lt, _data in open_capture(p):
+            ts0 = ts
+            break
+        firsts.append((ts0 if ts0 is not None else 0, p))
+    firsts.sort()
+    return [p for _t, p in firsts]
+
+
+def _check_order(a, prev: str, path: str) -> None:
+    """A piece must start where the previous one ended (the time the analyzer reached)."""
+    from .capture import CaptureError, open_capture
+
+    for _fn, ts, _lt, _data in open_capture(path):
+        if a.last_ts is not None and ts < a.last_ts:
+            raise CaptureError(f"{path} starts before {prev} ends: these files are not the pieces of one ring "
+                               f"buffer (merge them with mergecap first)", a.frames)
+        break
