@@ -172,6 +172,9 @@ class AxisWalk:
         ax.sp_new = ax.sp_break = False
         ax.pend = None
         ax.sp_key = S.s.key
+        col = w.e.col
+        if col is not None:
+            self._columns_out(col, sr, ar, e)
         chk = ax.checker
         if ax.ambiguous or not (okS[sr] and self.okA[ar]):
             t.gated += e
@@ -186,3 +189,15 @@ class AxisWalk:
         chk.advance_steady(e, int(A.fn[al]), int(A.ts[al]), ax.sp_frame, ax.sp, self.oA.sig, motion, cls, dls)
         if chk.solmon:
             chk.advance_sign_of_life(e, ax.sp_before)
+
+    def _columns_out(self, col, sr: int, ar: int, e: int) -> None:
+        """The bulk rows for the column sinks: both streams' frames, both directions' telegrams."""
+        for c, o, fr, r, sig, ok in ((self.S, self.oS, self.frS, sr, self.sigS, self.okS),
+                                     (self.A, self.oA, self.frA, ar, self.sigA, self.okA)):
+            if col.str:
+                c.bulk_frames(col, r, r + e)
+            if col.cyc:
+                iops = c.iops(o)
+                iops = iops[r:r + e].astype(np.int16) if iops is not None else np.full(e, -1, dtype=np.int16)
+                col.bulk_cycles(o, fr.direction, c.s.key[0], c.fn[r:r + e], c.ts[r:r + e], iops, ok[r:r + e],
+                                {k: v[r:r + e] for k, v in sig.items()})

@@ -122,6 +122,9 @@ class CyclicTracker:
         # With a sink: called as telegram_sink(obj, frame, frame_id, fn, ts, iops, judged) instead of building
         # a ``telegram`` event dict per frame (the MCAP exporter formats its message from obj.sig itself).
         self.telegram_sink = None
+        # Called as stream_sink(key, fn, ts, frame, off) for every cyclic frame the tracker sees (the column
+        # sinks' rows of frames that go one by one, pndiss/batches.py); off: where the FrameID starts.
+        self.stream_sink = None
         self.gaps = GapTracker(getattr(self.s, "capture_gaps", True))
         self.infer = Inference(analyzer, getattr(self.s, "infer_telegrams", True))
 
@@ -183,6 +186,8 @@ class CyclicTracker:
             self.map_generation = gen
             self.frames.clear()
             self.misses.clear()
+        if self.stream_sink is not None:
+            self.stream_sink(key, fn, ts, pdu, csdu_off - 2)
         # capture loss: cycles this stream sent that the capture does not hold (pndiss/gaps.py)
         miss = self.gaps.advance(key, fn, ts, (pdu[-4] << 8) | pdu[-3])
         fr = self.frames.get(key)
@@ -213,7 +218,7 @@ class CyclicTracker:
         csdu = pdu[csdu_off:len(pdu) - 4]
         same = csdu == fr.last_csdu
         fr.last_csdu = csdu
-        sink = self.a.frame_events or None
+        sink = self.a.frame_events or self.telegram_sink is not None or None
         direction = fr.direction
         n_csdu = len(csdu)
         for o in fr.objs:

@@ -53,7 +53,7 @@ def engine_allowed(settings, sinks) -> bool:
     """The engine serves the sinks unless one of them wants per-frame events (or it is switched off)."""
     if not settings.fast_path or os.environ.get("PNDISS_FAST_PATH", "1") == "0":
         return False
-    return not any(s.kinds is None or s.kinds & FRAME_KINDS or s.cycles or s.streams for s in sinks)
+    return not any(s.kinds is None or s.kinds & FRAME_KINDS for s in sinks)
 
 
 def analyze(paths, settings=None, sinks=(), progress=None, verdict_hooks: dict | None = None):
@@ -75,22 +75,31 @@ def analyze(paths, settings=None, sinks=(), progress=None, verdict_hooks: dict |
     for k, v in hooks.items():
         setattr(a.violations, k, v)
     fast_ok = engine_allowed(a.settings, sinks)
+    col = None
+    if any(s.cycles or s.streams for s in sinks):
+        from .batches import Collector
+        col = Collector(a, sinks)
+        col.attach()
     try:
-        _run(a, ring_order(paths) if len(paths) > 1 else paths, fast_ok, progress)
+        _run(a, ring_order(paths) if len(paths) > 1 else paths, fast_ok, progress, col)
     except CaptureError as e:
         a.finish()
+        if col is not None:
+            col.flush(a.frames)
         e.analyzer = a
         raise
     a.finish()
+    if col is not None:
+        col.flush(a.frames)
     return a
 
 
-def _run(a, paths, fast_ok: bool, progress) -> None:
+def _run(a, paths, fast_ok: bool, progress, col=None) -> None:
     from . import fast
     from .capture import open_capture
 
     if fast_ok:
-        fast.run_files(a, paths, progress, check=_check_order)
+        fast.run_files(a, paths, progress, check=_check_order, collector=col)
         return
     first = 0
     for k, path in enumerate(paths):
@@ -98,8 +107,11 @@ def _run(a, paths, fast_ok: bool, progress) -> None:
             _check_order(a, paths[k - 1], path)
         for fn, ts, lt, data in open_capture(path, info=a.reader, first=first):
             a.feed(fn, ts, lt, data)
-            if progress is not None and not fn & 0xFFF:
-                progress(fn)
+            if not fn & 0xFFF:
+                if progress is not None:
+                    progress(fn)
+                if col is not None:
+                    col.flush(fn)
         first = a.frames
 
 

@@ -41,13 +41,13 @@ _MISSING = object()
 
 
 class Engine:
-    def __init__(self, a, streams: dict, feed_one, progress=None, sinks=()):
+    def __init__(self, a, streams: dict, feed_one, progress=None, collector=None):
         self.a = a
         self.t = a.cyclic
         self.streams = streams      # fast.run's prefix -> _Stream
         self.feed_one = feed_one    # fast.run's per-frame step: (fn, ts, lt, data) -> None
         self.progress = progress
-        self.sinks = sinks
+        self.col = collector        # pndiss/batches.py: column batches for sinks of cycles / frames (or None)
         self.last_fn = 0
         self.last_ts = None
         self.frames_bulk = 0        # diagnostics (bench/NOTES.md)
@@ -98,6 +98,8 @@ class Engine:
         w = Window(self, buf, n, data, cap, ts)
         w.run()
         m = len(data)
+        if self.col is not None:
+            self.col.flush(n + m)
         self.last_fn = n + m
         self.last_ts = int(ts[-1])
         if self.progress is not None and (self.last_fn >> 12) != (n >> 12):
@@ -137,6 +139,18 @@ class Window:
         tagged = w3 == 0x0081                 # 802.1Q TPID 0x8100
         cand = big & ((w3 == 0x9288) | (tagged & ((w[4] & 0xFFFF) == 0x9288)))   # EtherType 0x8892
         w4 = np.where(tagged, w[4], 0)
+        # frames no cyclic stream's judgement depends on (pndiss.engine: they do not end a segment): PTCP and
+        # DCP FrameIDs, LLDP, MRP, non-PROFINET EtherTypes other than IPv4 (RPC); 2 = DCP / LLDP, which name
+        # stations (a capture gap of an unmapped stream is named from them: then they end a segment)
+        et = np.where(tagged, w[4] & 0xFFFF, w3)                      # byte-swapped EtherType
+        fid_w = np.where(tagged, w[4] >> 16, w[3] >> 16)              # byte-swapped FrameID
+        fid = ((fid_w & 0xFF) << 8) | (fid_w >> 8)
+        pn = et == 0x9288
+        ptcp = pn & ((fid < 0x0100) | ((fid >= 0xFF00) & (fid < 0xFF80)))
+        dcp = pn & (fid >= 0xFEFC) & (fid <= 0xFEFF)
+        lldp = et == 0xCC88
+        other = ~pn & ~lldp & (et != 0x0008) & (w3 != 0x0081)
+        self.nkind = np.where(big & (ptcp | other | (et == 0xE388)), 1, np.where(big & (dcp | lldp), 2, 0)).astype(np.int8)
         h = (w[0].astype(np.uint64) | (w[1].astype(np.uint64) << np.uint64(32))) * K2
         h ^= (w[2].astype(np.uint64) | (w[3].astype(np.uint64) << np.uint64(32))) * K3
         h ^= w4.astype(np.uint64)
@@ -181,7 +195,10 @@ class Window:
         order = np.argsort(sid.astype(np.int16) if len(self.ss) < 32000 else sid, kind="stable")
         counts = np.bincount(sid + 1, minlength=len(self.ss) + 1)
         bounds = np.concatenate(([0], np.cumsum(counts)))
-        self.glob = order[:counts[0]]                    # frames of no known stream, in order
+        g = order[:counts[0]]                            # frames of no known stream, in order
+        nk = self.nkind[g]
+        self.glob = g[nk == 0]                           # ... that end a segment
+        self.neutral = g[nk != 0]                        # ... that do not (processed inside it, events held)
         self.pos = [order[bounds[k + 1]:bounds[k + 2]] for k in range(len(self.ss))]
 
     def frame(self, i: int):
@@ -210,10 +227,20 @@ class Window:
                 i = j + 1
                 continue
             present = np.unique(self.sid[i:j]).tolist()
+            if present and present[0] == -1:
+                present = present[1:]
             cats = self._categories(present)
             j = self._stream_stop(i, j, cats)
+            a, b = np.searchsorted(self.neutral, (i, j))
+            neutral = self.neutral[a:b]
+            if len(neutral) and any(c is not None and c[1] is None for c in cats.values()):
+                # an unmapped stream's capture gaps are named from DCP / LLDP: those end the segment here
+                named = neutral[self.nkind[neutral] == 2]
+                if len(named):
+                    j = int(named[0])
+                    neutral = neutral[neutral < j]
             if j > i:
-                self._segment(i, j, cats)
+                self._segment(i, j, cats, neutral)
             if j < m:
                 self._global(j)
                 j += 1
@@ -258,16 +285,24 @@ class Window:
         self.e.frames_global += 1
         self.e.feed_one(self.fn(i), int(self.ts[i]), 1, self.frame(i))
 
-    def _segment(self, i: int, j: int, cats) -> None:
-        """Frames [i, j): only known streams, each in a settled category; groups walked independently."""
+    def _segment(self, i: int, j: int, cats, neutral) -> None:
+        """Frames [i, j): known streams, each in a settled category, and frames no judgement depends on;
+        each group walked on its own, events held and released in processing order."""
         a = self.e.a
         groups = Group.build(self, i, j, cats)
         held = a.hold()
         try:
+            one = self.e.feed_one
+            for k in neutral.tolist():
+                a.hold_at(self.fn(k))
+                one(self.fn(k), int(self.ts[k]), 1, self.frame(k))
+            self.e.frames_global += len(neutral)
             for g in groups:
                 walk_group(self, g)
         finally:
             a.release(held)
+        if self.e.col is not None:
+            self.e.col.flush(self.fn(j - 1))
 
     def single(self, i: int, s) -> None:
         """Frame i of known stream s the frame-by-frame way (pndiss/fast.py)."""

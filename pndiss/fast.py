@@ -51,7 +51,7 @@ def run_file(a, path: str, progress=None) -> None:
     run_files(a, [path], progress)
 
 
-def run_files(a, paths, progress=None, check=None) -> None:
+def run_files(a, paths, progress=None, check=None, collector=None) -> None:
     """The capture (one file, or the pieces of one ring buffer in order) into analyzer ``a``: the reader's
     buffered windows go to the engine, which takes every frame it can index; the rest come one by one
     through run(). ``check(a, previous, path)`` runs before each further piece."""
@@ -62,7 +62,7 @@ def run_files(a, paths, progress=None, check=None) -> None:
     engine = None
     if batch_enabled():
         from .engine import Engine
-        engine = Engine(a, streams, one, progress)
+        engine = Engine(a, streams, one, progress, collector)
 
     def frames():
         first = 0

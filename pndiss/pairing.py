@@ -160,6 +160,11 @@ class Cols:
             if st.seen >= LEARN:
                 st.irregular = 0
 
+    def bulk_frames(self, col, a: int, b: int) -> None:
+        """Rows [a, b) (one captured length) as a StreamBatch for the sinks of cyclic frames."""
+        rows = self.w.u8[self.d[a:b, None] + np.arange(self.cap0)]
+        col.bulk_frames(self.s.key, self.fn[a:b], self.ts[a:b], rows, self.off)
+
     def csdu(self, r: int) -> bytes:
         """Row r's whole C_SDU (as cyclic.py keeps it)."""
         q = int(self.d[r]) + self.off + 2
@@ -218,6 +223,8 @@ def _walk_count(w, g: Group) -> None:
             cnt = e - r
             s.n += cnt
             c.bulk_gaps(t.gaps, r, e)
+            if w.e.col is not None and w.e.col.str:
+                c.bulk_frames(w.e.col, r, e)
             if fr is None:
                 t.count_unmapped(s.key, cnt)
                 t.misses[s.key] = t.misses.get(s.key, 0) + cnt

@@ -1,0 +1,107 @@
+"""Column batches for the sinks that consume cycles and cyclic frames (pndiss/sinks.py).
+
+Rows come from two places: the engine's bulk stretches hand whole columns (``bulk_cycles``,
+``bulk_frames``); every frame that goes one by one -- through ``CyclicTracker.on_cyclic``, on
+either path -- adds one row through the tracker's hooks (``cycle_row``, ``frame_row``). Per
+key (axis + direction, or stream) the single rows wait in lists and are turned into a batch before
+the next bulk batch of that key and at every flush, so each key's rows reach the sinks in frame
+order; ``flush(frame)`` then tells the sinks that everything up to that frame was delivered.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .sinks import CycleBatch, StreamBatch
+
+
+class Collector:
+    def __init__(self, analyzer, sinks):
+        self.a = analyzer
+        self.cyc = [s for s in sinks if s.cycles]
+        self.str = [s for s in sinks if s.streams]
+        self.sinks = sinks
+        self.pend_c: dict = {}     # (axis key, direction) -> [axis dict, frame_id, layout names, rows]
+        self.pend_s: dict = {}     # (stream key, caplen) -> [off, rows]
+
+    def attach(self) -> None:
+        t = self.a.cyclic
+        if self.cyc:
+            t.telegram_sink = self.cycle_row
+        if self.str:
+            t.stream_sink = self.frame_row
+
+    # -- one row at a time (the tracker's hooks) --------------------------------------------------
+    def _axis(self, o) -> dict:
+        ax = o.ax or self.a.cyclic.axes.get(o.key)
+        info = dict(ax.info) if ax is not None else {}
+        info.update(telegram=o.telegram, telegram_source=o.source, profile=ax.profile if ax is not None else "generic",
+                    ar_uuid=ax.fm.ar_uuid if ax is not None and ax.fm is not None else None)
+        return info
+
+    def cycle_row(self, o, fr, frame_id: int, fn: int, ts: int, iops, ok: bool) -> None:
+        k = (o.key, fr.direction, o.telegram)
+        p = self.pend_c.get(k)
+        if p is None:
+            p = self.pend_c[k] = [self._axis(o), frame_id, o.layout.names, []]
+        p[3].append((fn, ts, -1 if iops is None else iops, ok, o.sig))
+
+    def frame_row(self, key: tuple, fn: int, ts: int, data: bytes, off: int) -> None:
+        k = (key, len(data))
+        p = self.pend_s.get(k)
+        if p is None:
+            p = self.pend_s[k] = [off, []]
+        p[1].append((fn, ts, data))
+
+    # -- whole columns (the engine) -----------------------------------------------------------------
+    def bulk_cycles(self, o, direction: str, frame_id: int, fn, ts, iops, ok, sig: dict) -> None:
+        k = (o.key, direction, o.telegram)
+        self._flush_c(k)
+        b = CycleBatch(self._axis(o), direction, frame_id, np.asarray(fn, dtype=np.int64),
+                       np.asarray(ts, dtype=np.int64), np.asarray(iops, dtype=np.int16), np.asarray(ok, dtype=bool),
+                       {n: sig[n] for n in o.layout.names if n in sig})
+        for s in self.cyc:
+            s.cycle_batch(b)
+
+    def bulk_frames(self, key: tuple, fn, ts, data2d, off: int) -> None:
+        self._flush_s((key, data2d.shape[1]))
+        b = StreamBatch(key, np.asarray(fn, dtype=np.int64), np.asarray(ts, dtype=np.int64), data2d, off)
+        for s in self.str:
+            s.stream_batch(b)
+
+    # -- flushing -------------------------------------------------------------------------------------
+    def _flush_c(self, k) -> None:
+        p = self.pend_c.get(k)
+        if not p or not p[3]:
+            return
+        info, fid, names, rows = p
+        p[3] = []
+        fn, ts, iops, ok, sigs = zip(*rows)
+        sig = {}
+        for n in names:
+            vals = [s.get(n, 0) for s in sigs]
+            sig[n] = np.array(vals, dtype=np.uint64 if any(v >= 1 << 63 for v in vals) else np.int64)
+        b = CycleBatch(info, k[1], fid, np.array(fn, dtype=np.int64), np.array(ts, dtype=np.int64),
+                       np.array(iops, dtype=np.int16), np.array(ok, dtype=bool), sig)
+        for s in self.cyc:
+            s.cycle_batch(b)
+
+    def _flush_s(self, k) -> None:
+        p = self.pend_s.get(k)
+        if not p or not p[1]:
+            return
+        off, rows = p
+        p[1] = []
+        fn, ts, data = zip(*rows)
+        arr = np.frombuffer(b"".join(data), dtype=np.uint8).reshape(len(data), k[1])
+        b = StreamBatch(k[0], np.array(fn, dtype=np.int64), np.array(ts, dtype=np.int64), arr, off)
+        for s in self.str:
+            s.stream_batch(b)
+
+    def flush(self, frame: int) -> None:
+        """Every row up to ``frame`` out; the sinks hear that everything up to it was delivered."""
+        for k in list(self.pend_c):
+            self._flush_c(k)
+        for k in list(self.pend_s):
+            self._flush_s(k)
+        for s in self.sinks:
+            s.flush_point(frame)
