@@ -214,10 +214,25 @@ class SimSession:
                 + self.jitter(0, k, T))
 
     def in_ts(self, st, k: int) -> int:
-        """When station st's input frame of cycle k is on the wire: the device's own clock and phase."""
+        """When station st's input frame of cycle k is on the wire: the device's own clock and phase.
+        The device answers the controller's frames it has received, so its frame of cycle k stays within
+        one cycle of the controller's: the drift moves its phase, which wraps at a full cycle (from then on
+        its frames come a cycle earlier or later relative to the controller's) instead of piling up a
+        delay of many cycles over a long capture."""
         T = st.cycle_ns
-        return (self.cyc_start_ns + st.phase + k * T + (k * T * st.ppb) // 10**9
-                + self.jitter(st.i + 1, k, T))
+        off = self._phase(st, k)
+        jit = self.jitter(st.i + 1, k, T)
+        if jit and (st.ppb or self.ctrl_ppb) and (self._phase(st, k - 1) > off or self._phase(st, k + 1) < off):
+            jit = 0   # the phase wraps next to this frame: no jitter, so the stream keeps its order
+        return self.cyc_start_ns + k * T + (k * T * self.ctrl_ppb) // 10**9 + off + jit
+
+    def _phase(self, st, k: int) -> int:
+        """The device frame's offset after the controller's cycle start, in [0, T)."""
+        T = st.cycle_ns
+        off = st.phase + (k * T * st.ppb) // 10**9 - (k * T * self.ctrl_ppb) // 10**9
+        if 0 <= off < T or not (st.ppb or self.ctrl_ppb):
+            return off   # one clock (IRT, tidy): the fixed phase, even past a cycle with many stations
+        return off % T
 
     def set_clocks(self) -> None:
         """Drift (ppm) and phase of every clock from their own RNG, so the frame contents do not
