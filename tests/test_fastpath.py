@@ -295,7 +295,7 @@ _OTHER = bytes.fromhex("ffffffffffff020000000099" "0806") + bytes(46)   # an ARP
                                                                    HealthCheck.function_scoped_fixture])
 @given(name=st.sampled_from(("motion83", "two81", "scancon84", "plant", "irt", "routine")), fmt=st.sampled_from(FORMATS),
        muts=st.lists(st.tuples(st.sampled_from(("byte", "bit", "zero2", "burst", "freeze", "cut", "drop", "insert",
-                                                "dup")),
+                                                "dup", "swap", "lose")),
                                st.floats(0, 1, exclude_max=True), st.integers(0, 10_000), st.integers(0, 255)),
                      max_size=8))
 def test_batch_mutated_sessions(sessions, tmp_path, name, fmt, muts):
@@ -303,7 +303,8 @@ def test_batch_mutated_sessions(sessions, tmp_path, name, fmt, muts):
     (control/status words, sign-of-life, positions, DataStatus, IOPS, FrameID, MACs), a frame cut, dropped,
     doubled, or a non-PROFINET frame in the middle of a run; a burst repeats one change in the next
     frames of the stream (conditions over several cycles); a freeze repeats every stream's C_SDU for a few
-    cycles (identical inputs: the checker's own shortcut). Both paths agree on everything."""
+    cycles (identical inputs: the checker's own shortcut); a stretch of frames reordered (RT drift, jitter);
+    a stream losing frames (capture loss). Both paths agree on everything."""
     frames = list(sessions[name])
     for kind, where, off, val in muts:
         i = int(where * len(frames))
@@ -338,6 +339,16 @@ def test_batch_mutated_sessions(sessions, tmp_path, name, fmt, muts):
             del b[off % (len(b) + 1):]
         elif kind == "drop":
             del frames[i]
+            continue
+        elif kind == "swap":   # a stretch of frames in another order (2..9 frames, rotated by val)
+            k = min(len(frames), i + 2 + off % 8)
+            seg = frames[i:k]
+            r = val % max(1, len(seg))
+            frames[i:k] = seg[r:] + seg[:r]
+            continue
+        elif kind == "lose":   # capture loss: every frame of one stream over a stretch
+            head = data[:20]
+            frames[i:] = [f for j, f in enumerate(frames[i:]) if not (j < 20 + off % 200 and f[3][:20] == head)]
             continue
         elif kind == "insert":
             frames.insert(i, (fn, ts, 1, _OTHER))
