@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .cyclic import IOPS_GOOD, JUDGED_FIRST, NOT_JUDGED_PHASES
-from .pairing import BLOCK, RETRY_MAX, Cols, sol_unsafe, unsafe_rows
+from .streamcols import BLOCK, RETRY_MAX, Cols, sol_unsafe, unsafe_rows
 
 ENDED = ("released", "aborted")
 
