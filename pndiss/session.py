@@ -186,7 +186,7 @@ class SessionTracker:
         sp, dp = u["srcport"], u["dstport"]
         po, pe = u["payload_off"], u["payload_end"]
         if dp in self.rt_ports or sp in self.rt_ports:
-            return self.a._pn_rt(fn, ts, data, po, src, dst, None, udp=True, end=pe)
+            return self.a.pn_rt(fn, ts, data, po, src, dst, None, udp=True, end=pe)
         on_rpc_port = PORT_RPC in (sp, dp)
         if pe - po < dcerpc.HDR_LEN or data[po] != 4:
             if on_rpc_port and pe - po > 0:
@@ -267,7 +267,7 @@ class SessionTracker:
                 counts["decoded"] -= total
                 counts["malformed"] += total
             self.counts["reassembly_dropped_frames"] = self.counts.get("reassembly_dropped_frames", 0) + total
-            self.a._malformed(last, self.a.cur_ts, layer,
+            self.a.add_malformed(last, self.a.cur_ts, layer,
                               f"{reason}; frames ({total}): "
                               f"{', '.join(map(str, frames[:20]))}"
                               + (f" ... {last}" if total > 20 else ""))
