@@ -272,7 +272,8 @@ def _discontinuity_v(k, V):
     if V.pos2 is None or not _continuity_applies(k):
         return _none(V)
     R = k.R
-    d = (V.pos2 - V.ppos2) % R
+    pos, ppos = (V.pos2, V.ppos2) if R < SAFE else (V.pos2.astype(object), V.ppos2.astype(object))
+    d = (pos - ppos) % R
     d = np.where(d > R // 2, d - R, d)
     return V.pos2_ok & V.ppos2_ok & (V.PKA == 0) & _b(np.abs(d) > _step(k))
 
