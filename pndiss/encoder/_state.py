@@ -92,6 +92,7 @@ class Checker:
         self.res_zsw2 = tg.reserved_mask("zsw2_enc", c.profile)
         self.res_g1zsw = tg.reserved_mask("g1_zsw", c.profile)
         self.sol_limit = 10 * c.n_sol  # fault at C > 10N (or >= with sol_threshold_ge), §3.3 R-SOLC-3
+        self.value_rules = REG.active_value_rules(self)
 
     def reconfigure(self) -> None:
         """The configuration changed (0xBF00, P922, P979, a profile learned): re-derive what it implies."""
@@ -561,15 +562,15 @@ class Checker:
             self.started_D = True
         c.started_D = self.started_D
         runs = self.value_runs
-        for r in REG.VALUE_RULES:
-            if r.check(self, c):
-                if r.min_run > 1:
-                    n = runs[r.id] = runs.get(r.id, 0) + 1
-                    if n < r.min_run:
+        for check, rule, min_run, message in self.value_rules:
+            if check(self, c):
+                if min_run > 1:
+                    n = runs[rule] = runs.get(rule, 0) + 1
+                    if n < min_run:
                         continue  # not yet: e.g. a filter lag at reversal (#44)
-                self._hit(r.id, r.message(self, c))
-            elif r.min_run > 1:
-                runs[r.id] = 0
+                self._hit(rule, message(self, c))
+            elif min_run > 1:
+                runs[rule] = 0
 
     def _cycle_steady(self, sp: dict, ac: dict) -> None:
         """Control and status words (sign-of-life aside) as in the last L_max+1 cycles, nothing pending and

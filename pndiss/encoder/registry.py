@@ -46,6 +46,8 @@ class Rule:
     vector: Callable | None = None  # value rules: (Checker, Columns) -> bool array, equal to check row by row
     message: Callable | None = None  # value rules: (Checker, Cycle) -> str
     min_run: int = 1                # value rules: cycles in a row the condition must hold to count
+    applies: Callable | None = None  # value rules: (Checker) -> bool, a gate on the configuration only (the
+                                     # checker re-evaluates it in reconfigure(); check() tests it again)
 
     @property
     def side(self) -> str:
@@ -75,11 +77,14 @@ class Cycle:
         c.zsw2 = zsw2 = ac.get("zsw2_enc", 0)
         c.g1zsw = g1zsw = ac.get("g1_zsw", 0)
         c.DLS = zsw2 >> 12
-        c.PDONE, c.ATX, c.PKA, c.SERR = ((g1zsw >> b) & 1 for b in (12, 13, 14, 15))
+        c.PDONE = (g1zsw >> 12) & 1
+        c.ATX = ATX = (g1zsw >> 13) & 1
+        c.PKA = (g1zsw >> 14) & 1
+        c.SERR = SERR = (g1zsw >> 15) & 1
         c.X1, c.X2, c.X3 = X1, X2, X3 = ac.get("g1_xist1"), ac.get("g1_xist2"), ac.get("g1_xist3")
         c.NIST = ac.get("nist_b", ac.get("nist_a"))
         # position of the preset arithmetic and continuity: X3 in telegram 84, else X2 while ATX (§1.6, §4.3)
-        c.pos2 = X3 if X3 is not None else (X2 if c.ATX and not c.SERR else None)
+        c.pos2 = X3 if X3 is not None else (X2 if ATX and not SERR else None)
         c.motion = X1 if X1 is not None else X3
         if pa is None:
             c.ppos2 = c.pmotion = c.pX3 = None
@@ -253,9 +258,7 @@ def _out_of_range_v(k, V):
 
 # 42: endless shaft is continuous modulo R (001_9461bb7bc8c2767b.txt:993-995)
 def _continuity_applies(k) -> bool:
-    c = k.cfg
-    return k.R is not None and (c.profile in CONTINUITY_PROFILES or (k.psm and bool(c.scaling))) \
-        and k.pre is None and k.pdone_since is None
+    return _continuity_profile(k) and k.pre is None and k.pdone_since is None
 
 
 def _step(k) -> int:
@@ -359,28 +362,40 @@ def _bf00_rejected_v(k, V):
     return _b((V.SERR == 1) & (V.X2 == E_PARAM))
 
 
-def _v(rule, check, vector, message, needs=(), min_run=1) -> Rule:
-    return Rule(rule, "value", needs=needs, check=check, vector=vector, message=message, min_run=min_run)
+def _v(rule, check, vector, message, needs=(), min_run=1, applies=None) -> Rule:
+    return Rule(rule, "value", needs=needs, check=check, vector=vector, message=message, min_run=min_run,
+                applies=applies)
+
+
+def _continuity_profile(k) -> bool:
+    return k.R is not None and (k.cfg.profile in CONTINUITY_PROFILES or (k.psm and bool(k.cfg.scaling)))
+
+
+def active_value_rules(k) -> tuple:
+    """(check, id, min_run, message) of the value rules the configuration of checker k can fire at all,
+    in judging order (the checker asks again whenever its configuration changes)."""
+    return tuple((r.check, r.id, r.min_run, r.message) for r in VALUE_RULES if r.applies is None or r.applies(k))
 
 
 # in the order the checker judges them (runs that end in the same cycle are reported in this order)
 VALUE_RULES: tuple[Rule, ...] = (
-    _v("SOL-DEVICE-ZERO-RT", _dls_zero_rt, _dls_zero_rt_v, needs=("started_D",),
+    _v("SOL-DEVICE-ZERO-RT", _dls_zero_rt, _dls_zero_rt_v, needs=("started_D",), applies=lambda k: not k.cfg.iso,
        message=lambda k, c: f"encoder sign-of-life 0 in RT data exchange (ZSW2_ENC=0x{c.zsw2:04X}); expected 1..15"),
-    _v("SYNC-FAULT-DLS-NONZERO", _sync_dls, _sync_dls_v,
+    _v("SYNC-FAULT-DLS-NONZERO", _sync_dls, _sync_dls_v, applies=lambda k: k.cfg.iso,
        message=lambda k, c: f"G1_XIST2=0x0F04 with encoder sign-of-life {c.DLS}; expected 0"),
     _v("ZSW-ATX-AND-SERR", _atx_serr, _atx_serr_v,
        message=lambda k, c: f"G1_ZSW=0x{c.g1zsw:04X} has transmit-absolute-value and sensor-error together"),
-    _v("XIST2-NOT-ZERO", _x2_zero, _x2_zero_v,
+    _v("XIST2-NOT-ZERO", _x2_zero, _x2_zero_v, applies=lambda k: k.lika,
        message=lambda k, c: f"G1_XIST2={c.X2} with G1_ZSW.13=0 and no error; expected 0"),
     _v("XIST2-INCONSISTENT", _x2_inconsistent, _x2_inconsistent_v, needs=("shift",),
        message=lambda k, c: f"G1_XIST1=0x{c.X1:08X}, expected G1_XIST2 << {k.cfg.shift or 0} = "
                             f"0x{(c.X2 << (k.cfg.shift or 0)) % U32:08X}"),
-    _v("POSITION-OUT-OF-RANGE", _out_of_range, _out_of_range_v,
+    _v("POSITION-OUT-OF-RANGE", _out_of_range, _out_of_range_v, applies=lambda k: bool(k.R),
        message=lambda k, c: f"position G1_XIST2={c.X2} G1_XIST1={c.X1} >= R={k.R}"),
-    _v("POSITION-DISCONTINUITY", _discontinuity, _discontinuity_v, _discontinuity_msg, needs=("pre", "pdone_since")),
+    _v("POSITION-DISCONTINUITY", _discontinuity, _discontinuity_v, _discontinuity_msg, needs=("pre", "pdone_since"),
+       applies=_continuity_profile),
     _v("NIST-SIGN", _nist_sign, _nist_sign_v, _nist_msg, min_run=3),
-    _v("PARK-OUTPUTS-NOT-CLEARED", _park_outputs, _park_outputs_v,
+    _v("PARK-OUTPUTS-NOT-CLEARED", _park_outputs, _park_outputs_v, applies=lambda k: k.lika,
        message=lambda k, c: f"parked with G1_XIST1={c.X1} G1_XIST2={c.X2} G1_ZSW=0x{c.g1zsw:04X}; expected 0s"),
     _v("SERR-CODE-INVALID", _serr_code, _serr_code_v, _serr_code_msg),
     _v("BF00-VALID-REJECTED", _bf00_rejected, _bf00_rejected_v, needs=("bf00_valid_frame", "bf00_invalid"),
@@ -499,11 +514,25 @@ def open_deadlines(k) -> list[str]:
     return [r.id for r in DEADLINES if r.is_open(k)]
 
 
-def pending(k) -> bool:
-    for r in DEADLINES:
-        if r.is_open(k):
-            return True
-    return False
+_OPEN = tuple((r.state, r.open_when) for r in DEADLINES)
+
+
+def _pending_source() -> str:
+    """pending(k) as one expression over the checker's attributes, written from DEADLINES (every judged
+    cycle asks it, so it is compiled once instead of looping over the entries)."""
+    terms = []
+    for state, keys in _OPEN:
+        t = f"d[{state!r}] is not None"
+        if keys:
+            t = f"({t} and ({' or '.join(f'd[{state!r}][{x!r}]' for x in keys)}))"
+        terms.append(t)
+    return "def pending(k):\n    d = k.__dict__\n    return bool(" + "\n        or ".join(terms) + ")\n"
+
+
+_ns: dict = {}
+exec(compile(_pending_source(), "<registry.DEADLINES>", "exec"), _ns)
+pending: Callable = _ns["pending"]
+pending.__doc__ = "Some deadline rule is running in checker k (its trigger seen, its deadline not reached)."
 
 
 # ---------------------------------------------------------------------------------- the other rules
