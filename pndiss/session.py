@@ -59,8 +59,7 @@ def _telegram_lengths() -> list[tuple[int, int, int]]:
     def size(t, direction):
         return sum(tg.SIGNALS[name]["size"] for name, _ in tg.TELEGRAMS[t][direction])
 
-    order = sorted(tg.TELEGRAMS, key=lambda t: (0 if t < 100 else 1 if t == 860 else 2, t))
-    return [(t, size(t, "setpoint"), size(t, "actual")) for t in order]
+    return [(t, size(t, "setpoint"), size(t, "actual")) for t in tg.GUESS_ORDER]
 
 
 _TG_LENGTHS: list[tuple[int, int, int]] | None = None

@@ -24,8 +24,7 @@ from . import registry as REG
 from .config import EncoderConfig, U32, next_ls
 from .registry import E_MASTER_SOL, E_PARAM, E_SYNC, LIKA_CODES  # noqa: F401  (re-exported: tools/gen_lua.py)
 
-PRESET_TELEGRAMS = {86: "g1_xist_preset_b", 87: "g1_xist_preset_b", 100: "g1_xist_preset_b",
-                    860: "g1_xist_preset_b", 88: "g1_xist_preset_c", 101: "g1_xist_preset_c"}  # §2.5
+PRESET_TELEGRAMS = {t: sig for t, (sig, _bit) in tg.PRESET_WORD.items()}   # §2.5, from the telegram table
 BF00_INDEXES = (0xBF00, 0xFFFF)                  # PS/PSM uses 0xFFFF (behaviour.md §5.1)
 
 
@@ -92,6 +91,9 @@ class Checker:
         self.res_zsw2 = tg.reserved_mask("zsw2_enc", c.profile)
         self.res_g1zsw = tg.reserved_mask("g1_zsw", c.profile)
         self.sol_limit = 10 * c.n_sol  # fault at C > 10N (or >= with sol_threshold_ge), §3.3 R-SOLC-3
+        hs = tg.PRESET_HANDSHAKE.get(c.telegram) if self.psm else None   # telegram 89 (cyclic.md §3.9)
+        self.preset_bits = None if hs is None else tuple(
+            tg.bit_position(*hs[k].split("."), profile="psm") for k in ("trigger", "ack"))
         self.value_rules = REG.active_value_rules(self)
 
     def reconfigure(self) -> None:
@@ -337,8 +339,9 @@ class Checker:
                           controller=True)
             if g1zsw & self.res_g1zsw:  # 63
                 self._hit("RESERVED-BIT-SET-G1ZSW", f"G1_ZSW=0x{g1zsw:04X} sets reserved bits 0x{g1zsw & self.res_g1zsw:04X} ({c.profile})")
-        if self.psm and "stw2_enc" in sp and self.cfg.telegram == 89:
-            self._preset89(stw2 & 1, 0 if first else ps.get("stw2_enc", 0) & 1, zsw2 & 1)
+        if self.preset_bits is not None and "stw2_enc" in sp:
+            tb, ab = self.preset_bits
+            self._preset89((stw2 >> tb) & 1, 0 if first else (ps.get("stw2_enc", 0) >> tb) & 1, (zsw2 >> ab) & 1)
         if not has_g1:
             self._timeline(CTRL, PREQ=0, PDONE=0, PKA=0, SERR=0, X2=None)
             return
@@ -747,9 +750,8 @@ class Checker:
 
     # -- preset-carrying telegrams 86/87/88/100/101/860 (§2.5, #32-34) ----------------------------
     def _cycle_preset_telegram(self, sp: dict, ac: dict) -> None:
-        sig = PRESET_TELEGRAMS[self.cfg.telegram]
+        sig, top = tg.PRESET_WORD[self.cfg.telegram]   # the word and its trigger bit (cyclic.md §10)
         word = sp.get(sig, 0)
-        top = 63 if sig.endswith("_c") else 31
         PT, PV = (word >> top) & 1, word & ((1 << top) - 1)
         pos = ac.get("g1_xist1", ac.get("g1_xist3"))
         NIST = ac.get("nist_b")
@@ -773,7 +775,7 @@ class Checker:
             self.preset_done = True
         p = self.p860
         if p is not None:
-            m = self.R or (1 << (64 if sig.endswith("_c") else 32))
+            m = self.R or (1 << (8 * tg.SIGNALS[sig]["size"]))
             if n > p["n"] and pos is not None and abs(P.delta(p["exp"], pos, m)) <= p["v"] * (n - p["n"] + 1):
                 p["seen"] = True  # within the motion since the trigger (§4.3 tolerance)
             p["last"] = pos
