@@ -1286,7 +1286,7 @@ function Checker:nist_sign(pos, ppos, nist)
   local d = delta(ppos, pos, m)
   if d ~= 0 and (d > 0) ~= (nist > 0) then
     self.nist_bad = self.nist_bad + 1
-    if self.nist_bad >= 3 then  -- three cycles in a row: not a filter lag at reversal
+    if self.nist_bad >= K.registry["NIST-SIGN"].min_run then  -- in a row: not a filter lag at reversal
       -- #44: NIST sign follows the motion [INFERENCE] (001_9461bb7bc8c2767b.txt:962)
       local o = self:hit("NIST-SIGN")
       if o then o.msg = fmt("NIST=%s while the position moves by %s per cycle", tostring(nist), tostring(d)) end

@@ -2044,6 +2044,7 @@ T.checker = {
     },
     ["BF00-VALID-REJECTED"] = {
       kind = "value",
+      min_run = 1,
     },
     ["BF00-VALUE-OUT-OF-RANGE"] = {
       kind = "record",
@@ -2110,6 +2111,7 @@ T.checker = {
     },
     ["NIST-SIGN"] = {
       kind = "value",
+      min_run = 3,
     },
     ["P965-VERSION-MISMATCH"] = {
       kind = "record",
@@ -2132,15 +2134,18 @@ T.checker = {
     },
     ["PARK-OUTPUTS-NOT-CLEARED"] = {
       kind = "value",
+      min_run = 1,
     },
     ["PARK-WHILE-RUNNING"] = {
       kind = "edge",
     },
     ["POSITION-DISCONTINUITY"] = {
       kind = "value",
+      min_run = 1,
     },
     ["POSITION-OUT-OF-RANGE"] = {
       kind = "value",
+      min_run = 1,
     },
     ["PRESET-ACK-DROPPED"] = {
       kind = "window",
@@ -2228,6 +2233,7 @@ T.checker = {
     },
     ["SERR-CODE-INVALID"] = {
       kind = "value",
+      min_run = 1,
     },
     ["SERR-XIST2-NOT-RESTORED"] = {
       deadline = "L_max",
@@ -2244,6 +2250,7 @@ T.checker = {
     },
     ["SOL-DEVICE-ZERO-RT"] = {
       kind = "value",
+      min_run = 1,
     },
     ["SOL-FAULT-CLEARED-WITHOUT-ACK"] = {
       kind = "edge",
@@ -2269,6 +2276,7 @@ T.checker = {
     },
     ["SYNC-FAULT-DLS-NONZERO"] = {
       kind = "value",
+      min_run = 1,
     },
     ["TELEGRAM-SELECTION-MISMATCH"] = {
       kind = "record",
@@ -2279,12 +2287,15 @@ T.checker = {
     },
     ["XIST2-INCONSISTENT"] = {
       kind = "value",
+      min_run = 1,
     },
     ["XIST2-NOT-ZERO"] = {
       kind = "value",
+      min_run = 1,
     },
     ["ZSW-ATX-AND-SERR"] = {
       kind = "value",
+      min_run = 1,
     },
   },
   reserved_masks = {

@@ -591,9 +591,7 @@ class Checker:
         value rule's vectorised predicate fires or the checker must see the cycle itself (registry.py:
         VALUE_RULES and CHECKER_CYCLES). With sign-of-life monitoring every cycle counts: all True."""
         if self.solmon:
-            n = len(next(iter(cols.values()))) if cols else 0
-            import numpy as np
-            return np.ones(n, dtype=bool)
+            return REG.all_rows(cols)
         return REG.vector_unsafe(self, cols, has_g1)
 
     # -- what a bulk engine may ask (pndiss/engine.py): read-only views of the state ------------------------

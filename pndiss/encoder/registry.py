@@ -571,6 +571,12 @@ for _r in VALUE_RULES + DEADLINES + OTHER_RULES:
     REGISTRY[_r.id] = _r
 
 
+def all_rows(cols: dict) -> np.ndarray:
+    """Every row of the stretch (the checker must see them all)."""
+    n = len(next(iter(cols.values()))) if cols else 0
+    return np.ones(n, dtype=bool)
+
+
 def vector_unsafe(k, cols: dict, has_g1: bool) -> np.ndarray:
     """Per row: a value rule fires or the checker must see the cycle (see Checker.vector_unsafe)."""
     V = Columns(k, cols, has_g1)
@@ -589,5 +595,6 @@ def lua_tables() -> dict:
                          "message": r["message"]} for r in FOLLOWS if r["group"] == g] for g in _FOLLOWS_BY_GROUP},
         "deadlines": [{"rule": r.id, "state": r.state, "deadline": r.deadline, "open_when": list(r.open_when) or None}
                       for r in DEADLINES],
-        "registry": {r.id: {"kind": r.kind, "deadline": r.deadline} for r in REGISTRY.values()},
+        "registry": {r.id: {"kind": r.kind, "deadline": r.deadline, "min_run": r.min_run if r.kind == "value" else None}
+                     for r in REGISTRY.values()},
     }
