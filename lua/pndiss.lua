@@ -1345,7 +1345,7 @@ local viol_seen        -- "frame|rule" -> that entry
 local late             -- deciding frame -> list of entries that name an earlier frame
 local finished         -- every checker's finish() has run (first frame dissected again)
 
-local function is_std(t) return T.telegrams[t] ~= nil and (T.telegrams[t].standard or t == 89) end
+local function is_std(t) return T.checker.control_words[t] == true end  -- STW2_ENC/ZSW2_ENC (telegram table)
 
 -- a violation on `frame`, decided while dissecting frame `decided`; `open` = a per-cycle run just
 -- opened (its first frame is final; the flush later repeats it), so it is shown at once

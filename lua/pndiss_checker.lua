@@ -153,7 +153,7 @@ end
 C.defaults = defaults
 
 -- STD: telegram with STW2_ENC/ZSW2_ENC (81-84; PS/PSM 89) (behaviour.md §9 preamble)
-function C.std(c) return K.standard[c.telegram] == true or c.telegram == 89 end
+function C.std(c) return K.control_words[c.telegram] == true end  -- STW2_ENC/ZSW2_ENC present (telegram table)
 C.is_std = C.std
 
 -- Does a preset move G1_XIST1? Class 4 on and the vendor's 'enabled' coding (§7 D14)
@@ -469,6 +469,30 @@ local function h_all(self, arr, v)
   return true
 end
 
+-- The "status bit follows control bit within L_max" rows of one group (registry.py FOLLOWS, generated into
+-- K.follows): the status bit still shows row.is although every cycle of the full window met row.window.
+local function follows(self, group, status, value)
+  local rows = K.follows[group]
+  for r = 1, #rows do
+    local row = rows[r]
+    if row.status == status and value == row.is then
+      local ok = true
+      for field, want in pairs(row.window) do
+        local h = self["h" .. field]
+        for i = 1, self.h_n do
+          local x = h[i]
+          if (x == true or x == 1) ~= (want == 1) then ok = false; break end
+        end
+        if not ok then break end
+      end
+      if ok then
+        local o = self:hit(row.rule)
+        if o then o.msg = (row.message:gsub("{n}", tostring(self.L + 1))) end
+      end
+    end
+  end
+end
+
 local function pos_push(self, v)
   if v == nil then v = NONE end
   self.ph1, self.ph2, self.ph3 = self.ph2, self.ph3, v
@@ -522,12 +546,23 @@ local function ch_push(self, v)
 end
 
 -- ------------------------------------------------------------------------------ one cycle
+-- A deadline rule is running (the registry's deadlines, pndiss/encoder/registry.py DEADLINES via the
+-- generated tables): a state that is set, or for open_when entries set with one of those keys true
+-- (a preset request already reported as unanswered (#19) and still held is inert in steady cycles).
 function Checker:pending_steady()
-  -- a preset request already reported as unanswered (#19) and still held is inert in steady cycles
-  local pre = self.pre
-  return (pre ~= nil and (pre.done or pre.allowed)) or self.pdone_since ~= nil or self.pdone_clear_due ~= nil or self.p860 ~= nil
-    or self.p89 ~= nil or self.sack_edge ~= nil or self.ackip_since ~= nil or self.restore_due ~= nil
-    or self.park_rise_due ~= nil or self.solf_due ~= nil or self.bf00_due ~= nil or self.store ~= nil
+  local dl = K.deadlines
+  for i = 1, #dl do
+    local d = dl[i]
+    local v = self[d.state]
+    if v ~= nil then
+      local keys = d.open_when
+      if keys == nil then return true end
+      for j = 1, #keys do
+        if v[keys[j]] then return true end
+      end
+    end
+  end
+  return false
 end
 
 function Checker:pending()
@@ -563,7 +598,7 @@ function Checker:cycle(frame, ts, sp, ac, sp_frame, sp_before)
       self:cycle_std(sp, ac)
     end
     self.key_ok, self.k1, self.k2, self.k3, self.k4 = true, k1, k2, k3, k4
-  elseif K.preset_telegrams[self.cfg.telegram] then
+  elseif K.preset_words[self.cfg.telegram] then
     self:cycle_preset_telegram(sp, ac)
   end
   if self.open_order[1] ~= nil then
@@ -700,8 +735,10 @@ function Checker:cycle_std(sp, ac)
       if o then o.msg = fmt("G1_ZSW=0x%04X sets reserved bits 0x%04X (%s)", g1zsw, band(g1zsw, self.res_g1zsw), c.profile) end
     end
   end
-  if self.psm and sp.stw2_enc ~= nil and c.telegram == 89 then
-    self:preset89(band(stw2, 1), first and 0 or band(ps.stw2_enc or 0, 1), band(zsw2, 1))
+  local hs = self.psm and K.preset_handshake[c.telegram]   -- telegram 89: control/status bit pair (cyclic.md §3.9)
+  if hs and sp.stw2_enc ~= nil then
+    local tb, ab = hs.trigger, hs.ack
+    self:preset89(band(rshift(stw2, tb), 1), first and 0 or band(rshift(ps.stw2_enc or 0, tb), 1), band(rshift(zsw2, ab), 1))
   end
   if not has_g1 then return end
 
@@ -822,48 +859,10 @@ function Checker:cycle_std(sp, ac)
   end
 
   -- ---- 9.5 absolute value request and XIST contents ---------------------------------------
-  if full and ATX == 0 then
-    local ok = true
-    for i = 1, self.h_n do
-      if not (self.hAREQ[i] == 1 and self.hVALID[i] and self.hPKA[i] == 0 and self.hSERR[i] == 0) then ok = false; break end
-    end
-    if ok then
-      -- #36: ATX follows AREQ (000_37bf2397999f1108.txt:1853-1859)
-      o = self:hit("ABSVAL-ACK-MISSING")
-      if o then o.msg = fmt("G1_STW.13=1 for %d cycles but G1_ZSW.13=0", L + 1) end
-    end
-  end
-  if full and ATX == 1 then
-    local ok = true
-    for i = 1, self.h_n do
-      if not (self.hAREQ[i] == 0 and self.hVALID[i]) then ok = false; break end
-    end
-    if ok then
-      -- #37: ATX clears when AREQ clears (000_37bf2397999f1108.txt:1626-1629)
-      o = self:hit("ABSVAL-ACK-STUCK")
-      if o then o.msg = fmt("G1_STW.13=0 for %d cycles but G1_ZSW.13=1", L + 1) end
-    end
-  end
+  if full then follows(self, "absval", "ATX", ATX) end  -- #36, #37: ATX follows AREQ (registry FOLLOWS)
 
   -- ---- 9.6 parking ------------------------------------------------------------------------
-  if full then
-    local all_park, all_unpark = true, true
-    for i = 1, self.h_n do
-      local v = self.hVALID[i]
-      if not (self.hPARK[i] == 1 and v) then all_park = false end
-      if not (self.hPARK[i] == 0 and v) then all_unpark = false end
-    end
-    if PKA == 0 and all_park then
-      -- #45: PKA follows PARK (000_37bf2397999f1108.txt:3144-3150)
-      o = self:hit("PARK-ACK-MISSING")
-      if o then o.msg = fmt("G1_STW.14=1 for %d cycles but G1_ZSW.14=0", L + 1) end
-    end
-    if PKA == 1 and all_unpark then
-      -- #46: PKA clears when PARK clears (000_37bf2397999f1108.txt:3166-3173)
-      o = self:hit("PARK-ACK-NOT-CLEARED")
-      if o then o.msg = fmt("G1_STW.14=0 for %d cycles but G1_ZSW.14=1", L + 1) end
-    end
-  end
+  if full then follows(self, "park", "PKA", PKA) end  -- #45, #46: PKA follows PARK (registry FOLLOWS)
   if PKA == 1 and not first and pPKA == 1 and (SERR == 1 and pSERR == 0) then
     -- #48: no new errors while parked (000_37bf2397999f1108.txt:1775-1777)
     o = self:hit("PARK-ERROR-REPORTED")
@@ -928,11 +927,7 @@ function Checker:cycle_std(sp, ac)
     o = self:hit("ACKIP-SPURIOUS")
     if o then o.msg = fmt("G1_ZSW.11 rose with G1_STW.15=0 in the last %d cycles", self.h_n) end
   end
-  if full and ACKIP == 1 and h_all(self, self.hSACK, 0) then
-    -- #54: ACKIP ends with the acknowledgement (000_37bf2397999f1108.txt:3201-3213)
-    o = self:hit("ACKIP-STUCK")
-    if o then o.msg = fmt("G1_ZSW.11=1 with G1_STW.15=0 for %d cycles", L + 1) end
-  end
+  if full then follows(self, "ackip", "ACKIP", ACKIP) end  -- #54: ACKIP ends with the acknowledgement (FOLLOWS)
   if ACKIP == 1 and SACK == 1 then
     if self.ackip_since == nil then
       self.ackip_since = n
@@ -1291,7 +1286,7 @@ function Checker:nist_sign(pos, ppos, nist)
   local d = delta(ppos, pos, m)
   if d ~= 0 and (d > 0) ~= (nist > 0) then
     self.nist_bad = self.nist_bad + 1
-    if self.nist_bad >= 3 then  -- three cycles in a row: not a filter lag at reversal
+    if self.nist_bad >= K.registry["NIST-SIGN"].min_run then  -- in a row: not a filter lag at reversal
       -- #44: NIST sign follows the motion [INFERENCE] (001_9461bb7bc8c2767b.txt:962)
       local o = self:hit("NIST-SIGN")
       if o then o.msg = fmt("NIST=%s while the position moves by %s per cycle", tostring(nist), tostring(d)) end
@@ -1319,8 +1314,8 @@ end
 C.preset_word = preset_word
 
 function Checker:cycle_preset_telegram(sp, ac)
-  local sig = K.preset_telegrams[self.cfg.telegram]
-  local top = sig == "g1_xist_preset_c" and 63 or 31
+  local pw = K.preset_words[self.cfg.telegram]   -- the word and its trigger bit (cyclic.md §10)
+  local sig, top = pw.signal, pw.bit
   local PT, PV = preset_word(sp[sig] or 0, top)
   local pos = ac.g1_xist1
   if pos == nil then pos = num(ac.g1_xist3) end

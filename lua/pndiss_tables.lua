@@ -1570,9 +1570,79 @@ T.checker = {
     [65535] = true,
   },
   bf00_len = 31,
+  control_words = {
+    [81] = true,
+    [82] = true,
+    [83] = true,
+    [84] = true,
+    [89] = true,
+  },
   creq_bit = {
     generic = 9,
     psm = 10,
+  },
+  deadlines = {
+    {
+      deadline = "D_preset",
+      open_when = {"done", "allowed"},
+      rule = "PRESET-ACK-MISSING",
+      state = "pre",
+    },
+    {
+      deadline = "D_preset",
+      rule = "PRESET-REQ-STUCK",
+      state = "pdone_since",
+    },
+    {
+      deadline = "L_max",
+      rule = "PRESET-ACK-NOT-CLEARED",
+      state = "pdone_clear_due",
+    },
+    {
+      deadline = "D_preset",
+      rule = "PRESET860-WRONG",
+      state = "p860",
+    },
+    {
+      deadline = "D_preset",
+      rule = "PRESET89-ACK-MISSING",
+      state = "p89",
+    },
+    {
+      deadline = "L_max",
+      rule = "ACKIP-MISSING",
+      state = "sack_edge",
+    },
+    {
+      deadline = "D_preset",
+      rule = "SACK-HELD",
+      state = "ackip_since",
+    },
+    {
+      deadline = "L_max",
+      rule = "SERR-XIST2-NOT-RESTORED",
+      state = "restore_due",
+    },
+    {
+      deadline = "L_max",
+      rule = "PARK-ERRORS-NOT-CLEARED",
+      state = "park_rise_due",
+    },
+    {
+      deadline = "L_max",
+      rule = "SOL-FAULT-MISSING",
+      state = "solf_due",
+    },
+    {
+      deadline = "D_preset",
+      rule = "BF00-ERROR-NOT-REPORTED",
+      state = "bf00_due",
+    },
+    {
+      deadline = "10 ms",
+      rule = "XIST-DURING-STORE",
+      state = "store",
+    },
   },
   e_master_sol = 3842,
   e_param = 4098,
@@ -1580,6 +1650,65 @@ T.checker = {
   float_formats = {
     [8] = true,
     [15] = true,
+  },
+  follows = {
+    absval = {
+      {
+        is = 0,
+        message = "G1_STW.13=1 for {n} cycles but G1_ZSW.13=0",
+        rule = "ABSVAL-ACK-MISSING",
+        status = "ATX",
+        window = {
+          AREQ = 1,
+          PKA = 0,
+          SERR = 0,
+          VALID = 1,
+        },
+      },
+      {
+        is = 1,
+        message = "G1_STW.13=0 for {n} cycles but G1_ZSW.13=1",
+        rule = "ABSVAL-ACK-STUCK",
+        status = "ATX",
+        window = {
+          AREQ = 0,
+          VALID = 1,
+        },
+      },
+    },
+    ackip = {
+      {
+        is = 1,
+        message = "G1_ZSW.11=1 with G1_STW.15=0 for {n} cycles",
+        rule = "ACKIP-STUCK",
+        status = "ACKIP",
+        window = {
+          SACK = 0,
+        },
+      },
+    },
+    park = {
+      {
+        is = 0,
+        message = "G1_STW.14=1 for {n} cycles but G1_ZSW.14=0",
+        rule = "PARK-ACK-MISSING",
+        status = "PKA",
+        window = {
+          PARK = 1,
+          VALID = 1,
+        },
+      },
+      {
+        is = 1,
+        message = "G1_STW.14=0 for {n} cycles but G1_ZSW.14=1",
+        rule = "PARK-ACK-NOT-CLEARED",
+        status = "PKA",
+        window = {
+          PARK = 0,
+          VALID = 1,
+        },
+      },
+    },
   },
   format_names = {
     ["Binary Date"] = true,
@@ -1803,6 +1932,12 @@ T.checker = {
       [65010] = "Unsigned32",
     },
   },
+  preset_handshake = {
+    [89] = {
+      ack = 0,
+      trigger = 0,
+    },
+  },
   preset_telegrams = {
     [86] = "g1_xist_preset_b",
     [87] = "g1_xist_preset_b",
@@ -1810,6 +1945,32 @@ T.checker = {
     [100] = "g1_xist_preset_b",
     [101] = "g1_xist_preset_c",
     [860] = "g1_xist_preset_b",
+  },
+  preset_words = {
+    [86] = {
+      bit = 31,
+      signal = "g1_xist_preset_b",
+    },
+    [87] = {
+      bit = 31,
+      signal = "g1_xist_preset_b",
+    },
+    [88] = {
+      bit = 63,
+      signal = "g1_xist_preset_c",
+    },
+    [100] = {
+      bit = 31,
+      signal = "g1_xist_preset_b",
+    },
+    [101] = {
+      bit = 63,
+      signal = "g1_xist_preset_c",
+    },
+    [860] = {
+      bit = 31,
+      signal = "g1_xist_preset_b",
+    },
   },
   profile_pnus = {
     [922] = true,
@@ -1853,6 +2014,289 @@ T.checker = {
     ["BMP-NEG-FORMAT"] = true,
     ["BMP-REQREF-ZERO"] = true,
     ["BMP-RESPID-MISMATCH"] = true,
+  },
+  registry = {
+    ["ABSVAL-ACK-MISSING"] = {
+      kind = "window",
+    },
+    ["ABSVAL-ACK-STUCK"] = {
+      kind = "window",
+    },
+    ["ACKIP-MISSING"] = {
+      deadline = "L_max",
+      kind = "deadline",
+    },
+    ["ACKIP-SPURIOUS"] = {
+      kind = "window",
+    },
+    ["ACKIP-STUCK"] = {
+      kind = "window",
+    },
+    ["BF00-ERROR-NOT-REPORTED"] = {
+      deadline = "D_preset",
+      kind = "deadline",
+    },
+    ["BF00-LENGTH"] = {
+      kind = "record",
+    },
+    ["BF00-RESERVED-NONZERO"] = {
+      kind = "record",
+    },
+    ["BF00-VALID-REJECTED"] = {
+      kind = "value",
+      min_run = 1,
+    },
+    ["BF00-VALUE-OUT-OF-RANGE"] = {
+      kind = "record",
+    },
+    ["BMP-BAD-REQUEST"] = {
+      kind = "record",
+    },
+    ["BMP-CLASS4-WRITE-ACCEPTED"] = {
+      kind = "record",
+    },
+    ["BMP-DATATYPE"] = {
+      kind = "record",
+    },
+    ["BMP-ILLEGAL-REQID-RESPONSE"] = {
+      kind = "record",
+    },
+    ["BMP-MULTI-NOT-ABORTED"] = {
+      kind = "record",
+    },
+    ["BMP-NEG-FORMAT"] = {
+      kind = "record",
+    },
+    ["BMP-NOT-MIRRORED"] = {
+      kind = "record",
+    },
+    ["BMP-PIPELINED"] = {
+      kind = "record",
+    },
+    ["BMP-PRESET-LIMIT-ACCEPTED"] = {
+      kind = "record",
+    },
+    ["BMP-PROFILE-PARAM-UNREADABLE"] = {
+      kind = "record",
+    },
+    ["BMP-REQREF-NOT-CHANGED"] = {
+      kind = "record",
+    },
+    ["BMP-REQREF-ZERO"] = {
+      kind = "record",
+    },
+    ["BMP-RESPID-MISMATCH"] = {
+      kind = "record",
+    },
+    ["BMP-UNKNOWN-PNU"] = {
+      kind = "record",
+    },
+    ["BMP-WRITE-RO-ACCEPTED"] = {
+      kind = "record",
+    },
+    ["CMD-EXECUTED-WITHOUT-CONTROL"] = {
+      kind = "window",
+    },
+    ["CMD-WITHOUT-CONTROL"] = {
+      kind = "edge",
+    },
+    ["CTRLREQ-MISMATCH"] = {
+      kind = "window",
+    },
+    ["CTRLREQ-SET-IN-COMPAT"] = {
+      kind = "edge",
+    },
+    ["FAULT-PRESENT-INCONSISTENT"] = {
+      kind = "edge",
+    },
+    ["NIST-SIGN"] = {
+      kind = "value",
+      min_run = 3,
+    },
+    ["P965-VERSION-MISMATCH"] = {
+      kind = "record",
+    },
+    ["P971-NOT-CONFIRMED"] = {
+      kind = "record",
+    },
+    ["PARK-ACK-MISSING"] = {
+      kind = "window",
+    },
+    ["PARK-ACK-NOT-CLEARED"] = {
+      kind = "window",
+    },
+    ["PARK-ERROR-REPORTED"] = {
+      kind = "edge",
+    },
+    ["PARK-ERRORS-NOT-CLEARED"] = {
+      deadline = "L_max",
+      kind = "deadline",
+    },
+    ["PARK-OUTPUTS-NOT-CLEARED"] = {
+      kind = "value",
+      min_run = 1,
+    },
+    ["PARK-WHILE-RUNNING"] = {
+      kind = "edge",
+    },
+    ["POSITION-DISCONTINUITY"] = {
+      kind = "value",
+      min_run = 1,
+    },
+    ["POSITION-OUT-OF-RANGE"] = {
+      kind = "value",
+      min_run = 1,
+    },
+    ["PRESET-ACK-DROPPED"] = {
+      kind = "window",
+    },
+    ["PRESET-ACK-MISSING"] = {
+      deadline = "D_preset",
+      kind = "deadline",
+    },
+    ["PRESET-ACK-NOT-CLEARED"] = {
+      deadline = "L_max",
+      kind = "deadline",
+    },
+    ["PRESET-ACK-SPURIOUS"] = {
+      kind = "window",
+    },
+    ["PRESET-CLASS4-DISABLED"] = {
+      kind = "edge",
+    },
+    ["PRESET-EXECUTED-WHEN-NOT-ALLOWED"] = {
+      kind = "edge",
+    },
+    ["PRESET-MODE-CHANGED"] = {
+      kind = "edge",
+    },
+    ["PRESET-NOT-STANDSTILL"] = {
+      kind = "edge",
+    },
+    ["PRESET-REEXECUTED"] = {
+      kind = "preset",
+    },
+    ["PRESET-REQ-EARLY-RELEASE"] = {
+      kind = "edge",
+    },
+    ["PRESET-REQ-STUCK"] = {
+      deadline = "D_preset",
+      kind = "deadline",
+    },
+    ["PRESET-VALUE-WRONG"] = {
+      kind = "preset",
+    },
+    ["PRESET-WITHOUT-NEW-PARAMS"] = {
+      kind = "finish",
+    },
+    ["PRESET-XIST1-AFFECTED-WHEN-DISABLED"] = {
+      kind = "preset",
+    },
+    ["PRESET-XIST1-NOT-AFFECTED-WHEN-ENABLED"] = {
+      kind = "preset",
+    },
+    ["PRESET860-TRIGGER-HELD"] = {
+      kind = "preset",
+    },
+    ["PRESET860-VALUE-OUT-OF-RANGE"] = {
+      kind = "preset",
+    },
+    ["PRESET860-WRONG"] = {
+      deadline = "D_preset",
+      kind = "deadline",
+    },
+    ["PRESET89-ACK-MISSING"] = {
+      deadline = "D_preset",
+      kind = "deadline",
+    },
+    ["RESERVED-BIT-SET-G1STW"] = {
+      kind = "edge",
+    },
+    ["RESERVED-BIT-SET-G1ZSW"] = {
+      kind = "edge",
+    },
+    ["RESERVED-BIT-SET-STW2"] = {
+      kind = "edge",
+    },
+    ["RESERVED-BIT-SET-ZSW2"] = {
+      kind = "edge",
+    },
+    ["SACK-HELD"] = {
+      deadline = "D_preset",
+      kind = "deadline",
+    },
+    ["SACK-WITHOUT-ERROR"] = {
+      kind = "edge",
+    },
+    ["SERR-CLEARED-WITHOUT-ACK"] = {
+      kind = "edge",
+    },
+    ["SERR-CODE-INVALID"] = {
+      kind = "value",
+      min_run = 1,
+    },
+    ["SERR-XIST2-NOT-RESTORED"] = {
+      deadline = "L_max",
+      kind = "deadline",
+    },
+    ["SOL-DEVICE-EARLY-START"] = {
+      kind = "sign-of-life",
+    },
+    ["SOL-DEVICE-SKIP"] = {
+      kind = "sign-of-life",
+    },
+    ["SOL-DEVICE-ZERO"] = {
+      kind = "sign-of-life",
+    },
+    ["SOL-DEVICE-ZERO-RT"] = {
+      kind = "value",
+      min_run = 1,
+    },
+    ["SOL-FAULT-CLEARED-WITHOUT-ACK"] = {
+      kind = "edge",
+    },
+    ["SOL-FAULT-MISSING"] = {
+      deadline = "L_max",
+      kind = "deadline",
+    },
+    ["SOL-FAULT-SPURIOUS"] = {
+      kind = "sign-of-life",
+    },
+    ["SOL-MASTER-SKIP"] = {
+      kind = "sign-of-life",
+    },
+    ["SOL-MASTER-STALL"] = {
+      kind = "sign-of-life",
+    },
+    ["SOL-MASTER-WINDOW"] = {
+      kind = "sign-of-life",
+    },
+    ["SOL-MASTER-ZERO"] = {
+      kind = "sign-of-life",
+    },
+    ["SYNC-FAULT-DLS-NONZERO"] = {
+      kind = "value",
+      min_run = 1,
+    },
+    ["TELEGRAM-SELECTION-MISMATCH"] = {
+      kind = "record",
+    },
+    ["XIST-DURING-STORE"] = {
+      deadline = "10 ms",
+      kind = "deadline",
+    },
+    ["XIST2-INCONSISTENT"] = {
+      kind = "value",
+      min_run = 1,
+    },
+    ["XIST2-NOT-ZERO"] = {
+      kind = "value",
+      min_run = 1,
+    },
+    ["ZSW-ATX-AND-SERR"] = {
+      kind = "value",
+      min_run = 1,
+    },
   },
   reserved_masks = {
     g1_stw = {

@@ -105,9 +105,13 @@ class Analyzer:
         self.emit(ev)
         return ev
 
-    def report_malformed(self, fn: int, ts: int, layer: str, reason: str) -> None:
-        """A frame that could not be decoded: kept for the summary (the first ones) and emitted."""
+    def add_malformed(self, fn: int, ts: int, layer: str, reason: str) -> None:
+        """A malformed frame found by another module (session reassembly, the bulk engines)."""
         self._malformed(fn, ts, layer, reason)
+
+    def pn_rt(self, fn, ts, data, off, src, dst, tags, udp: bool, end: int | None = None) -> str:
+        """PROFINET RT data carried elsewhere (RT over UDP, session.py)."""
+        return self._pn_rt(fn, ts, data, off, src, dst, tags, udp, end)
 
     def _malformed(self, fn: int, ts: int, layer: str, reason: str) -> None:
         ev = {"frame": fn, "ts_ns": ts, "kind": "malformed", "layer": layer, "reason": reason}

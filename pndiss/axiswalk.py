@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .cyclic import IOPS_GOOD, JUDGED_FIRST, NOT_JUDGED_PHASES
-from .streamcols import BLOCK, RETRY_MAX, Cols, sol_unsafe, unsafe_rows
+from .streamcols import BLOCK, RETRY_MAX, Cols
 
 ENDED = ("released", "aborted")
 
@@ -125,11 +125,8 @@ class AxisWalk:
                 keydiff[1:] |= k[1:] != k[:-1]
             ident = S.same_prev(self.frS.last_csdu, sr, sr + P) & A.same_prev(self.frA.last_csdu, ar, ar + P)
             bad |= ~ok | ident | keydiff
-            if not bad[0]:
-                bad |= unsafe_rows(chk, {**sS, **sA}, "g1_stw" in sS and "g1_zsw" in sA)
-            if chk.solmon:
-                bad |= sol_unsafe(sS.get("stw2_enc", z), sA.get("zsw2_enc", z), ax.sp.get("stw2_enc", 0),
-                                  chk.prev_ac.get("zsw2_enc", 0))
+            if not bad[0]:   # the value rules' vectorised twins (pndiss/encoder/registry.py)
+                bad |= chk.vector_unsafe({**sS, **sA}, "g1_stw" in sS and "g1_zsw" in sA)
         else:
             if not chk.idle():
                 return 0

@@ -36,7 +36,6 @@ MAX_PERIOD = 8       # streams in one repeating pattern (setpoint + actual of up
 MIN_ROWS = 16        # shorter runs are not worth the set-up: the reader yields them
 BLOCK = 4096         # rows judged per vectorised pass (state may change at any non-simple row)
 RETRY_MAX = 64       # frames the reader yields before it offers the buffer again after a miss
-SAFE = 1 << 62       # larger values (64-bit XIST3) are left to the reference arithmetic
 U32 = 1 << 32
 ETH_PNRT = b"\x88\x92"
 
@@ -460,12 +459,11 @@ class _Run:
                 continue   # no setpoint yet: the actual pairs with nothing
             if ax.ambiguous or not x.ok[r]:
                 # gated: only the counters move while the checker has nothing to flush
-                if chk.prev_ac is not None or chk._open:
+                if not chk.idle():
                     return r
                 bad = x.ok[r:end] & (not ax.ambiguous)
             else:
-                if chk.prev_ac is None or chk.prev_sp is None or chk._open or chk.steady_n <= chk.L + 1 \
-                        or chk._pending_steady():
+                if not chk.bulk_ready():
                     return r
                 v = x.v
                 key = (int(v["stw2"][r]) & 0x0FFF, int(v["g1stw"][r]), int(v["zsw2"][r]) & 0x0FFF, int(v["g1zsw"][r]))
@@ -479,105 +477,17 @@ class _Run:
         return end
 
     def _not_simple(self, x: _Ax, chk, r: int, end: int):
-        """Per row of [r, end): the row is not a steady, hit-free cycle of this checker (value rules of
-        _state.Checker._value_rules, sign-of-life monitoring off, evaluated on the arrays)."""
+        """Per row of [r, end): the row is not a steady, hit-free cycle of this checker: not judged, the
+        same frames again, a key change, or what the checker's registry says (Checker.vector_unsafe)."""
         v = x.v
-        c = chk.cfg
         sl = slice(r, end)
-        g1zsw = v["g1zsw"][sl]
-        SERR = (g1zsw >> 15) & 1
-        ATX = (g1zsw >> 13) & 1
-        PKA = (g1zsw >> 14) & 1
-        bad = (~x.ok[sl]) | x.ident[sl] | SERR.astype(bool)
+        bad = (~x.ok[sl]) | x.ident[sl]
         bad[1:] |= x.keydiff[r + 1:end]
-        if chk.lika:
-            bad |= PKA.astype(bool)
-        X1 = v.get("g1_xist1")
-        X2 = v.get("g1_xist2")
-        X3 = v.get("g1_xist3")
-        NIST = v.get("nist_b", v.get("nist_a"))
-        pa = chk.prev_ac
-        if X1 is not None:
-            X1 = X1[sl]
-        if X2 is not None:
-            X2 = X2[sl]
-        if X3 is not None:
-            big = X3[sl] >= SAFE
-            X3 = X3[sl].astype(np.int64)
-            bad |= big
-        if NIST is not None:
-            NIST = NIST[sl]
-        atx = ATX.astype(bool)
-        serr = SERR.astype(bool)
-        # shift (P979.3) still to learn: the first ATX cycle with both positions learns it
-        if not chk.shift_known and x.has_g1 and X1 is not None and X2 is not None:
-            bad |= atx & ~serr & (X2 != 0)
-        # 8: RT mode, DLS back to 0 once running
-        if not c.iso:
-            DLS = v["zsw2"][sl] >> 12
-            started = chk.started_D | (np.cumsum(DLS != 0) > 0)
-            bad |= (DLS == 0) & started
-        # 39: LIKA XIST2 = 0 without request
-        if chk.lika and X2 is not None:
-            bad |= ~atx & ~serr & ~PKA.astype(bool) & (X2 != 0)
-        # 40: X1 == X2 << shift
-        if X1 is not None and X2 is not None and X3 is None and (not c.class4 or c.xist1_preset_affected) \
-                and not c.xist1_counter:
-            shift = c.shift or 0
-            bad |= atx & ~serr & (X1 != ((X2 << shift) & (U32 - 1)))
-        R = chk.R
-        # 41: position inside [0, R)
-        if R:
-            out = np.zeros(end - r, dtype=bool)
-            if X2 is not None:
-                out |= X2 >= R
-            if chk.lika and X1 is not None:
-                out |= X1 >= R
-            bad |= atx & ~serr & out
-        # previous cycle's values: row r-1, or the checker's last cycle for the run's first row
-        def prev(name, arr):
-            p = np.empty(end - r, dtype=np.int64)
-            p[1:] = arr[r:end - 1]
-            p[0] = arr[r - 1] if r else (pa.get(name) or 0)
-            return p
-        # 42: continuity modulo R (scancon / hohner, PS/PSM with scaling)
-        if R is not None and (c.profile in ("scancon", "hohner") or (chk.psm and c.scaling)):
-            if R >= SAFE:
-                bad[:] = True
-            else:
-                step = c.max_position_step or max(1, R // 8)
-                pz = prev("g1_zsw", v["g1zsw"])
-                if X3 is not None:
-                    pos2, ppos2 = X3, prev("g1_xist3", v["g1_xist3"].astype(np.int64))
-                    valid = np.ones(end - r, dtype=bool)
-                    if r == 0 and pa.get("g1_xist3") is None:
-                        valid[0] = False
-                elif X2 is not None:
-                    pos2, ppos2 = X2, prev("g1_xist2", v["g1_xist2"])
-                    valid = atx & ~serr & (((pz >> 13) & 1) == 1) & ((pz >> 15) == 0)
-                else:
-                    pos2 = ppos2 = None
-                if pos2 is not None:
-                    d = (pos2 - ppos2) % R
-                    d = np.where(d > R // 2, d - R, d)
-                    bad |= valid & ~PKA.astype(bool) & (np.abs(d) > step)
-        # 44: NIST sign follows the motion (any bad cycle goes the normal way: it counts to 3)
-        if NIST is not None:
-            if X1 is not None:
-                mot, pmot = X1, prev("g1_xist1", v["g1_xist1"])
-            elif X3 is not None:
-                mot, pmot = X3, prev("g1_xist3", v["g1_xist3"].astype(np.int64))
-            else:
-                mot = None
-            if mot is not None:
-                wide = (mot > U32 - 1) | (pmot > U32 - 1)
-                d = (mot - pmot) % U32
-                d = np.where(d > U32 // 2, d - U32, d)
-                moving = (NIST != 0)
-                bad |= moving & ((wide) | ((d != 0) & ((d > 0) != (NIST > 0))))
-                if r == 0 and (pa.get("g1_xist1" if X1 is not None else "g1_xist3") is None):
-                    bad[0] = True
-        return bad
+        cols = {"stw2_enc": v["stw2"][sl], "g1_stw": v["g1stw"][sl], "zsw2_enc": v["zsw2"][sl], "g1_zsw": v["g1zsw"][sl]}
+        for name in ("g1_xist1", "g1_xist2", "g1_xist3", "nist_a", "nist_b"):
+            if name in v:
+                cols[name] = v[name][sl]
+        return bad | chk.vector_unsafe(cols, x.has_g1)
 
     # -- applying rows ---------------------------------------------------------------------------
     def _frame_pos(self, r: int, j: int) -> int:

@@ -348,11 +348,8 @@ class CyclicTracker:
             c.sources["telegram"] = o.source or "session"
         self._refine_profile(ax)
         chk = ax.checker
-        chk._apply_cfg()
-        chk.out = []  # the open runs end with the old layout: emit them (the last call's list is gone)
-        chk._flush_all()
-        self._out(chk.out)
-        chk._reset_history()
+        chk.reconfigure()
+        self._out(chk.end_runs())  # the open runs end with the old layout
 
     def _ambiguous(self, ax, o: _Obj) -> bool:
         """A length guess is judged when both data lengths leave one candidate among the profile's telegrams,
@@ -384,7 +381,7 @@ class CyclicTracker:
             if ax.checker is not None:
                 ax.checker.cfg.profile = "psm"
                 ax.checker.cfg.sources["profile"] = ax.reason
-                ax.checker._apply_cfg()
+                ax.checker.reconfigure()
                 for ev in self.records.get(ax.info["device_mac"], ()):  # PS/PSM keeps its parameters at 0xFFFF
                     if ev.get("kind") == "record" and ev.get("index") == 0xFFFF:
                         self._out(ax.checker.on_record(ev))

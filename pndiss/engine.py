@@ -317,7 +317,7 @@ class Window:
             self.e.t.on_cyclic(s.key, fn, ts, data[-2] & 0x14 == 0x14, data, off + 2)
         except Malformed as e:
             s.bad += 1
-            a.report_malformed(fn, ts, e.layer, e.reason)
+            a.add_malformed(fn, ts, e.layer, e.reason)
 
 
 def ts_ok(ts) -> bool:

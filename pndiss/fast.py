@@ -115,7 +115,7 @@ def stepper(a, streams: dict):
                     on_cyclic(s.key, fn, ts, data[-2] & 0x14 == 0x14, data, off + 2)
                 except Malformed as e:
                     s.bad += 1
-                    a.report_malformed(fn, ts, e.layer, e.reason)
+                    a.add_malformed(fn, ts, e.layer, e.reason)
                 return
             feed(fn, ts, lt, data)
             if data[off - 2:off] == ETH_PNRT:   # no per-header state for frames that are no PN-RT

@@ -59,8 +59,7 @@ def _telegram_lengths() -> list[tuple[int, int, int]]:
     def size(t, direction):
         return sum(tg.SIGNALS[name]["size"] for name, _ in tg.TELEGRAMS[t][direction])
 
-    order = sorted(tg.TELEGRAMS, key=lambda t: (0 if t < 100 else 1 if t == 860 else 2, t))
-    return [(t, size(t, "setpoint"), size(t, "actual")) for t in order]
+    return [(t, size(t, "setpoint"), size(t, "actual")) for t in tg.GUESS_ORDER]
 
 
 _TG_LENGTHS: list[tuple[int, int, int]] | None = None
@@ -186,7 +185,7 @@ class SessionTracker:
         sp, dp = u["srcport"], u["dstport"]
         po, pe = u["payload_off"], u["payload_end"]
         if dp in self.rt_ports or sp in self.rt_ports:
-            return self.a._pn_rt(fn, ts, data, po, src, dst, None, udp=True, end=pe)
+            return self.a.pn_rt(fn, ts, data, po, src, dst, None, udp=True, end=pe)
         on_rpc_port = PORT_RPC in (sp, dp)
         if pe - po < dcerpc.HDR_LEN or data[po] != 4:
             if on_rpc_port and pe - po > 0:
@@ -267,7 +266,7 @@ class SessionTracker:
                 counts["decoded"] -= total
                 counts["malformed"] += total
             self.counts["reassembly_dropped_frames"] = self.counts.get("reassembly_dropped_frames", 0) + total
-            self.a._malformed(last, self.a.cur_ts, layer,
+            self.a.add_malformed(last, self.a.cur_ts, layer,
                               f"{reason}; frames ({total}): "
                               f"{', '.join(map(str, frames[:20]))}"
                               + (f" ... {last}" if total > 20 else ""))

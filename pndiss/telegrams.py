@@ -27,6 +27,18 @@ XIST2_ERRORS: dict[int, dict] = {e["code"]: e for e in TABLE["xist2_errors"]}
 VELOCITY_UNITS: dict[int, dict] = {u["value"]: u for u in TABLE["velocity_units"]}
 DIRECTIONS = ("setpoint", "actual")
 STANDARD = frozenset(t for t, d in TELEGRAMS.items() if d["standard"])  # 81-84: STW2/G1_STW words
+# STD of behaviour.md §9: telegrams carrying STW2_ENC and ZSW2_ENC (81-84 and PS/PSM 89), from the layouts
+CONTROL_WORDS = frozenset(t for t, d in TELEGRAMS.items() if "stw2_enc" in {r[0] for r in d["setpoint"]}
+                          and "zsw2_enc" in {r[0] for r in d["actual"]})
+# telegrams whose preset rides in the setpoint word itself: (signal, trigger bit) of that word (cyclic.md §10)
+PRESET_WORD: dict[int, tuple[str, int]] = {
+    t: next((name, b["bit"]) for name, _ in d["setpoint"] for b in BITMAPS.get(name, ()) if b["name"] == "trigger")
+    for t, d in TELEGRAMS.items()
+    if any(b["name"] == "trigger" for name, _ in d["setpoint"] for b in BITMAPS.get(name, ()))}
+# a preset by a control/status bit pair (telegram 89): {telegram: {"trigger", "ack", "value"}}
+PRESET_HANDSHAKE: dict[int, dict] = {t: d["preset_handshake"] for t, d in TELEGRAMS.items() if "preset_handshake" in d}
+# the length guess tries telegrams in this order (cyclic.md §2: standard, then 860, then OEM)
+GUESS_ORDER: tuple[int, ...] = tuple(sorted(TELEGRAMS, key=lambda t: (TELEGRAMS[t]["guess_rank"], t)))
 
 _FMT = {(1, False): "B", (2, False): "H", (4, False): "I", (8, False): "Q",
         (1, True): "b", (2, True): "h", (4, True): "i", (8, True): "q"}

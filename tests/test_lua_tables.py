@@ -39,6 +39,8 @@ def test_plugin_rules_have_lua_conditions():
                   for f in ("pndiss.lua", "pndiss_checker.lua"))
     # the pairing problems' rules come from a generated table (acyclic.PAIRING_RULES), which the checker reads
     src += "".join(f'"{rule}"' for _, rule in gen_lua.tables()["checker"]["pairing_rules"])
+    # so do the "status bit follows control bit" rows of the rule registry (encoder/registry.py FOLLOWS)
+    src += "".join(f'"{row["rule"]}"' for rows in gen_lua.tables()["checker"]["follows"].values() for row in rows)
     for r in gen_lua.PLUGIN_RULES:
         assert f'"{r}"' in src, f"{r} is declared implemented but the Lua plugin never names it"
 

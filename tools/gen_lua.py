@@ -117,9 +117,8 @@ def tables() -> dict:
     bitmaps = {sig: [{"name": b["name"], "bit": b["bit"], "width": b["width"], "title": b.get("title", b["name"]),
                       "profiles": list(b["profiles"]) if "profiles" in b else None} for b in rows]
                for sig, rows in tg.BITMAPS.items()}
-    # telegram preference for the length guess: standard first, then 860, then OEM (session.py)
-    order = sorted(tg.TELEGRAMS, key=lambda t: (0 if t < 100 else 1 if t == 860 else 2, t))
-    lengths = [[t, tg.length(t, "setpoint"), tg.length(t, "actual")] for t in order]
+    # telegram preference for the length guess (telegrams.json guess_rank, as session.py)
+    lengths = [[t, tg.length(t, "setpoint"), tg.length(t, "actual")] for t in tg.GUESS_ORDER]
     idx_names = dict(names.TSHARK_NAMES)
     for k, v in names.ENCODER_NAMES.items():
         idx_names.setdefault(k, v)
@@ -162,7 +161,7 @@ def checker_tables() -> dict:
     """What lua/pndiss_checker.lua (the port of pndiss/encoder) reads, taken from the Python modules
     the reference encoder itself uses, so both judge with the same numbers."""
     from pndiss import telegrams as tg
-    from pndiss.encoder import _state, acyclic
+    from pndiss.encoder import _state, acyclic, registry
     from pndiss.records import profidrive
 
     words = ("stw2_enc", "g1_stw", "zsw2_enc", "g1_zsw")
@@ -175,6 +174,10 @@ def checker_tables() -> dict:
         "creq_bit": {prof: tg.bit_position("zsw2_enc", "control_requested", prof) for prof in ("generic", "psm")},
         "telegram_length": {t: {d: tg.length(t, d) for d in tg.DIRECTIONS} for t in tg.TELEGRAMS},
         "standard": {t: True for t in tg.STANDARD},
+        "control_words": {t: True for t in tg.CONTROL_WORDS},   # STD (behaviour.md §9): STW2_ENC/ZSW2_ENC present
+        "preset_words": {t: {"signal": s, "bit": b} for t, (s, b) in tg.PRESET_WORD.items()},
+        "preset_handshake": {t: {k: tg.bit_position(*h[k].split("."), profile="psm") for k in ("trigger", "ack")}
+                             for t, h in tg.PRESET_HANDSHAKE.items()},
         "lika_codes": {c: True for c in _state.LIKA_CODES},
         "e_master_sol": _state.E_MASTER_SOL, "e_sync": _state.E_SYNC, "e_param": _state.E_PARAM,
         "preset_telegrams": dict(_state.PRESET_TELEGRAMS),
@@ -189,6 +192,7 @@ def checker_tables() -> dict:
         "format_names": {v[0]: True for v in profidrive.FORMATS.values()},
         # formats whose values the Python decoder gives as floats (isinstance(v, int) is False there)
         "float_formats": {c: True for c, v in profidrive.FORMATS.items() if v[2] in ("f", "d")},
+        **registry.lua_tables(),   # follows rows, deadline states, rule kinds (pndiss/encoder/registry.py)
     }
 
 

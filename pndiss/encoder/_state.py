@@ -20,12 +20,11 @@ from collections import deque
 from .. import rules as R_
 from .. import telegrams as tg
 from . import position as P
+from . import registry as REG
 from .config import EncoderConfig, U32, next_ls
+from .registry import E_MASTER_SOL, E_PARAM, E_SYNC, LIKA_CODES  # noqa: F401  (re-exported: tools/gen_lua.py)
 
-LIKA_CODES = frozenset(tg.XIST2_ERRORS)          # LIKA's full list (behaviour.md §9.7 #51)
-E_MASTER_SOL, E_SYNC, E_PARAM = 0x0F02, 0x0F04, 0x1002   # cyclic.md §9
-PRESET_TELEGRAMS = {86: "g1_xist_preset_b", 87: "g1_xist_preset_b", 100: "g1_xist_preset_b",
-                    860: "g1_xist_preset_b", 88: "g1_xist_preset_c", 101: "g1_xist_preset_c"}  # §2.5
+PRESET_TELEGRAMS = {t: sig for t, (sig, _bit) in tg.PRESET_WORD.items()}   # §2.5, from the telegram table
 BF00_INDEXES = (0xBF00, 0xFFFF)                  # PS/PSM uses 0xFFFF (behaviour.md §5.1)
 
 
@@ -92,6 +91,22 @@ class Checker:
         self.res_zsw2 = tg.reserved_mask("zsw2_enc", c.profile)
         self.res_g1zsw = tg.reserved_mask("g1_zsw", c.profile)
         self.sol_limit = 10 * c.n_sol  # fault at C > 10N (or >= with sol_threshold_ge), §3.3 R-SOLC-3
+        hs = tg.PRESET_HANDSHAKE.get(c.telegram) if self.psm else None   # telegram 89 (cyclic.md §3.9)
+        self.preset_bits = None if hs is None else tuple(
+            tg.bit_position(*hs[k].split("."), profile="psm") for k in ("trigger", "ack"))
+        self.value_rules = REG.active_value_rules(self)
+
+    def reconfigure(self) -> None:
+        """The configuration changed (0xBF00, P922, P979, a profile learned): re-derive what it implies."""
+        self._apply_cfg()
+
+    def end_runs(self) -> list[dict]:
+        """The data layout changed (a telegram relabelled): every open run ends now and no edge, window or
+        pending handshake reaches across. Returns the violations of the runs that ended."""
+        self.out = []
+        self._flush_all()
+        self._reset_history()
+        return self.out
 
     def _reset_history(self) -> None:
         """Forget the previous cycle (after a gap in judged data): no edges across a gap."""
@@ -117,7 +132,7 @@ class Checker:
         self.park_rise_due = None
         self.solf_due = None
         self.sol_fault_seen = False
-        self.nist_bad = 0
+        self.value_runs: dict = {}  # value rules counting cycles in a row (registry min_run, #44)
         self.store = None          # store window after a preset trigger (#43)
         self.same = 0
         self.prev_key = None       # control/status words without the sign-of-life nibbles
@@ -156,6 +171,11 @@ class Checker:
             c["events"] += 1
             c["cycles"] += cycles
         self.out.append(ev)
+
+    def emit(self, rule: str, frame: int, ts: int, msg: str, last: int | None = None, side: str | None = None,
+             cycles: int = 1) -> None:
+        """Report one violation of ``rule`` now (the record rules of acyclic.py); it lands in ``out``."""
+        self._emit(rule, frame, ts, msg, last, side, cycles)
 
     def _hit(self, rule: str, msg: str, controller: bool = False, side: str | None = None) -> None:
         """The condition of a per-cycle rule holds in this cycle: open or extend its run."""
@@ -239,13 +259,8 @@ class Checker:
         return self.solmon or self._pending_steady()
 
     def _pending_steady(self) -> bool:
-        # a preset request already reported as unanswered (#19) and still held is inert while the words
-        # stay the same: only a PDONE / PREQ / mode edge (a key change) can touch it again
-        pre = self.pre
-        return ((pre is not None and (pre["done"] or pre["allowed"])) or self.pdone_since is not None or self.pdone_clear_due
-                is not None or self.p860 is not None or self.p89 is not None or self.sack_edge is not None
-                or self.ackip_since is not None or self.restore_due is not None or self.park_rise_due is not None
-                or self.solf_due is not None or self.bf00_due is not None or self.store is not None)
+        """A deadline rule is running (registry.DEADLINES): no cycle may be skipped."""
+        return REG.pending(self)
 
     def _cycle_std(self, sp: dict, ac: dict) -> None:
         c, n, L = self.cfg, self.n, self.L
@@ -282,20 +297,14 @@ class Checker:
         full = len(H) == L + 1   # a window W(n,-L_max,0) is only judged once fully observed
 
         # position used by the preset arithmetic: X3 in telegram 84, else X2 while ATX (§1.6, §4.3)
-        pos2 = X3 if X3 is not None else (X2 if ATX and not SERR else None)
-        ppos2 = None
-        if pa is not None:
-            pz = pa.get("g1_zsw", 0)
-            ppos2 = pa.get("g1_xist3") if "g1_xist3" in pa else (pX2 if (pz >> 13) & 1 and not (pz >> 15) & 1 else None)
-        motion_ref = X1 if X1 is not None else X3
+        cv = REG.Cycle.of(ac, pa, has_g1)
+        pos2, ppos2, motion_ref = cv.pos2, cv.ppos2, cv.motion
         # standstill judged on the cycles before this one (this one may already show the reaction)
         standstill = (len(set(self.pos_hist)) <= 1) and not NIST
         v_before = self._speed()
         self.pos_hist.append(motion_ref)
 
-        self._value_rules(CLS, pCLS, DLS, pDLS, SERR, ATX, PKA, PDONE, X1, X2, X3, NIST, pos2, ppos2, self.pre, motion_ref,
-                          None if pa is None else (pa.get("g1_xist1") if X1 is not None else pa.get("g1_xist3")),
-                          zsw2, g1zsw, first, has_g1)
+        self._value_rules(cv, CLS, pCLS, pDLS, first)
         shift = c.shift or 0
 
         # ---- 9.2 control by PLC -----------------------------------------------------------------
@@ -330,8 +339,9 @@ class Checker:
                           controller=True)
             if g1zsw & self.res_g1zsw:  # 63
                 self._hit("RESERVED-BIT-SET-G1ZSW", f"G1_ZSW=0x{g1zsw:04X} sets reserved bits 0x{g1zsw & self.res_g1zsw:04X} ({c.profile})")
-        if self.psm and "stw2_enc" in sp and self.cfg.telegram == 89:
-            self._preset89(stw2 & 1, 0 if first else ps.get("stw2_enc", 0) & 1, zsw2 & 1)
+        if self.preset_bits is not None and "stw2_enc" in sp:
+            tb, ab = self.preset_bits
+            self._preset89((stw2 >> tb) & 1, 0 if first else (ps.get("stw2_enc", 0) >> tb) & 1, (zsw2 >> ab) & 1)
         if not has_g1:
             self._timeline(CTRL, PREQ=0, PDONE=0, PKA=0, SERR=0, X2=None)
             return
@@ -425,20 +435,12 @@ class Checker:
                 self.store = None  # the store window is over
 
         # ---- 9.5 absolute value request and XIST contents ---------------------------------------
-        if full and ATX == 0 and all(h[2] and h[5] and not h[6] and not h[7] for h in H):
-            # 36: ATX follows AREQ (000_37bf2397999f1108.txt:1853-1859)
-            self._hit("ABSVAL-ACK-MISSING", f"G1_STW.13=1 for {L + 1} cycles but G1_ZSW.13=0")
-        if full and ATX == 1 and all(not h[2] and h[5] for h in H):
-            # 37: ATX clears when AREQ clears (000_37bf2397999f1108.txt:1626-1629)
-            self._hit("ABSVAL-ACK-STUCK", f"G1_STW.13=0 for {L + 1} cycles but G1_ZSW.13=1")
+        if full:  # 36, 37: ATX follows AREQ (registry.FOLLOWS)
+            self._follows("absval", {"ATX": ATX})
 
         # ---- 9.6 parking ------------------------------------------------------------------------
-        if full and PKA == 0 and all(h[3] and h[5] for h in H):
-            # 45: PKA follows PARK (000_37bf2397999f1108.txt:3144-3150)
-            self._hit("PARK-ACK-MISSING", f"G1_STW.14=1 for {L + 1} cycles but G1_ZSW.14=0")
-        if full and PKA == 1 and all(not h[3] and h[5] for h in H):
-            # 46: PKA clears when PARK clears (000_37bf2397999f1108.txt:3166-3173)
-            self._hit("PARK-ACK-NOT-CLEARED", f"G1_STW.14=0 for {L + 1} cycles but G1_ZSW.14=1")
+        if full:  # 45, 46: PKA follows PARK (registry.FOLLOWS)
+            self._follows("park", {"PKA": PKA})
         if PKA and not first and pPKA and rise(SERR, pSERR):
             # 48: no new errors while parked (000_37bf2397999f1108.txt:1775-1777)
             self._hit("PARK-ERROR-REPORTED", f"sensor error raised while parked (G1_XIST2=0x{(X2 or 0):X})")
@@ -487,9 +489,8 @@ class Checker:
         if not first and rise(ACKIP, pACKIP) and all(not h[4] for h in H):
             # 53: ACKIP only after SACK (000_37bf2397999f1108.txt:3193-3199)
             self._hit("ACKIP-SPURIOUS", f"G1_ZSW.11 rose with G1_STW.15=0 in the last {len(H)} cycles")
-        if full and ACKIP and all(not h[4] for h in H):
-            # 54: ACKIP ends with the acknowledgement (000_37bf2397999f1108.txt:3201-3213)
-            self._hit("ACKIP-STUCK", f"G1_ZSW.11=1 with G1_STW.15=0 for {L + 1} cycles")
+        if full:  # 54: ACKIP ends with the acknowledgement (registry.FOLLOWS)
+            self._follows("ackip", {"ACKIP": ACKIP})
         if ACKIP and SACK:
             if self.ackip_since is None:
                 self.ackip_since = n
@@ -534,19 +535,26 @@ class Checker:
                 self.bf00_due = None
         self._timeline(CTRL, PREQ, PDONE, PKA, SERR, X2)
 
-    def _value_rules(self, CLS, pCLS, DLS, pDLS, SERR, ATX, PKA, PDONE, X1, X2, X3, NIST, pos2, ppos2, pre,
-                     motion_ref, pmotion, zsw2, g1zsw, first, has_g1) -> None:
-        """Rules on the counters and position values: they must run every cycle, also in steady state."""
-        c = self.cfg
+    def _follows(self, group: str, status: dict) -> None:
+        """The "status bit follows control bit within L_max" rows of one group (registry.FOLLOWS): the status
+        bit still shows ``is`` although every cycle of the full window W(n, -L_max, 0) met the row's window."""
+        H = self.hist
+        for rule, name, value, window, msg in REG.follows(group):
+            if status[name] == value and all(all(bool(h[i]) == v for i, v in window) for h in H):
+                self._hit(rule, msg.replace("{n}", str(self.L + 1)))
+
+    def _value_rules(self, c: REG.Cycle, CLS, pCLS, pDLS, first) -> None:
+        """The value rules (pndiss/encoder/registry.py): they run every cycle, also in steady state."""
+        cfg = self.cfg
+        SERR, ATX, X1, X2, DLS = c.SERR, c.ATX, c.X1, c.X2, c.DLS
         # learn the XIST1 shift (P979.3) from the first cycle with both positions (§1.6 R-X1-4)
-        if not self.shift_known and has_g1 and ATX and not SERR and X1 is not None and X2:
+        if not self.shift_known and c.has_g1 and ATX and not SERR and X1 is not None and X2:
             for s in range(0, 32):
                 if (X2 << s) % U32 == X1:
-                    c.shift = s
-                    c.sources["shift"] = f"inferred from frame {self.f} (X1 = X2 << {s})"
+                    cfg.shift = s
+                    cfg.sources["shift"] = f"inferred from frame {self.f} (X1 = X2 << {s})"
                     break
             self.shift_known = True
-        shift = c.shift or 0
 
         # ---- 9.1 sign-of-life -------------------------------------------------------------------
         if CLS:
@@ -555,61 +563,40 @@ class Checker:
             self._sign_of_life(CLS, pCLS, DLS, pDLS, SERR, X2, first)
         elif DLS:
             self.started_D = True
-        if not c.iso and DLS == 0 and self.started_D:
-            # 8: RT mode, DLS back to 0 once running (RT examples show DLS != 0, 001_9461bb7bc8c2767b.txt:2221);
-            # before its first change the DO may still wait for a C-LS change (R-DLS-2)
-            self._hit("SOL-DEVICE-ZERO-RT", f"encoder sign-of-life 0 in RT data exchange (ZSW2_ENC=0x{zsw2:04X}); expected 1..15")
-        if c.iso and SERR and X2 == E_SYNC and DLS != 0:
-            # 12: sync fault 0x0F04 must come with DLS = 0 (001_9461bb7bc8c2767b.txt:1802-1804)
-            self._hit("SYNC-FAULT-DLS-NONZERO", f"G1_XIST2=0x0F04 with encoder sign-of-life {DLS}; expected 0")
-
-        if ATX and SERR:
-            # 38: never both (000_37bf2397999f1108.txt:1911-1914)
-            self._hit("ZSW-ATX-AND-SERR", f"G1_ZSW=0x{g1zsw:04X} has transmit-absolute-value and sensor-error together")
-        if self.lika and X2 is not None and not ATX and not SERR and not PKA and X2 != 0:
-            # 39: LIKA sends 0 in XIST2 without request (000_37bf2397999f1108.txt:1626-1629)
-            self._hit("XIST2-NOT-ZERO", f"G1_XIST2={X2} with G1_ZSW.13=0 and no error; expected 0")
-        if ATX and not SERR and X1 is not None and X2 is not None and X3 is None \
-                and (not c.class4 or c.xist1_preset_affected) and not c.xist1_counter:
-            exp1 = (X2 << shift) % U32
-            if X1 != exp1:
-                # 40: X1 == X2 << P979.3 (001_9461bb7bc8c2767b.txt:2223-2224)
-                self._hit("XIST2-INCONSISTENT", f"G1_XIST1=0x{X1:08X}, expected G1_XIST2 << {shift} = 0x{exp1:08X}")
-        if self.R and ATX and not SERR and ((X2 is not None and X2 >= self.R) or (self.lika and X1 is not None and X1 >= self.R)):
-            # 41: position inside [0, R) (000_37bf2397999f1108.txt:2394-2434)
-            self._hit("POSITION-OUT-OF-RANGE", f"position G1_XIST2={X2} G1_XIST1={X1} >= R={self.R}")
-        self._continuity(pos2, ppos2, pre, PKA)
-        self._nist_sign(motion_ref, pmotion, NIST)
-
-        if self.lika and PKA and ((X1 or 0) or (X2 or 0) or PDONE or ATX):
-            # 47: LIKA clears outputs while parked (000_37bf2397999f1108.txt:3149-3159)
-            self._hit("PARK-OUTPUTS-NOT-CLEARED", f"parked with G1_XIST1={X1} G1_XIST2={X2} G1_ZSW=0x{g1zsw:04X}; expected 0s")
-        if SERR and X2 is not None and (X2 == 0 or (self.lika and X2 not in LIKA_CODES)):
-            # 51: SERR needs an error code in XIST2 (000_37bf2397999f1108.txt:2617-2639)
-            self._hit("SERR-CODE-INVALID", f"sensor error with G1_XIST2=0x{X2:X}; expected "
-                      + ("one of " + ", ".join(f"0x{x:04X}" for x in sorted(LIKA_CODES)) if self.lika else "a non-zero code"))
-        if SERR and X2 == E_PARAM and self.bf00_valid_frame is not None and self.bf00_invalid is None:
-            # 71: a valid parameter set must be accepted (same sources)
-            self._hit("BF00-VALID-REJECTED", f"0x1002 parametrization error after a valid 0xBF00 (frame {self.bf00_valid_frame})")
+        c.started_D = self.started_D
+        runs = self.value_runs
+        for check, rule, min_run, message in self.value_rules:
+            if check(self, c):
+                if min_run > 1:
+                    n = runs[rule] = runs.get(rule, 0) + 1
+                    if n < min_run:
+                        continue  # not yet: e.g. a filter lag at reversal (#44)
+                self._hit(rule, message(self, c))
+            elif min_run > 1:
+                runs[rule] = 0
 
     def _cycle_steady(self, sp: dict, ac: dict) -> None:
         """Control and status words (sign-of-life aside) as in the last L_max+1 cycles, nothing pending and
         no rule running: window, edge and deadline rules cannot change, so only the value rules run."""
-        stw2, zsw2, g1zsw = sp.get("stw2_enc", 0), ac.get("zsw2_enc", 0), ac.get("g1_zsw", 0)
         ps, pa = self.prev_sp, self.prev_ac
-        X1, X2, X3 = ac.get("g1_xist1"), ac.get("g1_xist2"), ac.get("g1_xist3")
-        SERR, ATX = g1zsw >> 15, (g1zsw >> 13) & 1
-        pos2 = X3 if X3 is not None else (X2 if ATX and not SERR else None)
-        pz = pa.get("g1_zsw", 0)
-        ppos2 = pa.get("g1_xist3") if X3 is not None else (pa.get("g1_xist2") if (pz >> 13) & 1 and not pz >> 15 else None)
-        motion_ref = X1 if X1 is not None else X3
-        self.pos_hist.append(motion_ref)
-        self._value_rules(stw2 >> 12, ps.get("stw2_enc", 0) >> 12, zsw2 >> 12, pa.get("zsw2_enc", 0) >> 12, SERR, ATX,
-                          (g1zsw >> 14) & 1, (g1zsw >> 12) & 1, X1, X2, X3, ac.get("nist_b", ac.get("nist_a")), pos2, ppos2,
-                          self.pre, motion_ref, pa.get("g1_xist1") if X1 is not None else pa.get("g1_xist3"), zsw2, g1zsw,
-                          False, "g1_zsw" in ac)
-        if SERR:
-            self._state("sensor_error", X2 if X2 is not None else 1)
+        c = REG.Cycle.of(ac, pa, "g1_zsw" in ac)
+        self.pos_hist.append(c.motion)
+        self._value_rules(c, sp.get("stw2_enc", 0) >> 12, ps.get("stw2_enc", 0) >> 12, pa.get("zsw2_enc", 0) >> 12, False)
+        if c.SERR:
+            self._state("sensor_error", c.X2 if c.X2 is not None else 1)
+
+    def vector_unsafe(self, cols: dict, has_g1: bool):
+        """Per row of a stretch of consecutive steady cycles of this axis (``cols``: NumPy columns named as
+        the signals of pndiss/data/telegrams.json, row 0 following the checker's last cycle): True where a
+        value rule's vectorised predicate fires or the checker must see the cycle itself (registry.py:
+        VALUE_RULES and CHECKER_CYCLES). With sign-of-life monitoring (§3) a cycle is safe only when both
+        counters step by one and the monitor is at rest (sol_bulk_ready); otherwise every cycle counts."""
+        bad = REG.vector_unsafe(self, cols, has_g1)
+        if self.solmon:
+            if not self.sol_bulk_ready():
+                return REG.all_rows(cols)
+            bad |= REG.sign_of_life_unsafe(cols, self.prev_sp.get("stw2_enc", 0), self.prev_ac.get("zsw2_enc", 0))
+        return bad
 
     # -- what a bulk engine may ask (pndiss/engine.py): read-only views of the state ------------------------
     def bulk_ready(self) -> bool:
@@ -645,7 +632,7 @@ class Checker:
         monitoring off, the checker steady (same key, steady_n > L+1, nothing open or pending), in every
         cycle a new decode (not the identical-input branch), no sensor error, the key unchanged and no
         value rule condition (shift learning, #8, #39-42, #44). Then a cycle only moves: n, the frame /
-        time stamps, ``same`` (0 after a new decode), pos_hist, started_C/started_D, nist_bad (0: no
+        time stamps, ``same`` (0 after a new decode), pos_hist, started_C/started_D, value_runs (0: no
         sign mismatch) and the previous signals. ``motion_refs`` are the last (up to 3) X1/X3 values,
         ``sp``/``ac`` the last cycle's signal dicts, cls_seen/dls_seen: some C-LS/DLS was non-zero."""
         self.out = []
@@ -659,7 +646,7 @@ class Checker:
             self.started_C = True
         if dls_seen:
             self.started_D = True
-        self.nist_bad = 0
+        self.value_runs.clear()
         self.prev_sp, self.prev_ac = sp, ac
 
     # -- sign-of-life (§3) -----------------------------------------------------------------------
@@ -780,38 +767,10 @@ class Checker:
             self._emit("PRESET-XIST1-AFFECTED-WHEN-DISABLED", self.f, self.ts,
                        f"G1_XIST1 changed {x1_before} -> {X1} at the preset although G1_XIST1 preset control is disabled")
 
-    # -- continuity and velocity (§4.2, #42, #44) --------------------------------------------------
-    def _continuity(self, pos, ppos, pre, PKA) -> None:
-        c = self.cfg
-        if pos is None or ppos is None or self.R is None or PKA or pre is not None or self.pdone_since is not None:
-            return
-        if c.profile not in ("scancon", "hohner") and not (self.psm and c.scaling):
-            return  # LIKA jumps at the physical wrap (red zone); generic: unknown
-        step = c.max_position_step or max(1, self.R // 8)
-        d = P.delta(ppos, pos, self.R)
-        if abs(d) > step:
-            # 42: endless shaft is continuous modulo R (001_9461bb7bc8c2767b.txt:993-995)
-            self._hit("POSITION-DISCONTINUITY", f"position {ppos} -> {pos} (step {d}) exceeds the plausible {step} per cycle (R={self.R})")
-
-    def _nist_sign(self, pos, ppos, nist) -> None:
-        if pos is None or ppos is None or not nist:
-            self.nist_bad = 0
-            return
-        bits = 64 if pos > U32 or ppos > U32 else 32
-        d = P.delta(ppos, pos, 1 << bits)
-        if d and (d > 0) != (nist > 0):
-            self.nist_bad += 1
-            if self.nist_bad >= 3:  # three cycles in a row: not a filter lag at reversal
-                # 44: NIST sign follows the motion [INFERENCE] (001_9461bb7bc8c2767b.txt:962)
-                self._hit("NIST-SIGN", f"NIST={nist} while the position moves by {d} per cycle")
-        else:
-            self.nist_bad = 0
-
     # -- preset-carrying telegrams 86/87/88/100/101/860 (§2.5, #32-34) ----------------------------
     def _cycle_preset_telegram(self, sp: dict, ac: dict) -> None:
-        sig = PRESET_TELEGRAMS[self.cfg.telegram]
+        sig, top = tg.PRESET_WORD[self.cfg.telegram]   # the word and its trigger bit (cyclic.md §10)
         word = sp.get(sig, 0)
-        top = 63 if sig.endswith("_c") else 31
         PT, PV = (word >> top) & 1, word & ((1 << top) - 1)
         pos = ac.get("g1_xist1", ac.get("g1_xist3"))
         NIST = ac.get("nist_b")
@@ -835,7 +794,7 @@ class Checker:
             self.preset_done = True
         p = self.p860
         if p is not None:
-            m = self.R or (1 << (64 if sig.endswith("_c") else 32))
+            m = self.R or (1 << (8 * tg.SIGNALS[sig]["size"]))
             if n > p["n"] and pos is not None and abs(P.delta(p["exp"], pos, m)) <= p["v"] * (n - p["n"] + 1):
                 p["seen"] = True  # within the motion since the trigger (§4.3 tolerance)
             p["last"] = pos

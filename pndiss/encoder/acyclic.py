@@ -32,7 +32,7 @@ def check_record(chk, ev: dict) -> None:
 
 
 def _v(chk, rule, ev, msg, frame=None, side=None):
-    chk._emit(rule, ev.get("frame", 0) if frame is None else frame, ev.get("ts_ns", 0), msg, side=side)
+    chk.emit(rule, ev.get("frame", 0) if frame is None else frame, ev.get("ts_ns", 0), msg, side=side)
 
 
 def _record(chk, ev: dict) -> None:
@@ -64,7 +64,7 @@ def _record(chk, ev: dict) -> None:
         if d.get(key) is not None:
             setattr(c, attr, int(d[key]))
             c.sources[attr] = f"captured 0xBF00 (frame {ev.get('frame')})"
-    chk._apply_cfg()
+    chk.reconfigure()
     if problems:
         chk.bf00_invalid = "; ".join(problems)
         chk.bf00_due = (chk.n + chk.D, chk.bf00_invalid)
@@ -238,7 +238,7 @@ def _read(chk, ev, p, pnu, sub, vals, frame) -> None:
         # the AR's telegram was only guessed from the lengths: P922 names it (the session relabels the map)
         c.telegram = v
         c.sources["telegram"] = f"P922 read (frame {frame})"
-        chk._apply_cfg()
+        chk.reconfigure()
     elif pnu == 922 and isinstance(v, int) and c.telegram and v != c.telegram:
         if guessed:
             chk.p922_rejected = v  # the AR's data lengths are the configuration; keep them
@@ -295,7 +295,7 @@ def finish(chk) -> None:
     if chk.p971_pending is not None and chk.p971_pending[1] > 0:
         f, reads, ts = chk.p971_pending
         # 90: P971 returns to 0 once stored (000_37bf2397999f1108.txt:1977-1979)
-        chk._emit("P971-NOT-CONFIRMED", f, ts, f"P971 still reads 1 in all {reads} reads after the store request")
+        chk.emit("P971-NOT-CONFIRMED", f, ts, f"P971 still reads 1 in all {reads} reads after the store request")
         chk.p971_pending = None
 
 

@@ -54,7 +54,7 @@ class EncoderConfig:
     @property
     def std(self) -> bool:
         """STD: telegram with STW2_ENC/ZSW2_ENC (81-84; PS/PSM 89) (behaviour.md §9 preamble)."""
-        return self.telegram in tg.STANDARD or self.telegram == 89
+        return self.telegram in tg.CONTROL_WORDS
 
     @property
     def xist1_preset_affected(self) -> bool:

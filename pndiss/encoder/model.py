@@ -11,8 +11,7 @@ from .. import telegrams as tg
 from . import position as P
 from .config import EncoderConfig, next_ls
 
-_PRESET_WORD = {86: ("g1_xist_preset_b", 31), 87: ("g1_xist_preset_b", 31), 100: ("g1_xist_preset_b", 31),
-                860: ("g1_xist_preset_b", 31), 88: ("g1_xist_preset_c", 63), 101: ("g1_xist_preset_c", 63)}
+_PRESET_WORD = tg.PRESET_WORD   # telegram -> (preset word, trigger bit), from the telegram table (cyclic.md §10)
 
 
 class ReferenceEncoder:
@@ -113,7 +112,7 @@ class ReferenceEncoder:
         zsw2 = (self.dls << 12) | ((ctrl if c.compat == 1 else 0) << creq_bit)
         if c.profile == "psm":
             zsw2 |= serr << 3                                     # fault present (§2.8 [INFERENCE])
-            if c.telegram == 89:
+            if c.telegram in tg.PRESET_HANDSHAKE:
                 zsw2 |= self._preset89(sp, s, R)
         nist = self._nist(pos2)
         return {"zsw2_enc": zsw2, "g1_zsw": g1zsw, "g1_xist1": x1, "g1_xist2": x2, "g1_xist3": 0 if parked else pos2,
@@ -125,10 +124,13 @@ class ReferenceEncoder:
             self.off1 = self.off2
 
     def _preset89(self, sp: dict, s: int, R) -> int:
-        trig = sp.get("stw2_enc", 0) & 1
-        if trig and not self.prev.get("stw2_enc", 0) & 1:
-            self._preset(0, sp.get("g1_xist_preset_b1", 0), s, R)  # [INFERENCE] §2.5 R-P89-1
-        return trig
+        hs = tg.PRESET_HANDSHAKE[self.cfg.telegram]   # trigger / acknowledge bits (cyclic.md §3.9)
+        (tw, tname), (aw, aname) = (hs[k].split(".") for k in ("trigger", "ack"))
+        tb, ab = tg.bit_position(tw, tname, "psm"), tg.bit_position(aw, aname, "psm")
+        trig = (sp.get(tw, 0) >> tb) & 1
+        if trig and not (self.prev.get(tw, 0) >> tb) & 1:
+            self._preset(0, sp.get(hs["value"], 0), s, R)  # [INFERENCE] §2.5 R-P89-1
+        return trig << ab
 
     def _respond_preset_telegram(self, sp: dict, s: int, R) -> dict:
         name, top = _PRESET_WORD[self.cfg.telegram]
