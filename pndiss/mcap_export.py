@@ -371,6 +371,15 @@ class McapExporter:
         if isinstance(mac, str) and isinstance(name, str) and name and mac not in self._names:
             self._names[mac] = name
 
+    # -- for the column writers (pndiss/mcap_sink.py) -----------------------------------------
+    def stream_channel(self, frame_id, src, dst) -> _Chan | None:
+        """The APDU channel of a cyclic stream, None before its first message (``_rt`` makes it)."""
+        return self._chans.get(("rt", frame_id, src, dst))
+
+    def telegram_channel(self, mac, api, slot, subslot, side: str) -> _Chan | None:
+        """The telegram channel of a data object's direction, None before its first message."""
+        return self._chans.get(("tg", mac, api, slot, subslot, side))
+
     # -- events -----------------------------------------------------------------------------
     def on_event(self, ev: dict) -> None:
         kind = ev.get("kind")

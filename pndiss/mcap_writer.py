@@ -215,6 +215,41 @@ class McapWriter:
                 self._finish_chunk()
             start = stop
 
+    def add_records(self, data: bytes, ends, channel_ids, log_times) -> None:
+        """Message records laid out already (pndiss/coltext.py writes them behind their headers):
+        ``data`` holds them back to back, ``ends`` (int64) their end offsets. Chunks close and
+        indexes fill exactly as add_message would for each record in turn."""
+        np = _np()
+        n = len(ends)
+        i = 0
+        while i < n:
+            base = 0 if i == 0 else int(ends[i - 1])
+            # the record whose end passes chunk_size still goes into this chunk, then it closes
+            j = int(np.searchsorted(ends, self.chunk_size - self.size + base, side="right")) + 1
+            j = min(max(j, i + 1), n)
+            end = int(ends[j - 1])
+            starts = np.empty(j - i, np.int64)
+            starts[0] = base
+            starts[1:] = ends[i:j - 1]
+            offs = starts - base + self.size
+            self.parts.append(data[base:end])
+            cids = channel_ids[i:j]
+            lts = log_times[i:j]
+            ids, first = np.unique(cids, return_index=True)
+            for cid in ids[np.argsort(first)].tolist():   # index order: each channel's first message
+                sel = cids == cid
+                pairs = np.empty((int(sel.sum()), 2), np.uint64)
+                pairs[:, 0] = lts[sel]
+                pairs[:, 1] = offs[sel]
+                ix = self.index.get(cid)
+                if ix is None:
+                    ix = self.index[cid] = array("Q")
+                ix.frombytes(pairs.tobytes())
+            self.size += end - base
+            if self.size > self.chunk_size:
+                self._finish_chunk()
+            i = j
+
     def _finish_chunk(self) -> None:
         index = self.index
         if not index:

@@ -8,10 +8,13 @@ the capture itself. What a sink declares decides how much work the engine does p
   frame-by-frame path (the reference decoders build one dict per frame).
 - ``cycles``: per-cycle columns of every encoder axis (``CycleBatch``), produced from the engine's
   columns without a dict per frame -- the Parquet ``cycles`` table and the MCAP telegram topics.
+- ``streams``: every cyclic frame of every stream as columns (``StreamBatch``: the frames' bytes as a
+  2-D array) -- the MCAP APDU topics and the full per-frame JSONL, written column-wise.
 
-Delivery order: events arrive in capture order. Cycle batches arrive per axis and direction with
-their rows in frame order; batches of different axes are not ordered among themselves, but every
-row up to frame N has been delivered when ``flush_point(N)`` is called (a sink that writes one
+Delivery order: events arrive in capture order. Cycle and stream batches arrive per axis / stream
+with their rows in frame order; batches of different axes are not ordered among themselves, nor
+against events, but every event and row up to frame N has been delivered when ``flush_point(N)``
+is called (a sink that writes one
 time-ordered stream merges what it holds up to N).
 """
 from __future__ import annotations
@@ -41,11 +44,28 @@ class CycleBatch:
         return len(self.frame)
 
 
+@dataclass
+class StreamBatch:
+    """Frames of one cyclic stream (FrameID, src, dst) of one captured length, in frame order."""
+
+    key: tuple                 # (frame_id, src MAC "aa:bb:..", dst MAC)
+    frame: np.ndarray          # int64 frame numbers
+    ts_ns: np.ndarray          # int64 capture time, ns since the epoch
+    data: np.ndarray           # uint8 (rows, caplen): each frame's bytes from the destination MAC on
+    off: int                   # where the FrameID starts in a row (14 untagged, 18 with one 802.1Q tag)
+    fm: object = None          # the session's FrameMap for these rows (Analyzer._pn_rt's lookup): the
+                               # JSONL rt lines' ``iodata``; a batch ends where the map changes
+
+    def __len__(self) -> int:
+        return len(self.frame)
+
+
 class Sink:
     """Base class: a sink that consumes nothing. Override what you declare."""
 
     kinds: frozenset | None = frozenset()
     cycles: bool = False
+    streams: bool = False
 
     def wants(self, kind: str) -> bool:
         return self.kinds is None or kind in self.kinds
@@ -55,6 +75,9 @@ class Sink:
 
     def cycle_batch(self, batch: CycleBatch) -> None:
         """Rows of per-cycle columns (only when ``cycles`` is true)."""
+
+    def stream_batch(self, batch: StreamBatch) -> None:
+        """Frames of one cyclic stream as columns (only when ``streams`` is true)."""
 
     def flush_point(self, frame: int) -> None:
         """Every event and cycle row up to ``frame`` has been delivered."""
