@@ -105,11 +105,13 @@ class Held:
         self.batches: list = []    # [kind, batch, first row not yet taken]
         self.pos = None
 
-    def event(self, ev: dict) -> None:
-        for fn in (ev.get("frame"), ev.get("last_frame")):   # a violation is decided at its last frame or later
+    def event(self, ev: dict, at: int | None = None) -> None:
+        """``at``: the frame whose processing emitted ``ev``, when the driver knows it (exact order)."""
+        for fn in (at,) if at is not None else (ev.get("frame"), ev.get("last_frame")):
+            # without ``at``: a violation is decided at its last frame or later
             if fn.__class__ is int and (self.pos is None or fn > self.pos):
                 self.pos = fn
-        self.events.append((self.pos if self.pos is not None else 0, _rank(ev), 0, self.freeze(ev)))
+        self.events.append((self.pos if self.pos is not None else 0, _rank(ev), 0, self.freeze(ev), at is not None))
 
     def batch(self, kind: str, b) -> None:
         if len(b):
@@ -152,8 +154,8 @@ def merge(rows, events, on_rows, on_event) -> None:
         rank[at:at + k] = r
         sub[at:at + k] = o
         at += k
-    for j, (f, r, o, _) in enumerate(events):
-        frame[at + j], rank[at + j], sub[at + j] = f, r, o
+    for j, e in enumerate(events):
+        frame[at + j], rank[at + j], sub[at + j] = e[0], e[1], e[2]
     seq = np.arange(n, dtype=np.int64)   # rows of a source, events: in arrival order
     order = np.lexsort((seq, sub, rank, frame))
     evs = np.flatnonzero(order >= n_rows)
@@ -249,16 +251,17 @@ def telegram_shape(b, lo: int, hi: int, pool, dumps):
 
 
 def place(events, axes: dict) -> list:
-    """Events with a better frame for the ones decided later than they name: a violation over
-    several frames (a run, a deadline) is decided by its axis' next cycle after its last frame,
-    when that is among the held rows (``axes``: (device_mac, slot, subslot) -> sorted frames of
-    its telegram rows). Arrival order is kept (frames never decrease)."""
+    """Events with a better frame for the ones decided later than they name: a cyclic rule's
+    violation names the cycle (its actual value's frame; a run or deadline: first and last) and is
+    decided when the axis' next actual value is judged, when that is among the held rows (``axes``:
+    (device_mac, slot, subslot) -> sorted frames of its actual-value rows). Arrival order is kept
+    (frames never decrease)."""
     out, prev = [], None
-    for f, r, o, ev in events:
+    for f, r, o, ev, exact in events:
         last = ev.get("last_frame")
-        if ev.get("kind") == "violation" and last.__class__ is int and last != ev.get("frame"):
+        if not exact and ev.get("kind") == "violation" and last.__class__ is int and r == RANK_AFTER:
             fr = axes.get((ev.get("device_mac"), ev.get("slot"), ev.get("subslot")))
-            if fr is not None:
+            if fr is not None and len(fr) and fr[min(int(np.searchsorted(fr, last)), len(fr) - 1)] == last:
                 i = int(np.searchsorted(fr, last, side="right"))
                 if i < len(fr) and fr[i] > f:
                     f = int(fr[i])
@@ -270,10 +273,10 @@ def place(events, axes: dict) -> list:
 
 
 def axis_frames(parts) -> dict:
-    """(device_mac, slot, subslot) -> sorted frames of the telegram rows among ``parts``."""
+    """(device_mac, slot, subslot) -> sorted frames of the actual-value rows among ``parts``."""
     by: dict = {}
     for kind, b, lo, hi in parts:
-        if kind == "tg":
+        if kind == "tg" and b.direction == "actual":
             ax = b.axis
             by.setdefault((ax.get("device_mac"), ax.get("slot"), ax.get("subslot")), []).append(b.frame[lo:hi])
     return {k: np.sort(np.concatenate(v)) for k, v in by.items()}

@@ -49,8 +49,8 @@ class JsonlSink(Sink):
         self._binary = not hasattr(fileobj, "encoding")
 
     # -- the sink contract ------------------------------------------------------------------------
-    def event(self, ev: dict) -> None:
-        self.held.event(ev)
+    def event(self, ev: dict, at: int | None = None) -> None:
+        self.held.event(ev, at)
 
     def cycle_batch(self, batch) -> None:
         if self.tg:

@@ -74,8 +74,8 @@ class McapSink(Sink):
         self.exp.reader_info = info
 
     # -- the sink contract ------------------------------------------------------------------------
-    def event(self, ev: dict) -> None:
-        self.held.event(ev)
+    def event(self, ev: dict, at: int | None = None) -> None:
+        self.held.event(ev, at)
 
     def cycle_batch(self, batch) -> None:
         self.held.batch("tg", batch)

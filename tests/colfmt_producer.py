@@ -59,32 +59,20 @@ class Recorded:
         self.analyzer = a
 
 
-def deliver(rec: Recorded, sinks, every: int = 4096) -> None:
-    """Hand the recorded run to ``sinks`` as the driver would: per stretch of ``every`` frames the
-    events emitted in it, then its rows as batches, then flush_point; close at the end."""
+def plan(rec: Recorded, every: int = 4096) -> list:
+    """The driver's calls for the recorded run: per stretch of ``every`` frames the events emitted
+    in it, then its rows as batches, then ("flush", last frame of the stretch); ("close",) at the end."""
+    calls = []
     last = 0
-    evs, rts, tgs = [], {}, {}
+    rts, tgs = {}, {}
 
     def flush(upto):
-        for s in sinks:
-            for ev in evs:
-                if s.wants(ev["kind"]):
-                    s.event(ev)
-        for (key, fm_id), rows in rts.items():
-            for s in sinks:
-                if s.streams:
-                    for b in _stream_batches(key, rows):
-                        s.stream_batch(b)
-        for key, rows in tgs.items():
-            for s in sinks:
-                if s.cycles:
-                    s.cycle_batch(_cycle_batch(key, rows))
-        evs.clear()
+        for (key, _fm), rows in rts.items():
+            calls.extend(("stream", b) for b in _stream_batches(key, rows))
+        calls.extend(("cycle", _cycle_batch(key, rows)) for key, rows in tgs.items())
         rts.clear()
         tgs.clear()
-        if upto is not None:
-            for s in sinks:
-                s.flush_point(upto)
+        calls.append(("flush", upto) if upto is not None else ("close",))
 
     for it in rec.items:
         at = it[1]
@@ -92,7 +80,7 @@ def deliver(rec: Recorded, sinks, every: int = 4096) -> None:
             flush(at - 1)
             last = at
         if it[0] == "ev":
-            evs.append(it[2])
+            calls.append(("event", it[2], at))
         elif it[0] == "rt":
             _, fn, key, ts, data, off, fm, _ev = it
             rts.setdefault((key, id(fm)), []).append((fn, ts, data, off, fm))
@@ -100,8 +88,35 @@ def deliver(rec: Recorded, sinks, every: int = 4096) -> None:
             _, fn, ax, d, fid, ev = it
             tgs.setdefault((tuple(sorted(ax.items())), d, fid), []).append(ev)
     flush(None)
-    for s in sinks:
-        s.close()
+    return calls
+
+
+def play(calls, sinks, positions: bool = False) -> None:
+    """Make the calls on every sink, as far as each declares it consumes them; ``positions``: pass
+    each event's emitting frame (``at``)."""
+    for c in calls:
+        what = c[0]
+        for s in sinks:
+            if what == "event":
+                if s.wants(c[1]["kind"]):
+                    if positions:
+                        s.event(c[1], c[2])
+                    else:
+                        s.event(c[1])
+            elif what == "stream":
+                if s.streams:
+                    s.stream_batch(c[1])
+            elif what == "cycle":
+                if s.cycles:
+                    s.cycle_batch(c[1])
+            elif what == "flush":
+                s.flush_point(c[1])
+            else:
+                s.close()
+
+
+def deliver(rec: Recorded, sinks, every: int = 4096, positions: bool = False) -> None:
+    play(plan(rec, every), sinks, positions)
 
 
 def _stream_batches(key, rows):
