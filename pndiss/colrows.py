@@ -96,10 +96,10 @@ def sensor_error_rows(b, names, profile: str):
 class Held:
     """Events and row batches a sink holds until ``flush_point``."""
 
-    def __init__(self, freeze):
-        # events are copied on arrival (``freeze``: a JSON round trip in the sink's own encoding, so
-        # the text written later is the same): the analyzer still adds to some after emitting them
-        # (a record write gets its ``result`` when the response comes), the reference wrote them before
+    def __init__(self, freeze=dict):
+        # events are copied on arrival (``freeze``; a shallow copy: what the analyzer still does to an
+        # event after emitting it is adding a member -- a record write gets its ``result`` when the
+        # response comes -- and the reference wrote it before that)
         self.freeze = freeze
         self.events: list = []     # (frame placed at, rank, order, event)
         self.batches: list = []    # [kind, batch, first row not yet taken]
@@ -173,81 +173,108 @@ def merge(rows, events, on_rows, on_event) -> None:
 OPTIONAL = "\x03"   # coltext.Pool.template: an optional member (xist2_error)
 
 
-def rt_shape(b, lo: int, hi: int, with_iodata: bool, pool, dumps):
-    """(event shape, int64 columns) of StreamBatch rows lo..hi-1; None when the rows' link header is
-    not one the columns cover (stacked VLAN tags): the caller builds their events one by one."""
-    from .coltext import BITS, INT, PICK, Val
-    from .proto.eth import VLAN_TPIDS
+def rt_signature(b) -> tuple:
+    """What an rt row's template depends on besides its values (a sink caches templates by it)."""
+    fm = b.fm
+    return ("rt", b.key, b.off, b.data.shape[1], None if fm is None else (id(fm), fm.source, fm.released))
 
-    d = b.data[lo:hi]
+
+def rt_shape(b, lo: int, with_iodata: bool, pool, dumps):
+    """(event shape, recipe) of StreamBatch b's rows like row ``lo``; None when their link header
+    is not one the columns cover (stacked VLAN tags): the caller builds their events one by one.
+    The recipe turns rows into the shape's columns (``rt_columns``)."""
+    from .coltext import BITS, INT, PICK, Val
+
     ev = rt_event(b, lo, with_iodata)
-    cap = d.shape[1]
-    cols = [np.asarray(b.frame[lo:hi], np.int64), np.asarray(b.ts_ns[lo:hi], np.int64),
-            (d[:, cap - 4].astype(np.int64) << 8) | d[:, cap - 3], d[:, cap - 2].astype(np.int64),
-            d[:, cap - 1].astype(np.int64)]
+    cap = b.data.shape[1]
     shape = dict(ev)
     shape["frame"], shape["ts_ns"] = Val(INT, 0), Val(INT, 1)
     shape["cycle_counter"], shape["ds"], shape["transfer_status"] = Val(INT, 2), Val(INT, 3), Val(INT, 4)
     for mask, name in rt.DS_BITS:
         shape[name] = Val(BITS, 3, mask.bit_length() - 1, 1)
-    if b.off == 18:
-        tpid = (d[:, 12].astype(np.int64) << 8) | d[:, 13]
-        if not np.isin(tpid, VLAN_TPIDS).all() or ((d[:, 16].astype(np.int64) << 8) | d[:, 17] != 0x8892).any():
-            return None
-        cols += [tpid, (d[:, 14].astype(np.int64) << 8) | d[:, 15]]
+    n = 5
+    if b.off == 18 and len(ev.get("vlan", ())) == 1:
         shape["vlan"] = [{"tpid": Val(INT, 5), "priority": Val(BITS, 6, 13, 7), "dei": Val(BITS, 6, 12, 1),
                           "id": Val(BITS, 6, 0, 0xFFF)}]
+        n = 7
     elif b.off != 14 or "vlan" in ev:
         return None
+    offs, ids = [], None
     if "iodata" in ev:   # every IOxS byte a pick from the 256 texts iodata.ioxs gives
         ids = np.array([pool.entry(dumps(iodata.ioxs(v)).encode()) for v in range(256)], np.int64)
-        at = b.off + 2
 
         def marker(o):
-            cols.append(ids[d[:, at + o]])
-            return Val(PICK, len(cols) - 1)
+            offs.append(b.off + 2 + o)
+            return Val(PICK, n + len(offs) - 1)
         shape["iodata"] = iodata.decode(b.fm, list(range(cap - b.off - 6)), marker)
-    return shape, cols
+    return shape, (b.off == 18 and n == 7, offs, ids)
 
 
-def telegram_shape(b, lo: int, hi: int, pool, dumps):
-    """(event shape, int64 columns) of CycleBatch rows lo..hi-1."""
+def rt_columns(b, lo: int, hi: int, recipe) -> list | None:
+    """int64 columns of rows lo..hi-1 for ``recipe`` (None: a row's VLAN header differs from it)."""
+    from .proto.eth import VLAN_TPIDS
+
+    tagged, offs, ids = recipe
+    d = b.data[lo:hi]
+    cap = d.shape[1]
+    cols = [np.asarray(b.frame[lo:hi], np.int64), np.asarray(b.ts_ns[lo:hi], np.int64),
+            (d[:, cap - 4].astype(np.int64) << 8) | d[:, cap - 3], d[:, cap - 2].astype(np.int64),
+            d[:, cap - 1].astype(np.int64)]
+    if tagged:
+        tpid = (d[:, 12].astype(np.int64) << 8) | d[:, 13]
+        ok = (tpid == VLAN_TPIDS[0]) | (tpid == VLAN_TPIDS[1]) | (tpid == VLAN_TPIDS[2])
+        if not ok.all() or (d[:, 16] != 0x88).any() or (d[:, 17] != 0x92).any():
+            return None
+        cols += [tpid, (d[:, 14].astype(np.int64) << 8) | d[:, 15]]
+    for o in offs:
+        cols.append(ids[d[:, o]])
+    return cols
+
+
+def telegram_signature(b) -> tuple:
+    ax = b.axis
+    return ("tg", tuple(ax.items()), b.direction, b.frame_id, tuple((n, c.dtype.str) for n, c in b.signals.items()))
+
+
+def telegram_shape(b, lo: int, pool, dumps):
+    """(event shape, recipe) of CycleBatch b's rows like row ``lo`` (see ``telegram_columns``)."""
     from .coltext import BITS, INT, NINT, PICK, U64, Val
 
     ev = telegram_event(b, lo)
     names = signal_names(b)
     profile = b.axis.get("profile") or "generic"
-    true, false = pool.entry(b"true"), pool.entry(b"false")
-    cols = [np.asarray(b.frame[lo:hi], np.int64), np.asarray(b.ts_ns[lo:hi], np.int64),
-            np.asarray(b.iops[lo:hi], np.int64), np.where(np.asarray(b.judged[lo:hi], bool), true, false)]
     shape = {k: v for k, v in ev.items() if k != "xist2_error"}
     shape["frame"], shape["ts_ns"], shape["iops"], shape["judged"] = Val(INT, 0), Val(INT, 1), Val(NINT, 2), Val(PICK, 3)
     sig, at = {}, {}
-    for n in names:
-        c = np.asarray(b.signals[n][lo:hi])
-        if c.dtype == np.uint64:
-            sig[n] = Val(U64, len(cols))
-            c = c.view(np.int64)
-        else:
-            sig[n] = Val(INT, len(cols))
-            c = c.astype(np.int64)
-        at[n] = len(cols)
-        cols.append(c)
+    for i, n in enumerate(names):
+        sig[n] = Val(U64 if b.signals[n].dtype == np.uint64 else INT, 4 + i)
+        at[n] = 4 + i
     shape["signals"] = sig
     shape["bits"] = {f"{s}.{name}": Val(BITS, at[s], shift, mask)
                      for s in names if s in tg.BITMAPS for name, shift, mask in tg.bit_fields(s, profile)}
-    err = sensor_error_rows(b, names, profile)
-    if err is not None:
-        err = err[lo:hi]
-        xs = np.full(hi - lo, pool.entry(b""), np.int64)
+    xist = "g1_zsw" in names and "g1_xist2" in names
+    if xist:
+        shape[OPTIONAL] = Val(PICK, 4 + len(names))
+    return shape, (names, profile, xist, pool.entry(b"true"), pool.entry(b"false"), pool.entry(b""))
+
+
+def telegram_columns(b, lo: int, hi: int, recipe, pool, dumps) -> list:
+    names, profile, xist, true, false, empty = recipe
+    cols = [np.asarray(b.frame[lo:hi], np.int64), np.asarray(b.ts_ns[lo:hi], np.int64),
+            np.asarray(b.iops[lo:hi], np.int64), np.where(np.asarray(b.judged[lo:hi], bool), true, false)]
+    for n in names:
+        c = np.asarray(b.signals[n][lo:hi])
+        cols.append(c.view(np.int64) if c.dtype == np.uint64 else c.astype(np.int64))
+    if xist:
+        err = sensor_error_rows(b, names, profile)[lo:hi]
+        xs = np.full(hi - lo, empty, np.int64)
         if err.any():
-            code = cols[at["g1_xist2"]]
+            code = cols[4 + names.index("g1_xist2")]
             for c in np.unique(code[err]).tolist():
                 text = dumps({"xist2_error": {"code": c, "text": tg.error_text(c)}}).encode()
                 xs[err & (code == c)] = pool.entry(b"," + text[1:-1])
         cols.append(xs)
-        shape[OPTIONAL] = Val(PICK, len(cols) - 1)
-    return shape, cols
+    return cols
 
 
 def place(events, axes: dict) -> list:

@@ -114,7 +114,8 @@ class Pool:
         """Messages m = 0.. of template ``tmpl[m]`` with values ``vals[vbase[m]:]``, ``step`` at a
         time into one reused buffer: ``emit(bytes, ends, lo, hi)`` per step (ends: end offsets of
         messages lo..hi-1 in the bytes). ``hdr`` = (channel ids, sequences, log times, publish
-        times): each message behind its MCAP message record header."""
+        times): each message behind its MCAP message record header. The bytes are a view of the
+        buffer, valid until ``emit`` returns."""
         pool, off, op_off, ops, bound, longest, n_pick = self.arrays()
         m = len(tmpl)
         tmpl = np.asarray(tmpl, np.int64)
@@ -130,7 +131,7 @@ class Pool:
             ends = np.empty(hi - lo, np.uint64)
             _render(self._buf, ends, tmpl[lo:hi], vbase[lo:hi], vals, op_off, ops, pool, off,
                     hdr is not None, cid[lo:hi], seq[lo:hi], lt[lo:hi], pub[lo:hi])
-            emit(self._buf[:int(ends[-1])].tobytes(), ends.astype(np.int64), lo, hi)
+            emit(self._buf[:int(ends[-1])], ends.astype(np.int64), lo, hi)
 
 
 # Positions are uint64 throughout: numba's negative-index wrap-around check on signed indices keeps

@@ -43,8 +43,9 @@ class JsonlSink(Sink):
         self.streams = self.rt or self.wants("violation")
         self.cycles = self.tg
         self.times = ColumnFrameTimes()
-        self.held = colrows.Held(lambda ev: json.loads(_dumps(ev)))
+        self.held = colrows.Held(dict)
         self.pool = Pool()
+        self._recipes: dict = {}
         self.out: list[bytes] = []
         self._binary = not hasattr(fileobj, "encoding")
 
@@ -71,27 +72,41 @@ class JsonlSink(Sink):
         events = colrows.place(evs, colrows.axis_frames(parts))
         rows, srcs = [], []
         for kind, b, lo, hi in parts:
-            if kind == "rt":
-                got = colrows.rt_shape(b, lo, hi, True, self.pool, _dumps) if self.rt else None
-                if got is None and self.rt:    # a link header the columns do not cover: event by event
+            tmpl = cols = None
+            if kind == "tg" or self.rt:
+                sig = colrows.rt_signature(b) if kind == "rt" else colrows.telegram_signature(b)
+                got = self._recipes.get(sig)
+                if got is None:
+                    got = self._recipes[sig] = self._compile(kind, b, lo)
+                tmpl, recipe = got
+                if tmpl is not None:
+                    cols = (colrows.rt_columns(b, lo, hi, recipe) if kind == "rt"
+                            else colrows.telegram_columns(b, lo, hi, recipe, self.pool, _dumps))
+                if cols is None:    # a link header the columns do not cover: event by event
                     for i in range(lo, hi):
                         events.append((int(b.frame[i]), colrows.RANK_RT, 0, colrows.rt_event(b, i, True)))
                     self._times(b, lo, hi)
                     continue
+            if kind == "rt":
                 rank, order = colrows.RANK_RT, 0
             else:
-                got = colrows.telegram_shape(b, lo, hi, self.pool, _dumps)
                 rank, order = colrows.RANK_TELEGRAM, colrows.object_order(b.axis)
-            if got is None:     # rows only for the frame times
+            if cols is None:     # rows only for the frame times
                 srcs.append((None, np.asarray(b.frame[lo:hi], np.int64), np.asarray(b.ts_ns[lo:hi], np.int64), 0))
             else:
-                shape, cols = got
-                srcs.append((self.pool.template(shape, _dumps, b"\n"), cols[0], cols[1],
-                             np.column_stack(cols).ravel(), len(cols)))
+                srcs.append((tmpl, cols[0], cols[1], np.column_stack(cols).ravel(), len(cols)))
             rows.append((srcs[-1][1], rank, order))
         self._cat(srcs)
         colrows.merge(rows, events, self._write_rows, self._event)
         self._write()
+
+    def _compile(self, kind: str, b, lo: int) -> tuple:
+        """(template id, recipe) of the lines of rows like b's row lo; (None, None): not columns."""
+        got = (colrows.rt_shape(b, lo, True, self.pool, _dumps) if kind == "rt"
+               else colrows.telegram_shape(b, lo, self.pool, _dumps))
+        if got is None:
+            return None, None
+        return self.pool.template(got[0], _dumps, b"\n"), got[1]
 
     def _times(self, b, lo, hi) -> None:
         self.times.rows(np.asarray(b.frame[lo:hi], np.int64), np.asarray(b.ts_ns[lo:hi], np.int64))
@@ -123,7 +138,8 @@ class JsonlSink(Sink):
             idx = idx[tm >= 0]
             tm = tm[tm >= 0]
         if len(idx):
-            self.pool.render(tm, self.vbase[idx], self.vals, lambda data, ends, lo, hi: self.out.append(data))
+            self._write()
+            self.pool.render(tm, self.vbase[idx], self.vals, lambda data, ends, lo, hi: self._put(data))
 
     def _event(self, ev) -> None:
         ev = self.times.fix(ev)
@@ -131,11 +147,13 @@ class JsonlSink(Sink):
             self.out.append((_dumps(ev) + "\n").encode())
 
     def _write(self) -> None:
-        if not self.out:
-            return
-        data = b"".join(self.out)
-        self.out = []
+        if self.out:
+            data = b"".join(self.out)
+            self.out = []
+            self._put(data)
+
+    def _put(self, data) -> None:
         if self._binary:
             self.f.write(data)
-        else:
-            self.f.write(data.decode("utf-8"))
+        else:   # a text file (stdout, open(..., "w")): the JSON text is ASCII
+            self.f.write(bytes(data).decode("ascii"))

@@ -16,17 +16,14 @@ at the end; ``summary()`` as McapExporter.summary.
 """
 from __future__ import annotations
 
-import json
-
 import numpy as np
 
 from . import colrows
 from .coltext import INT, Pool, Val, thin
-from .mcap_export import _RT_CONST, _TG_CONST, McapExporter, _default, _dumps
+from .mcap_export import _RT_CONST, _TG_CONST, McapExporter, _dumps
 from .sinks import Sink
 
 SEQ_MASK = 0xFFFFFFFF
-_freeze = json.JSONEncoder(separators=(",", ":"), default=_default).encode   # NaN kept: _encode decides
 
 
 class _State:
@@ -62,8 +59,9 @@ class McapSink(Sink):
         self.exp = McapExporter(path, capture_path, settings, on_change=on_change, decimate=decimate,
                                 compression=compression, chunk_size=chunk_size)
         self.exp.keyframe_ns = int(keyframe_ns)
-        self.held = colrows.Held(lambda ev: json.loads(_freeze(ev)))
+        self.held = colrows.Held(dict)
         self.pool = Pool()
+        self._recipes: dict = {}
 
     @property
     def reader_info(self):
@@ -190,20 +188,39 @@ class McapSink(Sink):
                          hdr=(cid, self.seq[idx], lt, self.pub[idx]))
 
     # -- one batch part's rows ----------------------------------------------------------------------
+    def _compile(self, kind: str, b, lo: int) -> tuple:
+        """(template id, recipe) of the messages of rows like b's row lo; (None, None): not columns."""
+        if kind == "rt":
+            got = colrows.rt_shape(b, lo, False, self.pool, _dumps)
+            if got is None:
+                return None, None
+            shape, recipe = got
+            msg = {k: v for k, v in shape.items() if k not in _RT_CONST}
+            n = 7 if recipe[0] else 5
+            msg["d_cycle"], msg["dt_ns"] = Val(INT, n), Val(INT, n + 1)   # the columns _rows adds
+        else:
+            shape, recipe = colrows.telegram_shape(b, lo, self.pool, _dumps)
+            msg = {k: v for k, v in shape.items() if k not in _TG_CONST}
+        return self.pool.template(msg, _dumps), recipe
+
     def _rows(self, key, st: _State, part) -> _Rows | None:
         kind, b, lo, hi = part
         exp = self.exp
         n = hi - lo
+        sig = colrows.rt_signature(b) if kind == "rt" else colrows.telegram_signature(b)
+        got = self._recipes.get(sig)
+        if got is None:
+            got = self._recipes[sig] = self._compile(kind, b, lo)
+        if got[0] is None:
+            return None
+        tmpl, recipe = got
         if kind == "rt":
-            got = colrows.rt_shape(b, lo, hi, False, self.pool, _dumps)
-            if got is None:
+            cols = colrows.rt_columns(b, lo, hi, recipe)
+            if cols is None:
                 return None
-            shape, cols = got
-            msg = {k: v for k, v in shape.items() if k not in _RT_CONST}
             cc, ds, tr = cols[2], cols[3], cols[4]
         else:
-            shape, cols = colrows.telegram_shape(b, lo, hi, self.pool, _dumps)
-            msg = {k: v for k, v in shape.items() if k not in _TG_CONST}
+            cols = colrows.telegram_columns(b, lo, hi, recipe, self.pool, _dumps)
         frames, ts = cols[0], cols[1]
         first = not st.exists
         pub = np.maximum(ts, 0)    # _write: a negative capture time is written as 0
@@ -214,7 +231,6 @@ class McapSink(Sink):
             prev_cc[0], prev_t[0] = (cc[0], ts[0]) if first else (st.prev_cc, st.prev_t)
             d_cycle = (cc - prev_cc) & 0xFFFF
             cols += [d_cycle, ts - prev_t]
-            msg["d_cycle"], msg["dt_ns"] = Val(INT, len(cols) - 2), Val(INT, len(cols) - 1)
         exp.seen[kind if kind == "rt" else "telegram"] = exp.seen.get(kind if kind == "rt" else "telegram", 0) + n - first
         if exp.on_change or exp.decimate > 1:
             changed = np.zeros(n, np.bool_)
@@ -260,7 +276,7 @@ class McapSink(Sink):
         if first:   # row 0 is always kept: it goes the reference way and makes the channel
             r.first = colrows.rt_event(b, lo, False) if kind == "rt" else colrows.telegram_event(b, lo)
             rows, lt = rows[1:], lt[1:]
-        r.tmpl = self.pool.template(msg, _dumps)
+        r.tmpl = tmpl
         r.k = len(cols)
         r.vals = np.column_stack(cols)[rows].ravel() if len(rows) else np.zeros(0, np.int64)
         r.frames = frames[rows]

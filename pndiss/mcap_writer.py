@@ -215,10 +215,10 @@ class McapWriter:
                 self._finish_chunk()
             start = stop
 
-    def add_records(self, data: bytes, ends, channel_ids, log_times) -> None:
+    def add_records(self, data, ends, channel_ids, log_times) -> None:
         """Message records laid out already (pndiss/coltext.py writes them behind their headers):
-        ``data`` holds them back to back, ``ends`` (int64) their end offsets. Chunks close and
-        indexes fill exactly as add_message would for each record in turn."""
+        ``data`` (bytes-like) holds them back to back, ``ends`` (int64) their end offsets. Chunks
+        close and indexes fill exactly as add_message would for each record in turn."""
         np = _np()
         n = len(ends)
         i = 0
@@ -228,23 +228,27 @@ class McapWriter:
             j = int(np.searchsorted(ends, self.chunk_size - self.size + base, side="right")) + 1
             j = min(max(j, i + 1), n)
             end = int(ends[j - 1])
-            starts = np.empty(j - i, np.int64)
-            starts[0] = base
-            starts[1:] = ends[i:j - 1]
-            offs = starts - base + self.size
-            self.parts.append(data[base:end])
-            cids = channel_ids[i:j]
-            lts = log_times[i:j]
-            ids, first = np.unique(cids, return_index=True)
-            for cid in ids[np.argsort(first)].tolist():   # index order: each channel's first message
-                sel = cids == cid
-                pairs = np.empty((int(sel.sum()), 2), np.uint64)
-                pairs[:, 0] = lts[sel]
-                pairs[:, 1] = offs[sel]
-                ix = self.index.get(cid)
+            offs = np.empty(j - i, np.uint64)
+            offs[0] = self.size
+            offs[1:] = ends[i:j - 1] - base + self.size
+            self.parts.append(bytes(data[base:end]))
+            cids = np.asarray(channel_ids[i:j])
+            # per channel, in order of its first record here, its (log time, offset) pairs in order
+            order = np.argsort(cids, kind="stable")
+            sc = cids[order]
+            starts = np.flatnonzero(np.r_[True, sc[1:] != sc[:-1]])
+            pairs = np.empty((j - i, 2), np.uint64)
+            pairs[:, 0] = np.asarray(log_times[i:j])[order]
+            pairs[:, 1] = offs[order]
+            flat = pairs.tobytes()
+            bounds = np.r_[starts, j - i] * 16
+            index = self.index
+            for k in np.argsort(order[starts], kind="stable").tolist():
+                cid = int(sc[starts[k]])
+                ix = index.get(cid)
                 if ix is None:
-                    ix = self.index[cid] = array("Q")
-                ix.frombytes(pairs.tobytes())
+                    ix = index[cid] = array("Q")
+                ix.frombytes(flat[bounds[k]:bounds[k + 1]])
             self.size += end - base
             if self.size > self.chunk_size:
                 self._finish_chunk()

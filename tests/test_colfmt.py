@@ -269,5 +269,5 @@ def test_bulk_records_chunk_and_index_as_add_message():
 
 def pool_text(pool, tmpl, frame) -> bytes:
     out = []
-    pool.render(np.array([tmpl]), np.array([0]), np.array([frame], np.int64), lambda d, e, lo, hi: out.append(d))
+    pool.render(np.array([tmpl]), np.array([0]), np.array([frame], np.int64), lambda d, e, lo, hi: out.append(bytes(d)))
     return out[0]
