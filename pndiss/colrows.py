@@ -1,6 +1,9 @@
 """What the column sinks (mcap_sink.py, jsonl_sink.py) share: the event a row stands for, and
 the order in which held rows and events are written.
 
+Held rows are written once ``HOLD_ROWS`` of them are held (or at the end): the per-stream work of
+a flush then covers many driver batches.
+
 Rows are the engine's ``StreamBatch`` (one per cyclic frame: the reference path's ``rt`` event)
 and ``CycleBatch`` (one per data object and frame: its ``telegram`` event). ``rt_event`` and
 ``telegram_event`` build those events for one row, as Analyzer._pn_rt and
@@ -15,6 +18,8 @@ frame); rows and events are merged by (frame, rank, object, arrival).
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from . import iodata
@@ -23,6 +28,7 @@ from .proto import rt
 from .proto.eth import decode_link
 
 RANK_RT, RANK_BEFORE, RANK_TELEGRAM, RANK_AFTER = 0, 1, 2, 3
+HOLD_ROWS = 1 << 18   # ~20 MB of frames at most (plant frames are short), then a flush writes them
 
 
 def _rank(ev: dict) -> int:
@@ -103,6 +109,7 @@ class Held:
         self.freeze = freeze
         self.events: list = []     # (frame placed at, rank, order, event)
         self.batches: list = []    # [kind, batch, first row not yet taken]
+        self.rows = 0              # rows held
         self.pos = None
 
     def event(self, ev: dict, at: int | None = None) -> None:
@@ -116,6 +123,7 @@ class Held:
     def batch(self, kind: str, b) -> None:
         if len(b):
             self.batches.append([kind, b, 0])
+            self.rows += len(b)
 
     def take(self, frame: int | None):
         """(parts (kind, batch, lo, hi) with rows up to ``frame`` (None: all), events) and forget them."""
@@ -129,10 +137,39 @@ class Held:
                 item[2] = max(lo, hi)
                 keep.append(item)
         self.batches = keep
+        self.rows = sum(len(b) - lo for _, b, lo in keep)
         evs, self.events = self.events, []
         if frame is not None and (self.pos is None or frame > self.pos):
             self.pos = frame
-        return parts, evs
+        return _coalesce(parts), evs
+
+
+def _coalesce(parts) -> list:
+    """Parts of one stream / data object with one template, one after the other in frame order, as
+    one part: the per-part work of a flush is paid once per stream, not once per driver batch."""
+    groups: dict = {}
+    for p in parts:
+        kind, b = p[0], p[1]
+        sig = rt_signature(b) if kind == "rt" else telegram_signature(b)
+        groups.setdefault(sig, []).append(p)
+    out = []
+    for ps in groups.values():
+        ps.sort(key=lambda p: int(p[1].frame[p[2]]))
+        if len(ps) == 1 or any(int(a[1].frame[a[3] - 1]) >= int(c[1].frame[c[2]]) for a, c in zip(ps, ps[1:])):
+            out += ps
+            continue
+        kind, b0 = ps[0][0], ps[0][1]
+
+        def cat(get):
+            return np.concatenate([get(b)[lo:hi] for _, b, lo, hi in ps])
+        if kind == "rt":
+            nb = replace(b0, frame=cat(lambda b: b.frame), ts_ns=cat(lambda b: b.ts_ns), data=cat(lambda b: b.data))
+        else:
+            nb = replace(b0, frame=cat(lambda b: b.frame), ts_ns=cat(lambda b: b.ts_ns), iops=cat(lambda b: b.iops),
+                         judged=cat(lambda b: b.judged),
+                         signals={n: cat(lambda b, n=n: b.signals[n]) for n in b0.signals})
+        out.append((kind, nb, 0, len(nb)))
+    return out
 
 
 def merge(rows, events, on_rows, on_event) -> None:

@@ -46,6 +46,7 @@ class JsonlSink(Sink):
         self.held = colrows.Held(dict)
         self.pool = Pool()
         self._recipes: dict = {}
+        self.hold_rows = colrows.HOLD_ROWS   # rows held before a flush point writes them
         self.out: list[bytes] = []
         self._binary = not hasattr(fileobj, "encoding")
 
@@ -61,7 +62,8 @@ class JsonlSink(Sink):
         self.held.batch("rt", batch)
 
     def flush_point(self, frame: int) -> None:
-        self._flush(frame)
+        if self.held.rows >= self.hold_rows:
+            self._flush(frame)
 
     def close(self) -> None:
         self._flush(None)

@@ -62,6 +62,7 @@ class McapSink(Sink):
         self.held = colrows.Held(dict)
         self.pool = Pool()
         self._recipes: dict = {}
+        self.hold_rows = colrows.HOLD_ROWS   # rows held before a flush point writes them
 
     @property
     def reader_info(self):
@@ -82,7 +83,8 @@ class McapSink(Sink):
         self.held.batch("rt", batch)
 
     def flush_point(self, frame: int) -> None:
-        self._flush(frame)
+        if self.held.rows >= self.hold_rows:
+            self._flush(frame)
 
     def close(self) -> None:
         if not self.exp.closed:
