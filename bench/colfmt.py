@@ -26,6 +26,7 @@ sys.path.insert(0, ROOT)
 sys.path.insert(0, os.path.join(ROOT, "tests"))
 
 from colfmt_producer import Recorded, plan, play  # noqa: E402
+from pndiss.capture import ReadInfo  # noqa: E402
 from pndiss.jsonl_sink import JsonlSink  # noqa: E402
 from pndiss.mcap_export import McapExporter  # noqa: E402
 from pndiss.mcap_sink import McapSink  # noqa: E402
@@ -69,11 +70,13 @@ def main() -> int:
 
     def mcap(compression):
         s = McapSink(out, cap, None, compression=compression)
+        s.reader_info = ReadInfo()   # the driver's reader hashes the capture, not the sink
         play(calls, [s])
         return sum(s.summary()["topics"].values())
 
     def mcap_ref(compression):
         e = McapExporter(out, cap, None, compression=compression)
+        e.reader_info = ReadInfo()
         for ev in events:
             e.on_event(ev)
         e.close()

@@ -140,6 +140,9 @@ class Pool:
 def _digits(out, p, u):
     """Decimal of the unsigned value ``u`` (a uint64) at out[p:]; returns the new end."""
     ten = np.uint64(10)
+    if u < ten:   # bits, DataStatus flags: one digit
+        out[p] = np.uint8(np.uint64(48) + u)
+        return p + np.uint64(1)
     n = np.uint64(1)
     t = u
     while t >= ten:
