@@ -20,7 +20,8 @@ import numpy as np
 
 from . import colrows
 from .coltext import INT, Pool, Val, thin
-from .mcap_export import _RT_CONST, _TG_CONST, McapExporter, _dumps
+from .mcap_export import RT_CONST, TG_CONST, McapExporter
+from .mcap_export import dumps as _dumps
 from .sinks import Sink
 
 SEQ_MASK = 0xFFFFFFFF
@@ -197,12 +198,12 @@ class McapSink(Sink):
             if got is None:
                 return None, None
             shape, recipe = got
-            msg = {k: v for k, v in shape.items() if k not in _RT_CONST}
+            msg = {k: v for k, v in shape.items() if k not in RT_CONST}
             n = 7 if recipe[0] else 5
             msg["d_cycle"], msg["dt_ns"] = Val(INT, n), Val(INT, n + 1)   # the columns _rows adds
         else:
             shape, recipe = colrows.telegram_shape(b, lo, self.pool, _dumps)
-            msg = {k: v for k, v in shape.items() if k not in _TG_CONST}
+            msg = {k: v for k, v in shape.items() if k not in TG_CONST}
         return self.pool.template(msg, _dumps), recipe
 
     def _rows(self, key, st: _State, part) -> _Rows | None:
