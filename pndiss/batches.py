@@ -21,7 +21,7 @@ class Collector:
         self.str = [s for s in sinks if s.streams]
         self.sinks = sinks
         self.pend_c: dict = {}     # (axis key, direction) -> [axis dict, frame_id, layout names, rows]
-        self.pend_s: dict = {}     # (stream key, caplen) -> [off, rows]
+        self.pend_s: dict = {}     # (stream key, caplen, id(frame map)) -> [off, rows, frame map]
 
     def attach(self) -> None:
         t = self.a.cyclic
@@ -46,10 +46,11 @@ class Collector:
         p[3].append((fn, ts, -1 if iops is None else iops, ok, o.sig))
 
     def frame_row(self, key: tuple, fn: int, ts: int, data: bytes, off: int) -> None:
-        k = (key, len(data))
+        fm = self.a.session.lookup(*key)   # the rt event's iodata map at this frame
+        k = (key, len(data), id(fm))
         p = self.pend_s.get(k)
         if p is None:
-            p = self.pend_s[k] = [off, []]
+            p = self.pend_s[k] = [off, [], fm]
         p[1].append((fn, ts, data))
 
     # -- whole columns (the engine) -----------------------------------------------------------------
@@ -63,8 +64,10 @@ class Collector:
             s.cycle_batch(b)
 
     def bulk_frames(self, key: tuple, fn, ts, data2d, off: int) -> None:
-        self._flush_s((key, data2d.shape[1]))
-        b = StreamBatch(key, np.asarray(fn, dtype=np.int64), np.asarray(ts, dtype=np.int64), data2d, off)
+        fm = self.a.session.lookup(*key)   # constant within a segment (the session changes at global frames)
+        for k in [k for k in self.pend_s if k[0] == key]:
+            self._flush_s(k)
+        b = StreamBatch(key, np.asarray(fn, dtype=np.int64), np.asarray(ts, dtype=np.int64), data2d, off, fm)
         for s in self.str:
             s.stream_batch(b)
 
@@ -89,11 +92,11 @@ class Collector:
         p = self.pend_s.get(k)
         if not p or not p[1]:
             return
-        off, rows = p
+        off, rows, fm = p
         p[1] = []
         fn, ts, data = zip(*rows)
         arr = np.frombuffer(b"".join(data), dtype=np.uint8).reshape(len(data), k[1])
-        b = StreamBatch(k[0], np.array(fn, dtype=np.int64), np.array(ts, dtype=np.int64), arr, off)
+        b = StreamBatch(k[0], np.array(fn, dtype=np.int64), np.array(ts, dtype=np.int64), arr, off, fm)
         for s in self.str:
             s.stream_batch(b)
 

@@ -35,6 +35,39 @@ class FrameTimes:
         return ev
 
 
+class ColumnFrameTimes(FrameTimes):
+    """FrameTimes that also learns from rows of frames (the column JSONL writers: pndiss/jsonl_sink.py),
+    its ring as NumPy arrays so a batch of rows is one assignment."""
+
+    def __init__(self):
+        import numpy as np
+        self.frames = np.zeros(RING, np.int64)
+        self.times = np.zeros(RING, np.int64)
+
+    def fix(self, ev: dict) -> dict:   # FrameTimes.fix on the arrays (their items are NumPy ints)
+        fn = ev.get("frame")
+        if fn.__class__ is not int or not -(1 << 63) <= fn < 1 << 63:
+            return ev
+        i = fn & (RING - 1)
+        if ev["kind"] == "violation":
+            if int(self.frames[i]) == fn and ev.get("ts_ns") != int(self.times[i]):
+                ev = dict(ev)
+                ev["ts_ns"] = int(self.times[i])
+        elif int(self.frames[i]) != fn and ev["ts_ns"].__class__ is int and -(1 << 63) <= ev["ts_ns"] < 1 << 63:
+            self.frames[i] = fn
+            self.times[i] = ev["ts_ns"]
+        return ev
+
+    def rows(self, frames, times) -> None:
+        """What ``fix`` would have learnt from one event of each of these frames (in frame order)."""
+        if len(frames) > RING:
+            frames, times = frames[-RING:], times[-RING:]
+        i = frames & (RING - 1)
+        new = self.frames[i] != frames
+        self.frames[i[new]] = frames[new]
+        self.times[i[new]] = times[new]
+
+
 def _mac(s: str) -> str | None:
     s = s.strip().lower().replace("-", ":")
     return s if re.fullmatch(r"([0-9a-f]{2}:){5}[0-9a-f]{2}", s) else None

@@ -28,10 +28,11 @@ def ioxs(v: int) -> dict:
     return d
 
 
-def decode(fm, csdu: bytes) -> dict | None:
+def decode(fm, csdu: bytes, ioxs_of=ioxs) -> dict | None:
     """``iodata`` of one cyclic frame: the IOCS entries and data objects of its FrameMap, each
     IOxS decoded; None when the map did not come from a Connect in this capture or the AR was
-    released (tshark shows nothing then)."""
+    released (tshark shows nothing then). ``ioxs_of`` decodes one IOxS byte (the JSONL column
+    writer passes C_SDU offsets instead of bytes and gets its template: pndiss/jsonl_sink.py)."""
     if fm is None or fm.source != "connect" or fm.released:  # tshark forgets the AR at its Release too
         return None
     if not RTC1_FIRST <= fm.frame_id <= RTC_UDP_LAST:
@@ -49,9 +50,9 @@ def decode(fm, csdu: bytes) -> dict | None:
             break
         pos = end
         if not is_obj:
-            iocs.append({"api": x.api, "slot": x.slot, "subslot": x.subslot, "iocs": ioxs(csdu[off])})
+            iocs.append({"api": x.api, "slot": x.slot, "subslot": x.subslot, "iocs": ioxs_of(csdu[off])})
         else:
             objs.append({"api": x.api, "slot": x.slot, "subslot": x.subslot, "length": x.length,
                          "module_ident_number": x.module_ident, "submodule_ident_number": x.submodule_ident,
-                         "iops": ioxs(csdu[off + x.length])})
+                         "iops": ioxs_of(csdu[off + x.length])})
     return {"direction": fm.direction, "iocs": iocs, "objects": objs, "gap_at": pos if pos < n else None}

@@ -141,6 +141,7 @@ _SETPOINT = {"setpoint", "output", "out", "o", "controller"}  # direction words 
 _TG_CONST = frozenset(("kind", "ts_ns", "station", "device_mac", "controller_mac", "api", "slot",
                        "subslot", "telegram", "direction", "frame_id"))
 _RT_CONST = frozenset(("kind", "ts_ns", "src", "dst", "frame_id", "frame_class", "iodata"))  # iodata: per-frame IOxS detail (pndiss/iodata.py), not on the timeline
+TG_CONST, RT_CONST = _TG_CONST, _RT_CONST
 _UNSAFE = re.compile(r"[^A-Za-z0-9._-]")
 
 
@@ -153,6 +154,9 @@ def _default(o):
 
 
 _dumps = json.JSONEncoder(separators=(",", ":"), default=_default, allow_nan=False).encode
+# for the column writer (pndiss/mcap_sink.py): the message encoder and the event fields that are channel
+# metadata, not message members (defined below)
+dumps = _dumps
 
 
 def _clean(v):
@@ -370,6 +374,15 @@ class McapExporter:
     def _learn(self, mac, name) -> None:
         if isinstance(mac, str) and isinstance(name, str) and name and mac not in self._names:
             self._names[mac] = name
+
+    # -- for the column writers (pndiss/mcap_sink.py) -----------------------------------------
+    def stream_channel(self, frame_id, src, dst) -> _Chan | None:
+        """The APDU channel of a cyclic stream, None before its first message (``_rt`` makes it)."""
+        return self._chans.get(("rt", frame_id, src, dst))
+
+    def telegram_channel(self, mac, api, slot, subslot, side: str) -> _Chan | None:
+        """The telegram channel of a data object's direction, None before its first message."""
+        return self._chans.get(("tg", mac, api, slot, subslot, side))
 
     # -- events -----------------------------------------------------------------------------
     def on_event(self, ev: dict) -> None:

@@ -215,6 +215,45 @@ class McapWriter:
                 self._finish_chunk()
             start = stop
 
+    def add_records(self, data, ends, channel_ids, log_times) -> None:
+        """Message records laid out already (pndiss/coltext.py writes them behind their headers):
+        ``data`` (bytes-like) holds them back to back, ``ends`` (int64) their end offsets. Chunks
+        close and indexes fill exactly as add_message would for each record in turn."""
+        np = _np()
+        n = len(ends)
+        i = 0
+        while i < n:
+            base = 0 if i == 0 else int(ends[i - 1])
+            # the record whose end passes chunk_size still goes into this chunk, then it closes
+            j = int(np.searchsorted(ends, self.chunk_size - self.size + base, side="right")) + 1
+            j = min(max(j, i + 1), n)
+            end = int(ends[j - 1])
+            offs = np.empty(j - i, np.uint64)
+            offs[0] = self.size
+            offs[1:] = ends[i:j - 1] - base + self.size
+            self.parts.append(bytes(data[base:end]))
+            cids = np.asarray(channel_ids[i:j])
+            # per channel, in order of its first record here, its (log time, offset) pairs in order
+            order = np.argsort(cids, kind="stable")
+            sc = cids[order]
+            starts = np.flatnonzero(np.r_[True, sc[1:] != sc[:-1]])
+            pairs = np.empty((j - i, 2), np.uint64)
+            pairs[:, 0] = np.asarray(log_times[i:j])[order]
+            pairs[:, 1] = offs[order]
+            flat = pairs.tobytes()
+            bounds = np.r_[starts, j - i] * 16
+            index = self.index
+            for k in np.argsort(order[starts], kind="stable").tolist():
+                cid = int(sc[starts[k]])
+                ix = index.get(cid)
+                if ix is None:
+                    ix = index[cid] = array("Q")
+                ix.frombytes(flat[bounds[k]:bounds[k + 1]])
+            self.size += end - base
+            if self.size > self.chunk_size:
+                self._finish_chunk()
+            i = j
+
     def _finish_chunk(self) -> None:
         index = self.index
         if not index:

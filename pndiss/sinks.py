@@ -53,6 +53,8 @@ class StreamBatch:
     ts_ns: np.ndarray          # int64 capture time, ns since the epoch
     data: np.ndarray           # uint8 (rows, caplen): each frame's bytes from the destination MAC on
     off: int                   # where the FrameID starts in a row (14 untagged, 18 with one 802.1Q tag)
+    fm: object = None          # the session's FrameMap for these rows (Analyzer._pn_rt's lookup): the
+                               # JSONL rt lines' ``iodata``; a batch ends where the map changes
 
     def __len__(self) -> int:
         return len(self.frame)
