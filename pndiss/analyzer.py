@@ -44,6 +44,8 @@ class Analyzer:
         self.frame_events = sink is not None and (sink_kinds is None or bool(sink_kinds & FRAME_KINDS))
         self._held = None     # events held while the engine walks stream groups (hold / release)
         self._hold_fn = 0
+        self.at = 0           # the frame whose processing emitted the event being emitted (sinks merge on it)
+        self._releasing = None
         self.counts = {"decoded": 0, "not_profinet": 0, "malformed": 0}
         self.kinds: Counter = Counter()
         self.frame_classes: Counter = Counter()
@@ -77,6 +79,8 @@ class Analyzer:
         if kind == "violation":  # the verdict (pndiss/verdict.py) sees every one, with or without a sink
             self.violations.add(ev)
         if self.sink is not None and (self.sink_kinds is None or kind in self.sink_kinds):
+            if self._releasing is None:
+                self.at = self.cur_frame
             self.sink(ev)
 
     # -- the engine walks independent stream groups one after the other (pndiss/engine.py): their events
@@ -92,8 +96,13 @@ class Analyzer:
         held, self._held = self._held, prev
         if held:
             held.sort(key=lambda h: (h[0], h[1]))
-            for h in held:
-                self.emit(h[2])
+            self._releasing = True
+            try:
+                for h in held:
+                    self.at = h[0]
+                    self.emit(h[2])
+            finally:
+                self._releasing = None
 
     def violations_by_severity(self) -> dict:
         return self.violations.by_severity()

@@ -38,8 +38,14 @@ class Collector:
                     ar_uuid=ax.fm.ar_uuid if ax is not None and ax.fm is not None else None)
         return info
 
+    @staticmethod
+    def _key(o, direction: str) -> tuple:
+        """Rows of one batch share the axis' identity as the sinks see it (telegram, its source, profile)."""
+        ax = o.ax
+        return (o.key, direction, o.telegram, o.source, ax.profile if ax is not None else None)
+
     def cycle_row(self, o, fr, frame_id: int, fn: int, ts: int, iops, ok: bool) -> None:
-        k = (o.key, fr.direction, o.telegram)
+        k = self._key(o, fr.direction)
         p = self.pend_c.get(k)
         if p is None:
             p = self.pend_c[k] = [self._axis(o), frame_id, o.layout.names, []]
@@ -55,8 +61,8 @@ class Collector:
 
     # -- whole columns (the engine) -----------------------------------------------------------------
     def bulk_cycles(self, o, direction: str, frame_id: int, fn, ts, iops, ok, sig: dict) -> None:
-        k = (o.key, direction, o.telegram)
-        self._flush_c(k)
+        for k in [k for k in self.pend_c if k[0] == o.key and k[1] == direction]:
+            self._flush_c(k)
         b = CycleBatch(self._axis(o), direction, frame_id, np.asarray(fn, dtype=np.int64),
                        np.asarray(ts, dtype=np.int64), np.asarray(iops, dtype=np.int16), np.asarray(ok, dtype=bool),
                        {n: sig[n] for n in o.layout.names if n in sig})

@@ -16,8 +16,10 @@ Pieces that overlap in time are not a ring buffer: refused, as mergecap would in
 """
 from __future__ import annotations
 
+import inspect
 import os
 
+from .proto import rt
 from .sinks import FRAME_KINDS, FuncSink, Sink
 
 
@@ -30,30 +32,54 @@ def _as_sinks(sinks) -> list:
     return out
 
 
-def _dispatch(sinks: list):
-    """One callable for the analyzer: each event to the sinks that want its kind; and the union of kinds."""
+def _column(s) -> bool:
+    """A column sink gets cyclic frames and telegrams as columns (StreamBatch / CycleBatch), never as the
+    per-frame ``rt`` / ``telegram`` dicts of cyclic frames."""
+    return bool(s.cycles or s.streams)
+
+
+def _per_frame(ev: dict) -> bool:
+    """An event that exists once per cyclic frame: a telegram, or the rt event of a cyclic frame."""
+    k = ev["kind"]
+    return k == "telegram" or (k == "rt" and rt.classify(ev.get("frame_id", 0))[1])
+
+
+def _dispatch(a, sinks: list):
+    """One callable for the analyzer: each event to the sinks that want its kind, with the frame whose
+    processing emitted it (``at``) for the sinks that merge events with column rows."""
     if not sinks:
-        return None, frozenset()
-    if any(s.kinds is None for s in sinks):
-        kinds = None
-    else:
-        kinds = frozenset().union(*(s.kinds for s in sinks))
-    if len(sinks) == 1:
-        s = sinks[0]
-        return s.event, kinds
-    def emit(ev, _sinks=tuple(sinks)):
-        k = ev["kind"]
-        for s in _sinks:
-            if s.kinds is None or k in s.kinds:
-                s.event(ev)
-    return emit, kinds
+        return None
+    table = []
+    for s in sinks:
+        if s.kinds is not None and not s.kinds:
+            continue
+        try:
+            at = "at" in inspect.signature(s.event).parameters
+        except (TypeError, ValueError):
+            at = False
+        table.append((s.event, s.kinds, at, _column(s)))
+
+    def emit(ev, _table=tuple(table)):
+        kind = ev["kind"]
+        for fn, k, at, col in _table:
+            if (k is None or kind in k) and not (col and kind in FRAME_KINDS and _per_frame(ev)):
+                if at:
+                    fn(ev, a.at)
+                else:
+                    fn(ev)
+    return emit
 
 
 def engine_allowed(settings, sinks) -> bool:
     """The engine serves the sinks unless one of them wants per-frame events (or it is switched off)."""
     if not settings.fast_path or os.environ.get("PNDISS_FAST_PATH", "1") == "0":
         return False
-    return not any(s.kinds is None or s.kinds & FRAME_KINDS for s in sinks)
+    return not frame_events(sinks)
+
+
+def frame_events(sinks) -> bool:
+    """Some sink wants per-frame events (rt / telegram of cyclic frames) as dicts."""
+    return any(not _column(s) and (s.kinds is None or s.kinds & FRAME_KINDS) for s in sinks)
 
 
 def analyze(paths, settings=None, sinks=(), progress=None, verdict_hooks: dict | None = None):
@@ -65,8 +91,9 @@ def analyze(paths, settings=None, sinks=(), progress=None, verdict_hooks: dict |
     if isinstance(paths, (str, os.PathLike)):
         paths = [paths]
     sinks = _as_sinks(sinks)
-    sink, kinds = _dispatch(sinks)
-    a = Analyzer(settings, sink, sink_kinds=kinds)
+    a = Analyzer(settings)
+    a.sink = _dispatch(a, sinks)
+    a.frame_events = frame_events(sinks)
     hooks = dict(verdict_hooks or {})
     scope = hooks.pop("scope", None)
     if scope is not None:  # --station/--time: the verdict counts only what is in scope

@@ -110,6 +110,7 @@ def stepper(a, streams: dict):
             s = get(key, False)
             if s:
                 s.n += 1
+                a.cur_frame = fn   # the frame being processed: what emitted events belong to (Analyzer.at)
                 try:
                     # DataStatus: DataValid (0x04) and ProviderState RUN (0x10), wire.md §2.3
                     on_cyclic(s.key, fn, ts, data[-2] & 0x14 == 0x14, data, off + 2)
