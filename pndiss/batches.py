@@ -45,6 +45,7 @@ class Collector:
         return (o.key, direction, o.telegram, o.source, ax.profile if ax is not None else None)
 
     def cycle_row(self, o, fr, frame_id: int, fn: int, ts: int, iops, ok: bool) -> None:
+        self.a.kinds["telegram"] += 1   # a telegram event as a row: counted as the dict would be
         k = self._key(o, fr.direction)
         p = self.pend_c.get(k)
         if p is None:
@@ -61,6 +62,7 @@ class Collector:
 
     # -- whole columns (the engine) -----------------------------------------------------------------
     def bulk_cycles(self, o, direction: str, frame_id: int, fn, ts, iops, ok, sig: dict) -> None:
+        self.a.kinds["telegram"] += len(fn)
         for k in [k for k in self.pend_c if k[0] == o.key and k[1] == direction]:
             self._flush_c(k)
         b = CycleBatch(self._axis(o), direction, frame_id, np.asarray(fn, dtype=np.int64),

@@ -186,7 +186,7 @@ def open_capture(path: str, batch=None, info: ReadInfo | None = None,
                  first: int = 0) -> Iterator[tuple[int, int, int, bytes]]:
     """Yield frames of the pcap/pcapng file at ``path``; raise CaptureError on bad input.
 
-    ``batch`` (pndiss/batch.py) is offered the buffered records now and then: it may consume a
+    ``batch`` (the engine, pndiss/engine.py) is offered the buffered records now and then: it may consume a
     whole steady run of them itself (those frames are then not yielded; frame numbers still count
     them) or say after how many frames to ask again. ``info`` (a ReadInfo) receives the input's
     hash and the count of clamped time stamps. ``first``: frames before this file (the pieces of a ring

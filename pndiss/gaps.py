@@ -78,7 +78,7 @@ class GapTracker:
         if d != st.step and pts is not None and ts - pts >= HALF_WRAP_NS and st.uniform \
                 and (st.known or st.seen >= LEARN):
             # the counter may have wrapped during the gap (every 2.048 s): the time stamps tell the cycles. An
-            # advance of exactly one step is taken as one cycle (as the batch path does, pndiss/batch.py)
+            # advance of exactly one step is taken as one cycle (as the engine does, pndiss/streamcols.py)
             period = st.step * UNIT_NS
             k = (ts - pts + period // 2) // period - 1
             if k > 0:

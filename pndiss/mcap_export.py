@@ -21,9 +21,9 @@ index entry per chunk. Volume control applies to the cyclic topics (telegram + a
 every ``keyframe_ns``; ``decimate`` N also writes every Nth sample (alone: only every Nth).
 
 Two ways in, one file out: ``on_event`` takes event dicts (the reference path, any sink user);
-``run`` analyses a capture itself and writes the cyclic frames' messages without event dicts
-(per-frame byte templates here, whole steady runs in pndiss/mcap_batch.py), through
-pndiss/mcap_writer.py. tests/test_mcap.py requires both to write the same bytes (docs/mcap.md).
+``run`` analyses a capture through the one driver with pndiss/mcap_sink.py as its sink: the cyclic
+frames' messages come from the engine's columns, without event dicts, through pndiss/mcap_writer.py.
+tests/test_mcap.py requires both to write the same bytes (docs/mcap.md).
 """
 from __future__ import annotations
 
@@ -32,10 +32,8 @@ import json
 import os
 import re
 
-from operator import itemgetter
 
 from . import __version__
-from . import telegrams as tg
 from .mcap_writer import McapWriter
 
 
@@ -196,41 +194,6 @@ class _Chan:
 COMPRESSIONS = ("none", "lz4", "zstd")
 
 
-class _RtFast:
-    """Fast path, one cyclic stream (first 16/20 bytes of its frames): its APDU channel, the message
-    text around the values, and the DataStatus part per (frame length, DataStatus, TransferStatus)."""
-    __slots__ = ("ch", "fmt", "off", "tails", "n", "bad", "key", "cls")
-
-    def __init__(self, ch: _Chan, fmt: bytes, off: int):
-        self.ch, self.fmt, self.off = ch, fmt, off
-        self.tails: dict[int, bytes] = {}
-        self.n = 0      # frames taken
-        self.bad = 0    # of which malformed
-        self.key = self.cls = None
-
-
-class _TgFast:
-    """Fast path, one data object: its telegram channel and message text. ``inner`` is the signals
-    and bits text of ``sig`` (the tracker keeps the same dict while the C_SDU does not change);
-    ``bits`` maps the values of the words with bit maps to their bits text."""
-    __slots__ = ("ch", "layout", "source", "profile", "fmt", "sig_fmt", "fmt_all", "words", "bits", "sig", "inner",
-                 "n")
-
-    def __init__(self, ch: _Chan, layout, source, profile: str):
-        self.ch, self.layout, self.source, self.profile = ch, layout, source, profile
-        self.fmt = (b'{"frame":%d,"telegram_source":' + _dumps(source).encode().replace(b"%", b"%%")
-                    + b',"iops":%d,"judged":%s,"signals":%s}')
-        # struct.unpack gives ints only, and json writes an int as %d does
-        self.sig_fmt = b"{" + b",".join(_dumps(n).encode() + b":%d" for n in layout.names) + b"}"
-        # the whole message at once (mcap_batch.py): frame, iops, judged, every signal, bits text
-        self.fmt_all = self.fmt.replace(b'"signals":%s}', b'"signals":' + self.sig_fmt + b',"bits":%s}')
-        keys = [n for n in layout.names if n in tg.BITMAPS]
-        self.words = itemgetter(*keys) if keys else (lambda sig: None)
-        self.bits: dict = {}
-        self.sig = self.inner = None
-        self.n = 0      # messages written (for ``seen`` and the analyzer's event counts)
-
-
 class McapExporter:
     """Channels, schemas and messages for the event stream. ``on_event`` takes any event dict (the
     reference path); ``run`` analyses a capture and writes cyclic frames without event dicts (the
@@ -288,8 +251,6 @@ class McapExporter:
                        "record": self._record, "param": self._record, "record_result": self._record,
                        "violation": self._violation}
         self._thin = self.on_change or self.decimate > 1
-        self._tgs: dict = {}     # fast path: cyclic._Obj -> _TgFast
-        self._tracker = None     # the CyclicTracker whose telegram_sink we are (fast path)
 
     # -- plumbing ---------------------------------------------------------------------------
     def _schema_id(self, key: str, schema: dict) -> int:
@@ -513,25 +474,11 @@ class McapExporter:
         }
         self._write(ch, ev, msg)
 
-    # -- fast path: cyclic frames without event dicts ------------------------------------------
-    # The first frame of every stream / data object goes the reference way (event dict, on_event),
-    # which creates the channel; later ones fill per-channel byte templates whose text is made by
-    # the same encoder (_dumps) from the same values, so the messages are byte for byte those of
-    # the reference path (tests/test_mcap.py compares them on every capture). Anything unusual
-    # (negative time, IOPS missing, a G1_XIST2 error code, a relabelled telegram) goes the
-    # reference way again.
-    def attach(self, analyzer) -> None:
-        """Become ``analyzer``'s sink and its cyclic tracker's telegram_sink (see ``run``)."""
-        analyzer.sink = self.on_event
-        if not self.reference:
-            self._tracker = analyzer.cyclic
-            analyzer.cyclic.telegram_sink = self._telegram_direct
-
     def run(self, path: str, settings=None, progress=None):
         """Analyse ``path`` into this file; returns the Analyzer (as analyzer.analyze_file does).
         Raises capture.CaptureError like analyze_file, after writing everything read before it."""
-        from .analyzer import Analyzer, _with_progress, analyze_file
-        from .capture import CaptureError, open_capture
+        from .analyzer import analyze_file
+        from .capture import CaptureError
 
         if self.reference:
             try:
@@ -541,134 +488,20 @@ class McapExporter:
                 raise
             self.reader_info = a.reader
             return a
-        a = Analyzer(settings)
-        self.reader_info = a.reader
-        self.attach(a)
-        from .fast import new_streams
-        streams = new_streams(a, lambda a, rs: self._settle(a, rs))
-        engine = None
-        if a.settings.fast_path and os.environ.get("PNDISS_FAST_PATH", "1") != "0" \
-                and os.environ.get("PNDISS_BATCH", "1") != "0":
-            from .mcap_batch import export_engine
-            engine = export_engine(a, self, streams, progress)
+        # the engine's columns through the column sink (pndiss/mcap_sink.py) into this exporter
+        from .driver import analyze
+        from .mcap_sink import McapSink
+        sink = McapSink(exp=self)
         try:
-            frames = open_capture(path, batch=engine, info=a.reader)
-            if progress is not None:
-                frames = _with_progress(frames, progress)
-            _run(a, self, frames, streams, engine)
+            a = analyze(path, settings, [sink], progress)
         except CaptureError as e:
-            a.finish()
-            e.analyzer = a
+            self.reader_info = getattr(getattr(e, "analyzer", None), "reader", None)
+            sink.finish()
             raise
-        a.finish()
+        self.reader_info = a.reader
+        sink.finish()
         return a
 
-    def _stream(self, fid: int, src: str, dst: str, data: bytes, off: int) -> _RtFast | None:
-        """Template of the APDU messages of a cyclic stream whose first frame the reference path
-        has just written (so the channel and its previous cycle counter exist)."""
-        ch = self._chans.get(("rt", fid, src, dst))
-        if ch is None or ch.prev_cc is None:
-            return None
-        from .proto.eth import decode_link
-        tags = decode_link(1, data)[4]
-        vlan = b""
-        if tags:  # as Analyzer._pn_rt reports them
-            vlan = b'"vlan":' + _dumps([{"tpid": t[0], "priority": t[1], "dei": t[2], "id": t[3]}
-                                        for t in tags]).encode() + b","
-        return _RtFast(ch, b'{"frame":%d,' + vlan + b'"cycle_counter":%d,%s,"d_cycle":%d,"dt_ns":%d}', off)
-
-    def _apdu_tail(self, r: _RtFast, data: bytes, k: int) -> bytes:
-        from .proto.rt import decode_apdu_status
-        st = decode_apdu_status(data, r.off)
-        del st["cycle_counter"]
-        tail = r.tails[k] = _dumps(st)[1:-1].encode()
-        return tail
-
-    def _apdu_direct(self, r: _RtFast, fn: int, ts: int, data: bytes) -> None:
-        """The APDU message of a cyclic frame of a known stream (what _rt writes for its rt event)."""
-        ch = r.ch
-        cc = data[-4] << 8 | data[-3]
-        d_cycle = (cc - ch.prev_cc) & 0xFFFF
-        dt = ts - ch.prev_t
-        ch.prev_cc, ch.prev_t = cc, ts
-        if self._thin and not self._keep(ch, (data[-2], data[-1], d_cycle, None, None), ts):
-            return
-        k = len(data) << 16 | data[-2] << 8 | data[-1]
-        tail = r.tails.get(k) or self._apdu_tail(r, data, k)
-        if ts < 0:
-            ts = 0   # as _write: the deltas keep the capture's time, the record gets 0
-        t = ch.last_t
-        if ts > t:
-            ch.last_t = t = ts
-        self.w.add_message(ch.id, t, r.fmt % (fn, cc, tail, d_cycle, dt), ts, fn & 0xFFFFFFFF)
-        ch.written += 1
-        ch.last_written_t = ts
-
-    def _telegram_direct(self, o, fr, fid: int, fn: int, ts: int, iops, ok: bool) -> None:
-        """CyclicTracker.telegram_sink: the telegram message of data object ``o`` in this frame."""
-        st = self._tgs.get(o)
-        sig = o.sig
-        if (st is None or st.layout is not o.layout or st.source != o.source or st.profile != o.ax.profile
-                or iops is None or ts < 0 or fn < 0):
-            self._telegram_slow(o, fr, fid, fn, ts, iops, ok)
-            return
-        ch = st.ch
-        if sig is not st.sig:
-            bits = st.bits.get(st.words(sig))
-            if bits is None:
-                bits = self._tg_bits(st, sig)
-                if bits is None:  # G1_XIST2 holds an error code: the event has one more field
-                    self._telegram_slow(o, fr, fid, fn, ts, iops, ok)
-                    return
-            st.sig = sig
-            st.inner = st.sig_fmt % tuple(sig.values()) + b',"bits":' + bits
-        st.n += 1
-        if self._thin and not self._keep(ch, (None, None, sig), ts):
-            return
-        t = ch.last_t
-        if ts > t:
-            ch.last_t = t = ts
-        self.w.add_message(ch.id, t, st.fmt % (fn, iops, b"true" if ok else b"false", st.inner), ts,
-                           fn & 0xFFFFFFFF)
-        ch.written += 1
-        ch.last_written_t = ts
-
-    def _tg_bits(self, st: _TgFast, sig: dict) -> bytes | None:
-        bits = tg.bits(sig, st.profile)
-        if len(st.bits) > 4096:  # words seen so far; a long capture cycles through few of them
-            st.bits.clear()
-        if bits.get("g1_zsw.sensor_error") and "g1_xist2" in sig:
-            return None
-        b = st.bits[st.words(sig)] = _dumps(bits).encode()
-        return b
-
-    def _telegram_slow(self, o, fr, fid: int, fn: int, ts: int, iops, ok: bool) -> None:
-        """The reference way (telegram event dict through on_event), then (re)build o's templates."""
-        self._tracker._telegram_event(o, fr, {"frame": fn, "ts_ns": ts, "frame_id": fid}, iops, ok)
-        side = "setpoint" if str(fr.direction).lower() in _SETPOINT else "actual"
-        do = o.do
-        ch = self._chans.get(("tg", fr.fm.device_mac, do.api, do.slot, do.subslot, side))
-        st = self._tgs.get(o)
-        if st is None or st.ch is not ch or st.layout is not o.layout or st.source != o.source \
-                or st.profile != o.ax.profile:
-            self._tgs[o] = _TgFast(ch, o.layout, o.source, o.ax.profile)
-
-    def _settle(self, a, streams) -> None:
-        """Add the events the fast path stood in for to ``seen`` and to the analyzer's totals, which
-        then equal those of the reference path (the frame counts as fast.py keeps them)."""
-        from .fast import settle_counts
-        n_rt = settle_counts(a, streams)
-        n_tg = 0
-        for st in self._tgs.values():
-            n_tg += st.n
-            st.n = 0
-        if n_tg:
-            a.kinds["telegram"] += n_tg
-        for kind, n in (("rt", n_rt), ("telegram", n_tg)):
-            if n:
-                self.seen[kind] = self.seen.get(kind, 0) + n
-
-    # -- end --------------------------------------------------------------------------------
     def topic_counts(self) -> dict[str, int]:
         out: dict[str, int] = {}
         for ch in self._chans.values():
@@ -702,56 +535,6 @@ class McapExporter:
         self.w.add_metadata("pndiss", meta)
         self.w.finish()
         self._f.close()
-
-
-def _run(a, exp: McapExporter, frames, streams: dict, engine=None) -> None:
-    """Feed ``frames`` into analyzer ``a`` (sink: ``exp``). As fast.py does for the report: cyclic
-    PN-RT frames of a stream already seen (same first 16 bytes, or 20 with one 802.1Q tag) skip the
-    generic dispatch and its ``rt`` event; ``exp`` writes their APDU message from the frame bytes and
-    the tracker hands their data objects to ``exp`` directly. Every other frame, and the first one of
-    each stream, goes through Analyzer.feed and on_event."""
-    from .fast import learn_stream as learn
-    from .proto.common import Malformed
-
-    # streams: data[:16] or data[:20] -> _RtFast, None (not a fast stream) or absent; shared with
-    # the batch engine, which takes steady runs of these streams straight from the reader's buffer
-    get = streams.get
-    feed = a.feed
-    on_cyclic = a.cyclic.on_cyclic
-    apdu = exp._apdu_direct
-    fn = ts = None
-    try:
-        for fn, ts, lt, data in frames:
-            if lt == 1 and len(data) >= 24:
-                off = 18 if data[12] == 0x81 else 14
-                key = data[:off + 2]
-                r = get(key, False)
-                if r and ts >= 0:
-                    r.n += 1
-                    apdu(r, fn, ts, data)
-                    try:
-                        # DataStatus: DataValid (0x04) and ProviderState RUN (0x10), wire.md §2.3
-                        on_cyclic(r.key, fn, ts, data[-2] & 0x14 == 0x14, data, off + 2)
-                    except Malformed as e:
-                        r.bad += 1
-                        a._malformed(fn, ts, e.layer, e.reason)
-                    continue
-                feed(fn, ts, lt, data)
-                if r is False and data[off - 2:off] == b"\x88\x92":   # no per-header state for other frames
-                    st = learn(data, off)   # (key, class) when the frames are cyclic PN-RT
-                    r = st and exp._stream(*st.key, data, off)
-                    if r is not None:
-                        r.key, r.cls = st.key, st.cls
-                    streams[key] = r
-            else:
-                feed(fn, ts, lt, data)
-    finally:
-        exp._settle(a, [r for r in streams.values() if r])
-        if engine is not None and engine.last_fn > (fn or 0):
-            fn, ts = engine.last_fn, engine.last_ts   # the capture ended in a batched run
-        if fn is not None:  # as if the last frame had gone through Analyzer.feed
-            a.cur_frame, a.cur_ts = fn, ts
-            a.last_ts = ts
 
 
 def _sha256(path: str) -> str:

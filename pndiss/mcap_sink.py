@@ -54,12 +54,14 @@ class McapSink(Sink):
     cycles = True
     streams = True
 
-    def __init__(self, path: str, capture_path: str | None, settings=None, *, on_change: bool = False,
-                 decimate: int = 1, keyframe_ns: int = 1_000_000_000, compression: str = "zstd",
-                 chunk_size: int = 1024 * 1024):
-        self.exp = McapExporter(path, capture_path, settings, on_change=on_change, decimate=decimate,
-                                compression=compression, chunk_size=chunk_size)
-        self.exp.keyframe_ns = int(keyframe_ns)
+    def __init__(self, path: str | None = None, capture_path: str | None = None, settings=None, *,
+                 on_change: bool = False, decimate: int = 1, keyframe_ns: int = 1_000_000_000,
+                 compression: str = "zstd", chunk_size: int = 1024 * 1024, exp: McapExporter | None = None):
+        if exp is None:   # else: write into an exporter made by the caller (McapExporter.run)
+            exp = McapExporter(path, capture_path, settings, on_change=on_change, decimate=decimate,
+                               compression=compression, chunk_size=chunk_size)
+            exp.keyframe_ns = int(keyframe_ns)
+        self.exp = exp
         self.held = colrows.Held(dict)
         self.pool = Pool()
         self._recipes: dict = {}
@@ -86,6 +88,11 @@ class McapSink(Sink):
     def flush_point(self, frame: int) -> None:
         if self.held.rows >= self.hold_rows:
             self._flush(frame)
+
+    def finish(self) -> None:
+        """Write every held row and event (the exporter stays open)."""
+        if not self.exp.closed:
+            self._flush(None)
 
     def close(self) -> None:
         if not self.exp.closed:

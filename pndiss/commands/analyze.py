@@ -210,12 +210,12 @@ def run(args) -> int:
         sinks.append(FuncSink(to_jsonl, kinds))
     mcap_writer = None
     if args.mcap:
-        from ..mcap_export import McapExporter
+        from ..mcap_sink import McapSink
         try:
-            mcap_writer = McapExporter(args.mcap, args.capture, settings)
+            mcap_writer = McapSink(args.mcap, args.capture, settings)
         except OSError as e:
             raise UsageError(f"cannot write {args.mcap}: {e.strerror}") from None
-        sinks.append(mcap_writer.on_event)
+        sinks.append(mcap_writer)
 
     # the terminal report goes to stderr when stdout carries data
     to_stderr = args.jsonl == "-" or args.summary_json == "-"
@@ -227,12 +227,10 @@ def run(args) -> int:
     if args.follow:
         hooks["on_new"] = lambda ev: render_violation(ev, report_out)
     error = None
+    a = None
     try:
         try:
-            if mcap_writer is not None and len(sinks) == 1 and not hooks and len(captures) == 1:
-                a = mcap_writer.run(args.capture, settings, progress.update if progress else None)  # its fast path
-            else:
-                a = analyze(captures, settings, sinks, progress.update if progress else None, hooks)
+            a = analyze(captures, settings, sinks, progress.update if progress else None, hooks)
         except CaptureError as e:
             error = e
             a = e.analyzer if hasattr(e, "analyzer") else None
@@ -240,6 +238,8 @@ def run(args) -> int:
         if progress:
             progress.close()
         if mcap_writer is not None:
+            if a is not None:
+                mcap_writer.reader_info = a.reader
             mcap_writer.close()
     if jsonl is not None:
         close_out(jsonl, args.jsonl)

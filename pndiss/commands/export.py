@@ -32,7 +32,9 @@ def run(args) -> int:
     from ..capture import CaptureError, NotACapture, refuse_non_capture
     from ..errors import UsageError
 
-    from ..mcap_export import McapExporter, UnsupportedCompression
+    from ..driver import analyze
+    from ..mcap_export import UnsupportedCompression
+    from ..mcap_sink import McapSink
 
     check_capture_path(args.capture)
     refuse_non_capture(args.capture)   # /dev/zero, /dev/urandom, a text file: exit 2 before any output
@@ -42,8 +44,11 @@ def run(args) -> int:
         raise UsageError("--keyframe must be a positive number of seconds")
     settings = settings_from_args(args)
     try:
-        exp = McapExporter(args.output, args.capture, settings, on_change=args.on_change,
-                           decimate=args.decimate, keyframe_s=args.keyframe, compression=args.compression)
+        # a sink of the one driver (pndiss/driver.py): its telegram and APDU messages come from the engine's
+        # columns (pndiss/mcap_sink.py), every other message from events
+        sink = McapSink(args.output, args.capture, settings, on_change=args.on_change, decimate=args.decimate,
+                        keyframe_ns=int(args.keyframe * 1e9), compression=args.compression)
+        exp = sink.exp
     except OSError as e:
         raise UsageError(f"cannot write {args.output}: {e.strerror}") from None
     except UnsupportedCompression as e:  # lz4 is not a hard dependency
@@ -51,14 +56,18 @@ def run(args) -> int:
     from ..report import ProgressReporter
     progress = None if args.no_progress or args.quiet else ProgressReporter(args.capture, True, "exporting")
     error = None
+    a = None
     try:
-        exp.run(args.capture, settings, progress.update if progress else None)
+        a = analyze(args.capture, settings, [sink], progress.update if progress else None)
     except CaptureError as e:
         error = e
+        a = getattr(e, "analyzer", None)
     finally:
         if progress:
             progress.close()
-        exp.close()
+        if a is not None:
+            sink.reader_info = a.reader   # the input's hash, read while streaming
+        sink.close()
     if isinstance(error, NotACapture):   # a FIFO that carried no capture: nothing worth keeping
         try:
             os.unlink(args.output)

@@ -628,7 +628,7 @@ class Checker:
     def advance_steady(self, cycles: int, frame: int, ts: int, sp_frame: int | None, sp: dict, ac: dict,
                        motion_refs: list, cls_seen: bool, dls_seen: bool) -> None:
         """``cycles`` calls of cycle() that all take the _cycle_steady branch and hit no rule, at once
-        (pndiss/batch.py). The caller has checked on its arrays what makes that so: sign-of-life
+        (pndiss/axiswalk.py). The caller has checked on its arrays what makes that so: sign-of-life
         monitoring off, the checker steady (same key, steady_n > L+1, nothing open or pending), in every
         cycle a new decode (not the identical-input branch), no sensor error, the key unchanged and no
         value rule condition (shift learning, #8, #39-42, #44). Then a cycle only moves: n, the frame /
