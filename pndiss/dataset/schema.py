@@ -19,7 +19,7 @@ SCHEMA_VERSION = 1
 
 JSON = "json"   # a column of JSON text (pa.string() in the file)
 STR, I64, I32, BOOL, F64 = pa.string(), pa.int64(), pa.int32(), pa.bool_(), pa.float64()
-TS = pa.timestamp("ns", tz="UTC")
+TS = pa.timestamp("ns")   # UTC, without a zone: every reader (DuckDB, Spark, pandas) takes it as it is
 
 # every table's first columns: which capture, which frame, when (``ts`` is ``ts_ns`` as a timestamp,
 # for SQL date arithmetic; not a JSONL field)
