@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import telegrams as tg
+from ..events import FrameTimes
 from ..sinks import CycleBatch
 
 BATCH = 4096
@@ -61,7 +62,10 @@ def run(path: str, settings, sinks, progress=None):
             for s in cyc:
                 s.cycle_batch(b)
 
+    fix = FrameTimes().fix   # a violation's ts_ns is its frame's time, as in the JSONL
+
     def on_event(ev):
+        ev = fix(ev)
         kind = ev["kind"]
         if kind == "telegram":
             if not cyc:
