@@ -49,8 +49,11 @@ def render_terminal(d: dict, console=None) -> None:
     def table(title, head, rows, right=(), wide=(0, 1)):
         t = Table(title=title, title_justify="left")
         for i, h in enumerate(head):
-            t.add_column(h, justify="right" if i in right else "left", no_wrap=True,
-                         min_width=min(len(h), 12) if i in wide else len(h))
+            longest = max((len(r[i]) for r in rows), default=len(h))
+            # names up to 24 characters in full (a longer one is cut: the HTML has all of it), rule IDs whole
+            t.add_column(h, justify="right" if i in right else "left", no_wrap=i in wide,
+                         min_width=min(longest, 24 if i == 0 else 40) if i in wide else min(longest, 20),
+                         max_width=max(24, len(h)) if i == 0 and i in wide else None)
         for r in rows:
             t.add_row(*(text(x) for x in r))   # station names, files, errors: wire/file text, shown inert
         if rows:
@@ -59,7 +62,8 @@ def render_terminal(d: dict, console=None) -> None:
             c.print(f"{title}: none")
 
     # as many of the last periods as the terminal has room for (the HTML shows them all)
-    fixed = sum(min(max((len(str(v[k])) for v in d["violations"]), default=8), 40) + 3 for k in ("station", "rule"))
+    fixed = sum(min(max((len(str(v[k])) for v in d["violations"]), default=8), w) + 3
+                for k, w in (("station", 24), ("rule", 40)))
     room = max(1, (c.width - fixed - 12) // 8)
     periods = d["periods"][-room:]
     short = [p[5:] if d["unit"] == "day" else p for p in periods]   # the year is in the overview line
