@@ -14,7 +14,7 @@ import numpy as np
 import pyarrow as pa
 
 from .. import telegrams as tg
-from .schema import CYCLES_HEAD, TABLES, arrow_schema, bit_columns
+from .schema import CYCLES_HEAD, TABLES, arrow_schema, bit_columns, ts_array
 
 ROW_GROUP = 1 << 16   # rows held before a row group is written
 
@@ -130,7 +130,7 @@ class CycleTable:
                 cols[name] = pa.nulls(n, t) if v is None else pa.repeat(pa.scalar(v, t), n)
         cols["frame"] = pa.array(frame)
         cols["ts_ns"] = pa.array(ts)
-        cols["ts"] = pa.array(ts).cast(self.types["ts"])
+        cols["ts"] = ts_array(ts)
         cols["iops"] = pa.array(sel(np.asarray(b.iops)).astype(np.int16))
         cols["judged"] = pa.array(sel(np.asarray(b.judged, bool)))
         words = {}

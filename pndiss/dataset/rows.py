@@ -9,7 +9,7 @@ import json
 
 import pyarrow as pa
 
-from .schema import JSON, TABLES, arrow_schema, arrow_type
+from .schema import JSON, TABLES, arrow_schema, arrow_type, ts_array
 
 
 def _json(v) -> str:
@@ -76,7 +76,7 @@ class TableRows:
         arrays = []
         for (n, t), f in zip(self.cols, schema):
             if pa.types.is_timestamp(f.type):   # held as ns integers
-                arrays.append(pa.array(self.data[n], pa.int64()).cast(f.type))
+                arrays.append(ts_array(self.data[n]))
             else:
                 arrays.append(pa.array(self.data[n], arrow_type(t)))
         return pa.Table.from_arrays(arrays, schema=schema)

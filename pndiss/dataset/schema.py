@@ -19,7 +19,9 @@ SCHEMA_VERSION = 1
 
 JSON = "json"   # a column of JSON text (pa.string() in the file)
 STR, I64, I32, BOOL, F64 = pa.string(), pa.int64(), pa.int32(), pa.bool_(), pa.float64()
-TS = pa.timestamp("ns")   # UTC, without a zone: every reader (DuckDB, Spark, pandas) takes it as it is
+# UTC without a zone, in µs: every reader takes it as it is (Spark cannot read ns time stamps);
+# the exact time is the ``ts_ns`` integer beside it
+TS = pa.timestamp("us")
 
 # every table's first columns: which capture, which frame, when (``ts`` is ``ts_ns`` as a timestamp,
 # for SQL date arithmetic; not a JSONL field)
@@ -126,6 +128,11 @@ CYCLES_HEAD = [
 ]
 TABLES["cycles"] = (CYCLES_HEAD + [(n, _signal_type(n)) for n in tg.SIGNALS]
                     + [(c, pa.uint8()) for c, _, _ in bit_columns()])
+
+
+def ts_array(ns) -> pa.Array:
+    """A TS column from integer ns since the epoch (None: null), cut to µs."""
+    return pa.array(ns, pa.int64()).cast(pa.timestamp("ns")).cast(TS, safe=False)
 
 
 def arrow_type(t) -> pa.DataType:
