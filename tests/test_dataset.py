@@ -31,7 +31,7 @@ EPOCH = 1_767_225_600 * 10**9   # the simulator's 2026-01-01
 
 # captures compared table by table with their JSONL: faults, capture loss, restarts, presets
 COMPARED = ["fault-preset-ack-missing", "plant-rt-loss-t81", "plant-restart-abort", "preset-t89-psm",
-            "plant-irt-loss-sol-skip", "plant-mid-session-t83"]
+            "plant-irt-loss-sol-skip", "plant-mid-session-t83", "preset-t860-hohner", "startup-t89-psm"]
 
 
 def jsonl_events(cap: str, *opts: str) -> list[dict]:

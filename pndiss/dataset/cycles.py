@@ -144,9 +144,9 @@ class CycleTable:
         have = {}
         for sig, w in words.items():
             for bname, shift, mask in tg.bit_fields(sig, profile):
-                have[f"{sig}.{bname}"] = ((w.astype(np.uint64) >> np.uint64(shift)) & np.uint64(mask)).astype(np.uint8)
-        for col, _, _ in self.bits:
-            cols[col] = pa.array(have[col]) if col in have else pa.nulls(n, pa.uint8())
+                have[f"{sig}.{bname}"] = (w.astype(np.uint64) >> np.uint64(shift)) & np.uint64(mask)
+        for col, t in self.bits:
+            cols[col] = pa.array(have[col]).cast(t) if col in have else pa.nulls(n, t)
         return pa.RecordBatch.from_arrays([cols[f.name] for f in self.schema], schema=self.schema)
 
     def _write(self) -> None:
