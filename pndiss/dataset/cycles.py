@@ -154,7 +154,13 @@ class CycleTable:
         if not self.pending:
             return
         if self.writer is None:
-            self.writer = pq.ParquetWriter(self.path, self.schema, compression="zstd")
+            # counters, times and positions move by small steps: delta encoding makes them a few bits
+            # a row and writes faster than dictionaries of distinct values; the axis' strings repeat
+            strs = [f.name for f in self.schema if pa.types.is_string(f.type)]
+            deltas = {f.name: "DELTA_BINARY_PACKED" for f in self.schema
+                      if pa.types.is_integer(f.type) or pa.types.is_timestamp(f.type)}
+            self.writer = pq.ParquetWriter(self.path, self.schema, compression="zstd", use_dictionary=strs,
+                                           column_encoding=deltas)
         self.writer.write_table(pa.Table.from_batches(self.pending, schema=self.schema))
         self.rows += self.pending_rows
         self.pending, self.pending_rows = [], 0
