@@ -25,9 +25,10 @@ def execute(dataset: str, sql: str):
     import duckdb
 
     from ..dataset import DatasetError, open as open_dataset
+    from ..dataset.reader import referenced
     from ..errors import UsageError
     try:
-        con = open_dataset(dataset)
+        con = open_dataset(dataset, tables=referenced(sql))
     except DatasetError as e:
         raise UsageError(str(e)) from None
     try:

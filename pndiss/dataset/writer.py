@@ -123,7 +123,11 @@ def _commit(dataset_dir: str, h: str, written: dict, row: dict, tmp: str | None 
     import pyarrow.parquet as pq
     from .rows import TableRows
 
+    from .reader import VERSIONS_DIR
     os.makedirs(os.path.join(dataset_dir, "captures"), exist_ok=True)
+    os.makedirs(os.path.join(dataset_dir, VERSIONS_DIR), exist_ok=True)
+    with open(os.path.join(dataset_dir, VERSIONS_DIR, str(SCHEMA_VERSION)), "a"):
+        pass
     final = table_path(dataset_dir, "captures", h)
     if os.path.exists(final):
         os.remove(final)   # incomplete from here until the new row is in place
