@@ -8,10 +8,12 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 
 import pytest
+from hypothesis import given, settings as hsettings, strategies as st
 
 pa = pytest.importorskip("pyarrow")
 pq = pytest.importorskip("pyarrow.parquet")
@@ -296,3 +298,45 @@ def test_query_command(plant, capsys):
         assert cli_main(argv) == 2
         err = capsys.readouterr().err
         assert msg in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
+def test_older_schema_files_read_with_the_new(built, tmp_path):
+    """A dataset holding files of two schema versions: columns are united by name, a column the
+    older file lacks reads as null."""
+    ds, caps = built
+    d = str(tmp_path / "mixed")
+    shutil.copytree(ds, d)
+    h = "0" * 64
+    pq.write_table(pa.table({"capture_hash": [h], "file": ["old.pcapng"], "frames": [3], "schema_version": [0]}),
+                   dataset.table_path(d, "captures", h))
+    pq.write_table(pa.table({"capture_hash": [h], "frame": [2], "rule": ["OLD-RULE"], "station": ["old"]}),
+                   dataset.table_path(d, "violations", h))
+    open(os.path.join(d, "_versions", "0"), "w").close()
+    con = dataset.open(d)
+    assert con.execute("SELECT severity, frame FROM violations WHERE rule = 'OLD-RULE'").fetchall() == [(None, 2)]
+    assert one(con, "SELECT count(*) FROM captures") == len(caps) + 1
+
+
+JSONISH = st.recursive(st.none() | st.booleans() | st.integers(-(1 << 70), 1 << 70) | st.text(max_size=8),
+                       lambda c: st.lists(c, max_size=3) | st.dictionaries(st.text(max_size=5), c, max_size=3),
+                       max_leaves=6)
+
+
+@hsettings(max_examples=150, deadline=None)
+@given(kind=st.sampled_from(sorted(KIND_TABLE)),
+       fields=st.dictionaries(st.sampled_from(["station", "rule", "slot", "ok", "params", "decoded", "cycles",
+                                               "message", "value", "extra", "phase", "zz_new", "ts"]) | st.text(max_size=6),
+                              JSONISH, max_size=6))
+def test_rows_keep_every_field(kind, fields):
+    """Whatever an event carries -- declared or not, of the declared type or not -- its row gives it
+    back: declared columns keep their type, the rest goes to ``extra``."""
+    from pndiss.dataset.rows import TableRows
+    ev = {**fields, "frame": 7, "ts_ns": 10**18, "kind": kind}
+    table = KIND_TABLE[kind]
+    tr = TableRows(table, "h")
+    tr.add(ev)
+    t = tr.table()   # typed as declared, or this raises
+    row = t.to_pylist()[0]
+    want = {k: v for k, v in json.loads(json.dumps(ev)).items()
+            if v is not None and (k != "kind" or table == "records")}
+    assert as_event(row, table) == want
