@@ -189,6 +189,21 @@ def test_failures_recorded_and_interruption_leaves_nothing(tmp_path, monkeypatch
     with pytest.raises(KeyboardInterrupt):
         dataset.write_capture(cap, ds)
     monkeypatch.undo()
+    # ... and interrupted in the middle of the analysis, with the cycles file open
+    calls = []
+
+    def killed_late(self, batch, orig=sink_mod.ParquetSink.cycle_batch):
+        calls.append(1)
+        if len(calls) > 1:
+            raise KeyboardInterrupt
+        orig(self, batch)
+    monkeypatch.setattr(sink_mod.ParquetSink, "cycle_batch", killed_late)
+    monkeypatch.setattr("pndiss.dataset.adapter.BATCH", 64)
+    monkeypatch.setattr("pndiss.dataset.cycles.ROW_GROUP", 16)
+    with pytest.raises(KeyboardInterrupt):
+        dataset.write_capture(cap, ds, cycles="full")
+    monkeypatch.undo()
+    assert len(calls) == 2
     h = dataset.content_hash(cap)
     assert h not in dataset.done_hashes(ds)
     assert not [n for t in TABLES for n in os.listdir(os.path.join(ds, t)) if n.startswith(".")]

@@ -51,6 +51,7 @@ def run(path: str, settings, sinks, progress=None):
     """Analyse ``path`` with the reference path, feeding ``sinks``; returns the Analyzer.
     Raises what ``analyze_file`` raises (CaptureError carries ``.analyzer``)."""
     from ..analyzer import analyze_file
+    from ..capture import CaptureError
 
     open_rows: dict = {}
     cyc = [s for s in sinks if s.cycles]
@@ -97,9 +98,12 @@ def run(path: str, settings, sinks, progress=None):
 
     try:
         a = analyze_file(path, settings, on_event, progress)
-    finally:
+    except CaptureError:   # a damaged file: what was read before the damage is kept
         for key in list(open_rows):
             flush(key)
+        raise
+    for key in list(open_rows):
+        flush(key)
     for s in sinks:
         s.flush_point(a.frames)
     return a

@@ -174,3 +174,13 @@ class CycleTable:
             self.writer = None
         return self.rows
 
+
+    def abort(self) -> None:
+        """Close the file without writing what is held (an interrupted capture)."""
+        self.pending, self.pending_rows = [], 0
+        if self.writer is not None:
+            try:
+                self.writer.close()
+            except Exception:  # already failing (a full disk): the file is removed anyway
+                pass
+            self.writer = None
