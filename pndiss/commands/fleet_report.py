@@ -14,10 +14,10 @@ def add_parser(sub) -> None:
 
 def run(args) -> int:
     from ..dataset import DatasetError, open as open_dataset
-    from ..dataset.report import collect
+    from ..dataset.report import TABLES_USED, collect
     from ..errors import UsageError
     try:
-        con = open_dataset(args.dataset)
+        con = open_dataset(args.dataset, tables=TABLES_USED)
     except DatasetError as e:
         raise UsageError(str(e)) from None
     data = collect(con)

@@ -7,6 +7,7 @@ lossy captures (capture gaps) and failed captures. The renderers (terminal, HTML
 from __future__ import annotations
 
 MAX_PERIODS = 31
+TABLES_USED = ("captures", "violations", "axes", "states", "ars", "ar_phases")
 TOP = 15
 
 OVERVIEW = """
