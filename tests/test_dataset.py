@@ -198,7 +198,6 @@ def test_failures_recorded_and_interruption_leaves_nothing(tmp_path, monkeypatch
             raise KeyboardInterrupt
         orig(self, batch)
     monkeypatch.setattr(sink_mod.ParquetSink, "cycle_batch", killed_late)
-    monkeypatch.setattr("pndiss.dataset.adapter.BATCH", 64)
     monkeypatch.setattr("pndiss.dataset.cycles.ROW_GROUP", 16)
     with pytest.raises(KeyboardInterrupt):
         dataset.write_capture(cap, ds, cycles="full")

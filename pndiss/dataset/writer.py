@@ -52,7 +52,7 @@ def write_capture(path: str, dataset_dir: str, settings=None, cycles="on_change"
     from ..capture import CaptureError, refuse_non_capture
     from ..errors import UsageError
     from ..settings import Settings
-    from . import adapter
+    from ..driver import analyze
     from .cycles import parse_mode
 
     parse_mode(cycles)   # a bad mode is the caller's error: raise before any work
@@ -80,7 +80,7 @@ def write_capture(path: str, dataset_dir: str, settings=None, cycles="on_change"
         a = None
         try:
             refuse_non_capture(path)
-            a = adapter.run(path, settings, [sink], progress)
+            a = analyze(path, settings, [sink], progress)   # the one driver: events + the engine's columns
         except (CaptureError, UsageError) as e:
             a = getattr(e, "analyzer", None)
             row["error"] = str(e)
