@@ -52,12 +52,14 @@ class FakeAnalyzer:
         self.emit(ev)
         return ev
 
-    def _malformed(self, fn, ts, layer, reason):
+    def add_malformed(self, fn, ts, layer, reason):
         ev = {"frame": fn, "ts_ns": ts, "kind": "malformed", "layer": layer, "reason": reason}
         self.malformed.append(ev)
         self.emit(ev)
 
-    def _pn_rt(self, fn, ts, data, off, src, dst, tags, udp, end=None):
+    _malformed = add_malformed
+
+    def pn_rt(self, fn, ts, data, off, src, dst, tags, udp, end=None):
         self.rt.append((fn, off, end, udp))
         return "decoded"
 
