@@ -69,7 +69,8 @@ class Engine:
                 return 1
             # frames the reader must take itself: not Ethernet, or a time stamp it would clamp (and count)
             raw = ix.raw_ts
-            good = (lts[ix.ifid] == 1) & (raw <= lim[ix.ifid].astype(np.uint64))
+            li = lim[ix.ifid]   # -1: every time stamp of the interface is checked (clamped) by the reader
+            good = (lts[ix.ifid] == 1) & (li >= 0) & (raw <= np.maximum(li, 0).astype(np.uint64))
             if not good.all():
                 m = int(np.argmin(good))
                 if m < MIN_FRAMES:
