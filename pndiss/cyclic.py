@@ -122,7 +122,8 @@ class CyclicTracker:
         # With a sink: called as telegram_sink(obj, frame, frame_id, fn, ts, iops, judged) instead of building
         # a ``telegram`` event dict per frame (the MCAP exporter formats its message from obj.sig itself).
         self.telegram_sink = None
-        self.gaps = GapTracker(getattr(self.s, "capture_gaps", True))
+        # bounded like self.frames; not a Limits table: the flood that evicts here is counted there already
+        self.gaps = GapTracker(getattr(self.s, "capture_gaps", True), limits.BoundedDict(self.s.max_streams, "streams"))
         self.infer = Inference(analyzer, getattr(self.s, "infer_telegrams", True))
 
     def count_unmapped(self, key: tuple, n: int) -> None:

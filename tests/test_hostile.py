@@ -191,6 +191,11 @@ def test_cyclic_streams_bounded(tmp_path, monkeypatch, fast):
     s = a.summary()
     assert s["frames"] == n == s["accounting"]["decoded"] and s["events"]["rt"] == n
     assert len(a.cyclic.frames) <= 500 and s["limits"]["evicted"]["streams"] > 0
+    # the capture-loss state per stream was the one table left unbounded: 10 M frames from 1 M MACs
+    # reached 500 MB peak RSS
+    assert len(a.cyclic.gaps.streams) <= 500
+    # tables that hold the same streams count an eviction once, not once per table
+    assert s["limits"]["evicted"]["streams"] <= n - 500
 
 
 def test_no_state_for_non_profinet_frames(tmp_path):
