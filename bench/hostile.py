@@ -164,6 +164,28 @@ def gen_pending_rpc(path: str, n: int) -> int:
 
 
 # ------------------------------------------------------------------ runner
+def in_child(fn, *args) -> int:
+    """fn(*args) -> int in a forked child. Linux carries a process's peak RSS over fork and exec into the
+    child's ru_maxrss: a parent that built a 10 M-frame capture would lend the measured analyze its size."""
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:
+        os.close(r)
+        code = 1
+        try:
+            os.write(w, str(fn(*args)).encode())
+            code = 0
+        finally:
+            os._exit(code)
+    os.close(w)
+    with os.fdopen(r) as f:
+        out = f.read()
+    _, status = os.waitpid(pid, 0)
+    if status != 0:
+        raise RuntimeError(f"generator {fn.__name__} failed")
+    return int(out)
+
+
 BENCHES = {
     # name -> (generator, sizes, description)
     "rpc_hole": (gen_rpc_hole, [10_000, 100_000, 1_000_000], "fragments of one RPC call, last first, a hole"),
@@ -173,6 +195,8 @@ BENCHES = {
     "dcp": (gen_dcp, [1_000, 100_000, 1_000_000], "DCP Identify responses from random MACs"),
     "cyclic_random": (lambda p, n: gen_cyclic_random(p, n, max(1, n // 3)), [300_000, 3_000_000],
                       "cyclic PN-RT frames from n/3 random source MACs"),
+    "cyclic_macs": (lambda p, n: gen_cyclic_random(p, n, max(1, n // 10)), [10_000_000],
+                    "cyclic PN-RT frames from n/10 random source MACs (#18: 10 M frames, 1 M MACs)"),
 }
 
 
@@ -204,6 +228,7 @@ def measure(path: str) -> tuple[float, float, int, str]:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", help="comma-separated benchmark names: " + ", ".join(BENCHES))
+    ap.add_argument("--sizes", help="comma-separated sizes instead of each benchmark's own")
     ap.add_argument("--scale", type=float, default=1.0, help="multiply every size (e.g. 0.1)")
     ap.add_argument("--out", default="/tmp/pndiss-hostile", help="directory for the generated captures")
     ap.add_argument("--record", action="store_true", help="append the table to bench/RESULTS.md")
@@ -229,11 +254,11 @@ def main() -> int:
             f.write("\n".join(head) + "\n")
     for name in names:
         gen, sizes, what = BENCHES[name]
-        for size in sizes:
+        for size in ([int(x) for x in args.sizes.split(",")] if args.sizes else sizes):
             n = max(10, int(size * args.scale))
             path = os.path.join(args.out, f"{name}-{n}.pcap")
             t = time.perf_counter()
-            frames = gen(path, n)
+            frames = in_child(gen, path, n)
             tg = time.perf_counter() - t
             dt, cpu, rss, note = measure(path)
             print(f"{name:14s} n={n:>10,} frames={frames:>11,} gen {tg:6.1f}s  analyze {dt:7.2f}s wall "

@@ -125,7 +125,8 @@ class CyclicTracker:
         # Called as stream_sink(key, fn, ts, frame, off) for every cyclic frame the tracker sees (the column
         # sinks' rows of frames that go one by one, pndiss/batches.py); off: where the FrameID starts.
         self.stream_sink = None
-        self.gaps = GapTracker(getattr(self.s, "capture_gaps", True))
+        # bounded like self.frames; not a Limits table: the flood that evicts here is counted there already
+        self.gaps = GapTracker(getattr(self.s, "capture_gaps", True), limits.BoundedDict(self.s.max_streams, "streams"))
         self.infer = Inference(analyzer, getattr(self.s, "infer_telegrams", True))
 
     def count_unmapped(self, key: tuple, n: int) -> None:

@@ -40,9 +40,10 @@ class Stream:
 class GapTracker:
     """Per cyclic stream: the counter of its last captured frame; says how many cycles a new frame skipped."""
 
-    def __init__(self, enabled: bool = True):
+    def __init__(self, enabled: bool = True, table: dict | None = None):
         self.enabled = enabled
-        self.streams: dict = {}
+        # key -> Stream; the analyzer passes a bounded table (a flood of random source MACs, issue #18)
+        self.streams: dict = {} if table is None else table
         self.rows: list[dict] = []
         self.count = 0
         self.missing = 0

@@ -69,10 +69,12 @@ class Limits:
         self.extra[name] += n
 
     def evicted(self) -> dict[str, int]:
-        out = Counter(self.extra)
+        # Tables that share a name hold the same keys (a stream's layout, its unmapped count, ...): the
+        # name counts as its busiest table, not their sum, which would count one key once per table.
+        out = Counter()
         for t in self.tables:
-            if t.evicted:
-                out[t.name] += t.evicted
+            out[t.name] = max(out[t.name], t.evicted)
+        out.update(self.extra)
         return {k: v for k, v in out.items() if v}
 
 

@@ -40,7 +40,7 @@ class Settings:
     fast_path: bool = True
     # --- bounded per-key tables (issue #18): beyond a limit the oldest entry is evicted, and the summary
     # says how many were not tracked (pndiss/limits.py). Memory stays flat under floods of random keys.
-    max_streams: int = 65536          # cyclic streams (FrameID, src, dst) and their layouts / axes
+    max_streams: int = 32768          # cyclic streams (FrameID, src, dst), layouts, axes (65,536: 151 MB, #18)
     max_stations: int = 10000         # stations by MAC (and DCP name/IP claims, device profiles)
     max_ars: int = 4096               # ARs with their frame maps
     max_calls: int = 4096             # RPC requests awaiting their response, record writes awaiting results

@@ -68,7 +68,9 @@ class Cols:
         return ((self.cc[a:b] - prev) % WRAP) != st.step
 
     def bulk_gaps(self, gaps, a: int, b: int) -> None:
-        st = gaps.streams[self.s.key]
+        st = gaps.streams.get(self.s.key)
+        if st is None:   # evicted (more streams than Settings.max_streams): counted there, not followed
+            return
         st.cc = int(self.cc[b - 1])
         st.frame = int(self.fn[b - 1])
         st.ts = int(self.ts[b - 1])

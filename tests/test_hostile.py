@@ -191,6 +191,11 @@ def test_cyclic_streams_bounded(tmp_path, monkeypatch, fast):
     s = a.summary()
     assert s["frames"] == n == s["accounting"]["decoded"] and s["events"]["rt"] == n
     assert len(a.cyclic.frames) <= 500 and s["limits"]["evicted"]["streams"] > 0
+    # the capture-loss state per stream was the one table left unbounded: 10 M frames from 1 M MACs
+    # reached 500 MB peak RSS
+    assert len(a.cyclic.gaps.streams) <= 500
+    # tables that hold the same streams count an eviction once, not once per table
+    assert s["limits"]["evicted"]["streams"] <= n - 500
 
 
 def test_no_state_for_non_profinet_frames(tmp_path):
@@ -204,3 +209,16 @@ def test_no_state_for_non_profinet_frames(tmp_path):
     streams = fast.new_streams(a)
     fast.run(a, open_capture(str(tmp_path / "arp.pcap")), streams)
     assert len(streams) == 0 and a.summary()["accounting"]["not_profinet"] == 5000
+
+
+# ---------------------------------------------------------------- found by the fuzz campaign (bench/fuzz)
+def test_iodata_with_zero_iops_length():
+    """A mutated Connect declared LengthIOPS 0 for the last object of a frame that ends with its data:
+    reading its IOPS byte crashed analyze --jsonl, plot and report (IndexError, exit 3)."""
+    from pndiss import armap, iodata
+    fm = armap.FrameMap(frame_id=0x8001, direction="input", controller_mac="02:00:00:00:00:01",
+                        device_mac="02:00:00:00:00:02", station="d", ar_uuid=None, data_length=6)
+    fm.objects = [armap.DataObject(api=0, slot=1, subslot=1, offset=0, length=2),
+                  armap.DataObject(api=0, slot=2, subslot=1, offset=3, length=3, iops_len=0)]
+    io = iodata.decode(fm, bytes([1, 2, 0x80, 4, 5, 6]))
+    assert [o["slot"] for o in io["objects"]] == [1] and io["gap_at"] == 3
