@@ -42,34 +42,40 @@ class Plan:
     outcomes: list = field(default_factory=list)  # skipped / duplicate / unreadable, known before any work
 
 
-def plan(paths: list[str], store, retry_failed: bool = False, hash_threads: int = 4) -> Plan:
-    """Hash every input (in threads: hashlib releases the GIL) and decide what to analyse."""
-    from concurrent.futures import ThreadPoolExecutor
-
+def plan(paths: list[str], store, retry_failed: bool = False, client=None, hash_threads: int = 4) -> Plan:
+    """Hash every input and decide what to analyse. Hashing reads every byte once: in threads here
+    (hashlib releases the GIL), or on the cluster's workers when ``client`` is given (a remote
+    cluster: the files are on its storage, and its nodes read them faster than one client)."""
     done = store.done()   # sha256 -> captures row (with "error" set for a failed capture)
-
-    def one(path):
-        try:
-            return path, content_hash(path), os.path.getsize(path), None
-        except OSError as e:
-            return path, "", 0, e
-
+    if client is not None:
+        hashed = client.gather(client.map(hash_one, paths, pure=False, key=[f"pndiss-hash-{i}" for i in range(len(paths))]))
+    else:
+        from concurrent.futures import ThreadPoolExecutor
+        with ThreadPoolExecutor(max(1, hash_threads)) as ex:
+            hashed = list(ex.map(hash_one, paths))
     p = Plan()
     first: dict[str, str] = {}
-    with ThreadPoolExecutor(max(1, hash_threads)) as ex:
-        for path, sha, size, err in ex.map(one, paths):
-            if err is not None:
-                p.outcomes.append(Outcome(path, "", "failed", f"cannot read: {err.strerror or err}", "input"))
-            elif sha in first:
-                p.outcomes.append(Outcome(path, sha, "duplicate", same_as=first[sha]))
+    for path, sha, size, err in hashed:
+        if err is not None:   # the writer records it (with its reason) under a hash of its path
+            p.todo.append((path, "", 0))
+        elif sha in first:
+            p.outcomes.append(Outcome(path, sha, "duplicate", same_as=first[sha]))
+        else:
+            first[sha] = path
+            row = done.get(sha)
+            if row is not None and not (retry_failed and row.get("error")):
+                p.outcomes.append(Outcome(path, sha, "skipped", row=row))
             else:
-                first[sha] = path
-                row = done.get(sha)
-                if row is not None and not (retry_failed and row.get("error")):
-                    p.outcomes.append(Outcome(path, sha, "skipped", row=row))
-                else:
-                    p.todo.append((path, sha, size))
+                p.todo.append((path, sha, size))
     return p
+
+
+def hash_one(path: str) -> tuple:
+    """(path, content hash, size, None), or (path, "", 0, why) when it cannot be read."""
+    try:
+        return path, content_hash(path), os.path.getsize(path), None
+    except OSError as e:
+        return path, "", 0, e.strerror or str(e)
 
 
 def analyse_one(store, path: str, sha: str, settings, cycles: str) -> Outcome:
@@ -108,7 +114,7 @@ def run_dask(client, todo, store, settings, cycles: str, on_done=None, retries: 
     order = sorted(todo, key=lambda t: -t[2])
     futures = {}
     for rank, (path, sha, _size) in enumerate(order):
-        fut = client.submit(analyse_one, store, path, sha, settings, cycles, key=f"pndiss-fleet-{sha}",
+        fut = client.submit(analyse_one, store, path, sha, settings, cycles, key=f"pndiss-fleet-{sha or rank}",
                             pure=False, retries=retries, priority=len(order) - rank)
         futures[fut] = (path, sha)
     out = []

@@ -28,12 +28,14 @@ class DatasetStore:
         return {r["capture_hash"]: r for r in t.to_pylist()}
 
     def write(self, path: str, sha: str, settings, cycles: str) -> dict:
-        """Analyse ``path`` into the dataset under content hash ``sha``; its ``captures`` row
-        (``error`` set when the file could not be analysed, what was read kept)."""
+        """Analyse ``path`` into the dataset under content hash ``sha`` ('' when it could not be
+        read: the writer records why); its ``captures`` row (``error`` set when the file could not
+        be analysed, what was read kept)."""
         from .dataset import write_capture
 
-        self.clear_attempts(sha)
-        return _small(write_capture(path, self.root, settings, cycles=cycles, capture_hash=sha))
+        if sha:
+            self.clear_attempts(sha)
+        return _small(write_capture(path, self.root, settings, cycles=cycles, capture_hash=sha or None))
 
     def record_failure(self, path: str, sha: str, error: str, settings, cycles: str) -> dict:
         """The ``captures`` row, with its error, of a capture whose analysis never returned."""

@@ -54,21 +54,24 @@ def run(args) -> int:
     paths = find_captures(args.inputs)
     store = open_store(args.output)
     t0 = time.perf_counter()
-    p = fleet.plan(paths, store, args.retry_failed)
     say = _Say(args.quiet)
-    progress = None if args.no_progress or args.quiet else FleetProgress(len(p.todo))
-    on_done = progress.done if progress else None
-    for o in p.outcomes:
-        if o.status == "failed":
-            _report_failure(o, progress)
-    client = cluster = None
+    client = cluster = progress = None
     try:
+        if args.scheduler:   # a remote cluster hashes the files where they are
+            client, cluster = fleet.connect(args.scheduler, 0)
+        p = fleet.plan(paths, store, args.retry_failed, client)
+        progress = None if args.no_progress or args.quiet else FleetProgress(len(p.todo))
+        on_done = progress.done if progress else None
+        for o in p.outcomes:
+            if o.status == "failed":
+                _report_failure(o, progress)
         if not p.todo:
             results = []
         elif args.workers == 0:
             results = fleet.run_local(p.todo, store, settings, args.cycles, on_done)
         else:
-            client, cluster = fleet.connect(args.scheduler, args.workers or os.cpu_count() or 1)
+            if client is None:   # started only when there is work: a re-run with nothing to do is instant
+                client, cluster = fleet.connect(None, args.workers or os.cpu_count() or 1)
             results = fleet.run_dask(client, p.todo, store, settings, args.cycles, on_done)
     finally:
         if progress:
