@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import os
 import time
+import uuid
 from dataclasses import dataclass, field
 
 from .errors import UsageError
@@ -48,7 +49,9 @@ def plan(paths: list[str], store, retry_failed: bool = False, client=None, hash_
     cluster: the files are on its storage, and its nodes read them faster than one client)."""
     done = store.done()   # sha256 -> captures row (with "error" set for a failed capture)
     if client is not None:
-        hashed = client.gather(client.map(hash_one, paths, pure=False, key=[f"pndiss-hash-{i}" for i in range(len(paths))]))
+        run = uuid.uuid4().hex[:12]   # task keys of this run: another run on the same scheduler has its own
+        hashed = client.gather(client.map(hash_one, paths, pure=False,
+                                          key=[f"pndiss-hash-{run}-{i}" for i in range(len(paths))]))
     else:
         from concurrent.futures import ThreadPoolExecutor
         with ThreadPoolExecutor(max(1, hash_threads)) as ex:
@@ -112,9 +115,10 @@ def run_dask(client, todo, store, settings, cycles: str, on_done=None, retries: 
     from distributed import as_completed
 
     order = sorted(todo, key=lambda t: -t[2])
+    run = uuid.uuid4().hex[:12]   # a run writing another dataset on the same scheduler must not share our tasks
     futures = {}
     for rank, (path, sha, _size) in enumerate(order):
-        fut = client.submit(analyse_one, store, path, sha, settings, cycles, key=f"pndiss-fleet-{sha or rank}",
+        fut = client.submit(analyse_one, store, path, sha, settings, cycles, key=f"pndiss-fleet-{sha or rank}-{run}",
                             pure=False, retries=retries, priority=len(order) - rank)
         futures[fut] = (path, sha)
     out = []

@@ -43,7 +43,7 @@ def inputs(tmp_path_factory):
         shutil.copy(p, sub / os.path.basename(p))
     long = d / "long" / "long.pcapng"   # a task that runs for seconds: the one whose worker is killed
     long.parent.mkdir()
-    assert main(["simulate", "--encoders", "2", "--io-devices", "1", "--cycles", "5000", "--seed", "7",
+    assert main(["simulate", "--encoders", "2", "--io-devices", "1", "--cycles", "3000", "--seed", "7",
                  "--no-expected", "-o", str(long)]) == 0
     return d
 
@@ -125,7 +125,7 @@ def test_worker_killed_mid_run_loses_nothing(inputs, client, sequential, tmp_pat
     store = DatasetStore(root)
     p = fleet.plan(find_captures([str(inputs)]), store)
     long = next(t for t in p.todo if t[0].endswith("long.pcapng"))
-    key = f"pndiss-fleet-{long[1]}"
+    key = f"pndiss-fleet-{long[1]}-"
     pids = client.run(os.getpid)   # worker address -> pid
     killed = []
 
@@ -134,7 +134,7 @@ def test_worker_killed_mid_run_loses_nothing(inputs, client, sequential, tmp_pat
             return
         deadline = time.monotonic() + 30
         while time.monotonic() < deadline:   # the long task is the first one started: wait until it runs
-            busy = {w: ks for w, ks in client.processing().items() if key in ks}
+            busy = {w: ks for w, ks in client.processing().items() if any(k.startswith(key) for k in ks)}
             if busy:
                 (worker,) = busy
                 os.kill(pids[worker], signal.SIGKILL)
@@ -147,7 +147,7 @@ def test_worker_killed_mid_run_loses_nothing(inputs, client, sequential, tmp_pat
     worker, pid = killed[0]
     assert pid not in client.run(os.getpid).values()   # that process is gone (its nanny started another)
     assert sorted(o.status for o in out) == ["analysed"] * len(p.todo)
-    assert next(o for o in out if o.sha256 == long[1]).row["frames"] > 20000
+    assert next(o for o in out if o.sha256 == long[1]).row["frames"] > 10000
     assert snapshot(root) == snapshot(sequential)
     assert not glob.glob(os.path.join(root, "*", ".*.tmp"))   # nothing half-written left behind
 
