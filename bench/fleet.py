@@ -2,7 +2,7 @@
 """The fleet benchmarks (issue #14): `pndiss fleet` on 1 vs 2 Dask worker processes, and DuckDB's
 answer to "violations by station and rule" over the dataset of 1,000 small captures.
 
-    PYTHONPATH=. python3 bench/fleet.py [--out bench/out] [--files 24] [--small 1000]
+    PYTHONPATH=. python3 bench/fleet.py [--out bench/out] [--files 24] [--small 1000] [--parts speedup,query,volume]
 
 Writes its figures into bench/RESULTS.md between ``<!-- fleet:begin -->`` and ``<!-- fleet:end -->``.
 The captures are made by `pndiss simulate` (in this process, so scapy is imported once) and kept in
@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import glob
+import json
 import os
 import platform
 import re
@@ -174,58 +175,85 @@ def main() -> None:
     ap.add_argument("--out", default=os.path.join(HERE, "out"))
     ap.add_argument("--files", type=int, default=24)
     ap.add_argument("--small", type=int, default=1000)
+    ap.add_argument("--parts", default="speedup,query,volume",
+                    help="which parts to measure now (the others keep their last figures from OUT/fleet-results.json)")
     args = ap.parse_args()
+    parts = set(args.parts.split(","))
+    res_path = os.path.join(args.out, "fleet-results.json")
+    res = json.load(open(res_path)) if os.path.exists(res_path) else {}
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=ROOT).stdout.strip()
     set_dir, small_dir = os.path.join(args.out, "fleet-set"), os.path.join(args.out, "fleet-small")
-    paths = simulate(set_dir, VARIANTS, args.files, SET_CYCLES)
-    simulate(small_dir, SMALL_VARIANTS, args.small, SMALL_CYCLES)
-    mb = sum(os.path.getsize(p) for p in paths) / 1e6
-    load = os.getloadavg()[0]
-    runs = {}
-    for workers in (1, 2):
-        before = os.times()
-        dt, line = fleet(set_dir, os.path.join(args.out, f"fleet-ds{workers}"), workers)
-        after = os.times()
-        cpu = (after.children_user + after.children_system) - (before.children_user + before.children_system)
-        runs[workers] = (dt, cpu, line)
-        print(f"{workers} worker(s): {dt:.1f} s wall, {cpu:.1f} s CPU  [{line}]", file=sys.stderr)
-    speedup = runs[1][0] / runs[2][0]
-    from pndiss import dataset as ds
-    frames = ds.open(os.path.join(args.out, "fleet-ds1")).sql("SELECT sum(frames) FROM captures").fetchone()[0]
-    small_ds = os.path.join(args.out, "fleet-small-ds")
-    dt_small, _line = fleet(small_dir, small_ds, 2)
-    cold, warm, rows = query_times(small_ds)
-    vol = volumes(args.out)
-    lines = [
-        "## Fleet (`pndiss fleet` on Dask; DuckDB over the dataset) -- bench/fleet.py",
-        "",
-        f"Machine: {platform.machine()}, {os.cpu_count()} CPUs, Python {platform.python_version()}, commit {commit}; "
-        f"load average {load:.2f} at the start (other work on the machine slows the 2-worker run).",
-        "",
-        f"Benchmark set: {len(paths)} captures, {mb:.0f} MB, made by `pndiss simulate --cycles {SET_CYCLES} --seed I` "
-        "with, in turn: " + "; ".join(f"`{v}`" for v in VARIANTS) + ".",
-        "",
-        "| run | wall s | CPU s (all processes) | result |",
-        "|---|---|---|---|",
-        *(f"| `pndiss fleet SET -o DS --workers {w}` | {runs[w][0]:.1f} | {runs[w][1]:.1f} | {runs[w][2]} |" for w in (1, 2)),
-        "",
-        f"**2 workers: {speedup:.2f}x one worker** (wall time of the whole command, cluster start-up included). "
-        f"{frames:,} frames in all: {frames / runs[1][0]:,.0f} frames/s with one worker, "
-        f"{frames / runs[2][0]:,.0f} with two (capture to Parquet dataset, cycles on_change).",
-        "",
-        f"1,000-capture dataset: {args.small} captures of `pndiss simulate --cycles {SMALL_CYCLES}` (variants "
-        + ", ".join(f"`{v}`" if v else "defaults" for v in SMALL_VARIANTS) + f"), analysed by "
-        f"`pndiss fleet --workers 2` in {dt_small:.1f} s ({args.small / dt_small:.0f} captures/s), "
-        f"dataset {du(small_ds) / 1e6:.1f} MB.",
-        "",
-        f"\"Violations by station and rule\" (`{QUERY}`, {rows} rows) with DuckDB, views over every table made "
-        f"first: **{cold:.2f} s** in a fresh process (imports included), {statistics.median(warm) * 1000:.0f} ms "
-        f"median of {len(warm)} in a warm one.",
-        "",
-        *volume_lines(vol),
-    ]
+    if "speedup" in parts:
+        paths = simulate(set_dir, VARIANTS, args.files, SET_CYCLES)
+        r = {"files": len(paths), "mb": sum(os.path.getsize(p) for p in paths) / 1e6, "commit": commit,
+             "load_before": os.getloadavg()[0], "runs": {}}
+        for workers in (1, 2):
+            before = os.times()
+            dt, line = fleet(set_dir, os.path.join(args.out, f"fleet-ds{workers}"), workers)
+            after = os.times()
+            cpu = (after.children_user + after.children_system) - (before.children_user + before.children_system)
+            r["runs"][str(workers)] = (dt, cpu, line)
+            print(f"{workers} worker(s): {dt:.1f} s wall, {cpu:.1f} s CPU  [{line}]", file=sys.stderr)
+        r["load_after"] = os.getloadavg()[0]
+        from pndiss import dataset as ds
+        r["frames"] = ds.open(os.path.join(args.out, "fleet-ds1")).sql("SELECT sum(frames) FROM captures").fetchall()[0][0]
+        res["speedup"] = r
+    if "query" in parts:
+        simulate(small_dir, SMALL_VARIANTS, args.small, SMALL_CYCLES)
+        small_ds = os.path.join(args.out, "fleet-small-ds")
+        load = os.getloadavg()[0]
+        dt_small, _line = fleet(small_dir, small_ds, 2)
+        cold, warm, rows = query_times(small_ds)
+        res["query"] = {"n": args.small, "fleet_s": dt_small, "mb": du(small_ds) / 1e6, "cold": cold,
+                        "warm": statistics.median(warm), "repeat": len(warm), "rows": rows, "load": load,
+                        "commit": commit}
+    if "volume" in parts:
+        res["volume"] = {"rows": volumes(args.out), "commit": commit}
+    os.makedirs(args.out, exist_ok=True)
+    with open(res_path, "w") as f:
+        json.dump(res, f, indent=1)
+    lines = section(res)
     write_section("\n".join(lines))
     print("\n".join(lines))
+
+
+def section(res: dict) -> list[str]:
+    lines = ["## Fleet (`pndiss fleet` on Dask; DuckDB over the dataset) -- bench/fleet.py", "",
+             f"Machine: {platform.machine()}, {os.cpu_count()} CPUs, Python {platform.python_version()}. "
+             "The load average is stated per part: on a machine shared with other work (Linux autogroup "
+             "scheduling gives each session a fair share of the CPUs), the worker processes of one "
+             "`pndiss fleet` share that session's share, and 2 workers cannot beat 1 by much.", ""]
+    r = res.get("speedup")
+    if r:
+        runs = {int(k): v for k, v in r["runs"].items()}
+        speedup = runs[1][0] / runs[2][0]
+        lines += [
+            f"Benchmark set (commit {r['commit']}; load average {r['load_before']:.1f} before, {r['load_after']:.1f} "
+            f"after): {r['files']} captures, {r['mb']:.0f} MB, {r['frames']:,} frames, made by "
+            f"`pndiss simulate --cycles {SET_CYCLES} --seed I` with, in turn: " + "; ".join(f"`{v}`" for v in VARIANTS) + ".",
+            "",
+            "| run | wall s | CPU s (all processes) | frames/s | result |",
+            "|---|---|---|---|---|",
+            *(f"| `pndiss fleet SET -o DS --workers {w}` | {runs[w][0]:.1f} | {runs[w][1]:.1f} | "
+              f"{r['frames'] / runs[w][0]:,.0f} | {runs[w][2].removeprefix('pndiss: fleet: ')} |" for w in (1, 2)),
+            "",
+            f"**2 workers: {speedup:.2f}x one worker** (wall time of the whole command, cluster start-up included; "
+            "capture to Parquet dataset, cycles on_change).", ""]
+    q = res.get("query")
+    if q:
+        lines += [
+            f"1,000-capture dataset (commit {q['commit']}; load average {q['load']:.1f}): {q['n']} captures of "
+            f"`pndiss simulate --cycles {SMALL_CYCLES} --seed I` (variants "
+            + ", ".join(f"`{v}`" if v else "defaults" for v in SMALL_VARIANTS) + "), analysed by "
+            f"`pndiss fleet --workers 2` in {q['fleet_s']:.1f} s ({q['n'] / q['fleet_s']:.1f} captures/s), "
+            f"dataset {q['mb']:.1f} MB.", "",
+            f"\"Violations by station and rule\" (`{QUERY}`, {q['rows']} rows) with DuckDB, a view over every "
+            f"table made first (`pndiss.dataset.open`): **{q['cold']:.2f} s** in a fresh process (imports included), "
+            f"{q['warm'] * 1000:.0f} ms median of {q['repeat']} in a warm one.", ""]
+    v = res.get("volume")
+    if v:
+        lines += [f"(commit {v['commit']}) " + volume_lines(v["rows"])[0], *volume_lines(v["rows"])[1:]]
+    return lines
 
 
 if __name__ == "__main__":

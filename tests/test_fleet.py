@@ -152,6 +152,29 @@ def test_worker_killed_mid_run_loses_nothing(inputs, client, sequential, tmp_pat
     assert not glob.glob(os.path.join(root, "*", ".*.tmp"))   # nothing half-written left behind
 
 
+def test_interrupted_run_continues(inputs, sequential, tmp_path):
+    """The fleet command killed outright (SIGKILL, no clean-up) part-way: the next run does the rest."""
+    import subprocess
+    import sys
+
+    root = tmp_path / "ds"
+    cmd = [sys.executable, "-m", "pndiss", "fleet", str(inputs), "-o", str(root), "--workers", "0", "--no-progress"]
+    env = {**os.environ, "PYTHONPATH": ROOT + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 120
+    while len(glob.glob(str(root / "captures" / "*.parquet"))) < 3 and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    proc.kill()
+    proc.wait()
+    done = len(glob.glob(str(root / "captures" / "*.parquet")))
+    n = len(CAPS) + 1
+    assert 3 <= done < n, "the run was not interrupted part-way"
+    p = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    assert f"{n - done} analysed, {done} skipped" in p.stderr
+    assert snapshot(str(root)) == snapshot(sequential)
+
+
 def test_failed_files_recorded_and_the_rest_analysed(client, tmp_path, capsys):
     src = tmp_path / "in"
     src.mkdir()

@@ -51,6 +51,10 @@ def run(args) -> int:
     except ValueError as e:
         raise UsageError(f"--cycles: {e}") from None
     settings = settings_from_args(args)
+    # workers open --map / --gsdml themselves, maybe on another machine or in another directory
+    if settings.map_file:
+        settings.map_file = os.path.abspath(settings.map_file)
+    settings.gsdml = [os.path.abspath(g) for g in settings.gsdml]
     paths = find_captures(args.inputs)
     store = open_store(args.output)
     t0 = time.perf_counter()
