@@ -127,23 +127,28 @@ def test_worker_killed_mid_run_loses_nothing(inputs, client, sequential, tmp_pat
     long = next(t for t in p.todo if t[0].endswith("long.pcapng"))
     key = f"pndiss-fleet-{long[1]}-"
     pids = client.run(os.getpid)   # worker address -> pid
-    killed = []
+    killed, seen = [], []
 
-    def on_done(_outcome):
-        if killed:
-            return
-        deadline = time.monotonic() + 30
-        while time.monotonic() < deadline:   # the long task is the first one started: wait until it runs
-            busy = {w: ks for w, ks in client.processing().items() if any(k.startswith(key) for k in ks)}
+    def killer():
+        """Kill the worker the long capture runs on, half a second after it started there."""
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline:
+            snap = client.processing()
+            seen.append(snap)
+            busy = [w for w, ks in snap.items() if any(str(k).startswith(key) for k in ks)]
             if busy:
-                (worker,) = busy
-                os.kill(pids[worker], signal.SIGKILL)
-                killed.append((worker, pids[worker]))
+                time.sleep(0.5)
+                os.kill(pids[busy[0]], signal.SIGKILL)
+                killed.append((busy[0], pids[busy[0]]))
                 return
-            time.sleep(0.05)
+            time.sleep(0.02)
 
-    out = fleet.run_dask(client, p.todo, store, Settings(), "on_change", on_done)
-    assert killed, "the long capture was never seen running"
+    import threading
+    t = threading.Thread(target=killer, daemon=True)
+    t.start()
+    out = fleet.run_dask(client, p.todo, store, Settings(), "on_change")
+    t.join()
+    assert killed, f"the long capture was never seen running: {seen[-3:]}"
     worker, pid = killed[0]
     assert pid not in client.run(os.getpid).values()   # that process is gone (its nanny started another)
     assert sorted(o.status for o in out) == ["analysed"] * len(p.todo)
