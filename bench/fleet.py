@@ -250,10 +250,11 @@ def section(res: dict) -> list[str]:
             f"after): {r['files']} captures, {r['mb']:.0f} MB, {r['frames']:,} frames, made by "
             f"`pndiss simulate --cycles {SET_CYCLES} --seed I` with, in turn: " + "; ".join(f"`{v}`" for v in VARIANTS) + ".",
             "",
-            "| run | wall s | CPU s (all processes) | frames/s | result |",
-            "|---|---|---|---|---|",
+            "| run | wall s | CPU s (all processes) | frames/s | frames per CPU s | result |",
+            "|---|---|---|---|---|---|",
             *(f"| `pndiss fleet SET -o DS --workers {w}` | {runs[w][0]:.1f} | {runs[w][1]:.1f} | "
-              f"{r['frames'] / runs[w][0]:,.0f} | {runs[w][2].removeprefix('pndiss: fleet: ')} |" for w in (1, 2)),
+              f"{r['frames'] / runs[w][0]:,.0f} | {r['frames'] / runs[w][1]:,.0f} | "
+              f"{runs[w][2].split(' -> ')[-1].split(': ', 1)[-1]} |" for w in (1, 2)),
             "",
             f"**2 workers: {speedup:.2f}x one worker** (wall time of the whole command, cluster start-up included; "
             "capture to Parquet dataset, cycles on_change).", ""]
