@@ -56,7 +56,7 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     sub.required = True
     names = sorted(m.name for m in pkgutil.iter_modules(commands.__path__))
-    wanted = next((a for a in (argv or []) if not a.startswith("-")), None)
+    wanted = next((a.replace("-", "_") for a in (argv or []) if not a.startswith("-")), None)
     for name in ([wanted] if wanted in names else names):
         importlib.import_module(f"{commands.__name__}.{name}").add_parser(sub)
     return p

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import telegrams as tg
+from ..events import FrameTimes
 from ..sinks import CycleBatch
 
 BATCH = 4096
@@ -50,6 +51,7 @@ def run(path: str, settings, sinks, progress=None):
     """Analyse ``path`` with the reference path, feeding ``sinks``; returns the Analyzer.
     Raises what ``analyze_file`` raises (CaptureError carries ``.analyzer``)."""
     from ..analyzer import analyze_file
+    from ..capture import CaptureError
 
     open_rows: dict = {}
     cyc = [s for s in sinks if s.cycles]
@@ -61,7 +63,10 @@ def run(path: str, settings, sinks, progress=None):
             for s in cyc:
                 s.cycle_batch(b)
 
+    fix = FrameTimes().fix   # a violation's ts_ns is its frame's time, as in the JSONL
+
     def on_event(ev):
+        ev = fix(ev)
         kind = ev["kind"]
         if kind == "telegram":
             if not cyc:
@@ -93,9 +98,12 @@ def run(path: str, settings, sinks, progress=None):
 
     try:
         a = analyze_file(path, settings, on_event, progress)
-    finally:
+    except CaptureError:   # a damaged file: what was read before the damage is kept
         for key in list(open_rows):
             flush(key)
+        raise
+    for key in list(open_rows):
+        flush(key)
     for s in sinks:
         s.flush_point(a.frames)
     return a

@@ -14,7 +14,7 @@ import numpy as np
 import pyarrow as pa
 
 from .. import telegrams as tg
-from .schema import CYCLES_HEAD, TABLES, arrow_schema, bit_columns
+from .schema import CYCLES_HEAD, TABLES, arrow_schema, bit_columns, ts_array
 
 ROW_GROUP = 1 << 16   # rows held before a row group is written
 
@@ -130,7 +130,7 @@ class CycleTable:
                 cols[name] = pa.nulls(n, t) if v is None else pa.repeat(pa.scalar(v, t), n)
         cols["frame"] = pa.array(frame)
         cols["ts_ns"] = pa.array(ts)
-        cols["ts"] = pa.array(ts).cast(self.types["ts"])
+        cols["ts"] = ts_array(ts)
         cols["iops"] = pa.array(sel(np.asarray(b.iops)).astype(np.int16))
         cols["judged"] = pa.array(sel(np.asarray(b.judged, bool)))
         words = {}
@@ -144,9 +144,9 @@ class CycleTable:
         have = {}
         for sig, w in words.items():
             for bname, shift, mask in tg.bit_fields(sig, profile):
-                have[f"{sig}.{bname}"] = ((w.astype(np.uint64) >> np.uint64(shift)) & np.uint64(mask)).astype(np.uint8)
-        for col, _, _ in self.bits:
-            cols[col] = pa.array(have[col]) if col in have else pa.nulls(n, pa.uint8())
+                have[f"{sig}.{bname}"] = (w.astype(np.uint64) >> np.uint64(shift)) & np.uint64(mask)
+        for col, t in self.bits:
+            cols[col] = pa.array(have[col]).cast(t) if col in have else pa.nulls(n, t)
         return pa.RecordBatch.from_arrays([cols[f.name] for f in self.schema], schema=self.schema)
 
     def _write(self) -> None:
@@ -154,7 +154,13 @@ class CycleTable:
         if not self.pending:
             return
         if self.writer is None:
-            self.writer = pq.ParquetWriter(self.path, self.schema, compression="zstd")
+            # counters, times and positions move by small steps: delta encoding makes them a few bits
+            # a row and writes faster than dictionaries of distinct values; the axis' strings repeat
+            strs = [f.name for f in self.schema if pa.types.is_string(f.type)]
+            deltas = {f.name: "DELTA_BINARY_PACKED" for f in self.schema
+                      if pa.types.is_integer(f.type) or pa.types.is_timestamp(f.type)}
+            self.writer = pq.ParquetWriter(self.path, self.schema, compression="zstd", use_dictionary=strs,
+                                           column_encoding=deltas)
         self.writer.write_table(pa.Table.from_batches(self.pending, schema=self.schema))
         self.rows += self.pending_rows
         self.pending, self.pending_rows = [], 0
@@ -168,3 +174,13 @@ class CycleTable:
             self.writer = None
         return self.rows
 
+
+    def abort(self) -> None:
+        """Close the file without writing what is held (an interrupted capture)."""
+        self.pending, self.pending_rows = [], 0
+        if self.writer is not None:
+            try:
+                self.writer.close()
+            except Exception:  # already failing (a full disk): the file is removed anyway
+                pass
+            self.writer = None

@@ -9,7 +9,7 @@ import json
 
 import pyarrow as pa
 
-from .schema import JSON, TABLES, arrow_schema, arrow_type
+from .schema import JSON, TABLES, arrow_schema, arrow_type, ts_array
 
 
 def _json(v) -> str:
@@ -48,16 +48,20 @@ class TableRows:
         self.n = 0
 
     def add(self, row: dict) -> None:
-        extra = {k: v for k, v in row.items() if k not in self.data}
+        # columns the table derives (not event fields): an event's own value of that name goes to extra
+        derived = {"capture_hash", "ts", "extra"} if self.capture_hash is not None else {"ts", "extra"}
+        extra = {k: v for k, v in row.items() if (k not in self.data or k in derived) and v is not None}
         if "kind" not in self.data:   # the table says the kind
             extra.pop("kind", None)
+        if self.name == "captures":   # the writer's own row: its time stamps are the columns
+            extra = {k: v for k, v in extra.items() if k not in derived}
         for n, t in self.cols:
             if n == "capture_hash" and self.capture_hash is not None:
                 v = self.capture_hash
-            elif n == "ts" and "ts" not in row:
+            elif n == "ts":
                 v = row.get("ts_ns") if isinstance(row.get("ts_ns"), int) else None
             elif n == "extra":
-                v = _json(extra) if extra else None
+                v = None   # filled below, once the wrongly typed values are known
             else:
                 v = row.get(n)
                 if v is not None:
@@ -76,7 +80,7 @@ class TableRows:
         arrays = []
         for (n, t), f in zip(self.cols, schema):
             if pa.types.is_timestamp(f.type):   # held as ns integers
-                arrays.append(pa.array(self.data[n], pa.int64()).cast(f.type))
+                arrays.append(ts_array(self.data[n]))
             else:
                 arrays.append(pa.array(self.data[n], arrow_type(t)))
         return pa.Table.from_arrays(arrays, schema=schema)

@@ -19,7 +19,9 @@ SCHEMA_VERSION = 1
 
 JSON = "json"   # a column of JSON text (pa.string() in the file)
 STR, I64, I32, BOOL, F64 = pa.string(), pa.int64(), pa.int32(), pa.bool_(), pa.float64()
-TS = pa.timestamp("ns", tz="UTC")
+# UTC without a zone, in µs: every reader takes it as it is (Spark cannot read ns time stamps);
+# the exact time is the ``ts_ns`` integer beside it
+TS = pa.timestamp("us")
 
 # every table's first columns: which capture, which frame, when (``ts`` is ``ts_ns`` as a timestamp,
 # for SQL date arithmetic; not a JSONL field)
@@ -104,16 +106,16 @@ def _signal_type(name: str) -> pa.DataType:
     return pa.uint64() if s["size"] == 8 and not s["signed"] else pa.int64()
 
 
-def bit_columns() -> list[tuple[str, str, str]]:
-    """(column, signal, bit name) of every named bit of any profile, in table order."""
-    out, seen = [], set()
+def bit_columns() -> list[tuple[str, pa.DataType]]:
+    """(column, type) of every named bit field of any profile, in table order: uint8, or int64 for a
+    field wider than 8 bits (the 31-bit preset values of telegram 860)."""
+    out: dict = {}
     for sig, rows in tg.BITMAPS.items():
         for b in rows:
             col = f"{sig}.{b['name']}"
-            if col not in seen:
-                seen.add(col)
-                out.append((col, sig, b["name"]))
-    return out
+            wide = b["width"] > 8 or out.get(col) == pa.int64()
+            out[col] = pa.int64() if wide else pa.uint8()
+    return list(out.items())
 
 
 # per-axis cyclic data: one row per data object of a cyclic frame (setpoint or actual), every
@@ -125,7 +127,12 @@ CYCLES_HEAD = [
     ("iops", pa.int16()), ("judged", BOOL),
 ]
 TABLES["cycles"] = (CYCLES_HEAD + [(n, _signal_type(n)) for n in tg.SIGNALS]
-                    + [(c, pa.uint8()) for c, _, _ in bit_columns()])
+                    + bit_columns())
+
+
+def ts_array(ns) -> pa.Array:
+    """A TS column from integer ns since the epoch (None: null), cut to µs."""
+    return pa.array(ns, pa.int64()).cast(pa.timestamp("ns")).cast(TS, safe=False)
 
 
 def arrow_type(t) -> pa.DataType:
@@ -143,3 +150,42 @@ def arrow_schema(table: str, metadata: dict | None = None) -> pa.Schema:
 def type_name(t) -> str:
     """The type as docs/dataset.md names it."""
     return "JSON (string)" if t == JSON else str(t)
+
+
+ABOUT = {
+    "captures": "one row per capture file (also a failed one, with `error`): content hash, frames and their "
+                "accounting, time span, violation and capture-gap counts, pndiss and schema version, settings",
+    "violations": "`violation` events: rule, side, severity, first/last frame, message, the axis",
+    "params": "`param` events: a PROFIdrive parameter access (0xB02E/0xB02F) request + response; `params` "
+              "holds the parameters (pnu, name, values, error)",
+    "records": "`record` events (record data: write request / read response, `decoded` content, e.g. I&M0) "
+               "and `record_result` events (the PNIO status of a write), told apart by `kind`",
+    "stations": "the summary's stations: every MAC seen with what DCP and LLDP said about it",
+    "ars": "`ar` events: an application relationship (Connect), IOCRs, telegrams and their source",
+    "ar_phases": "`ar_phase` events: parameterisation -> prm_end -> application_ready -> data_exchange -> "
+                 "released / aborted",
+    "states": "`state` events: state changes of a reference encoder (control by PLC, preset, parking, ...)",
+    "capture_gaps": "`capture_gap` events: cycles of a cyclic stream the capture lost (not judged)",
+    "axes": "the summary's encoder axes (one per data object with a telegram): telegram and its source, "
+            "profile, cycles judged / gated / lost, the settings in force",
+    "cycles": "per-axis cyclic data, one row per data object of a cyclic frame (setpoint or actual): every "
+              "signal and every bit of the telegram table (full, on change or decimated)",
+}
+
+
+def markdown() -> str:
+    """The tables section of docs/dataset.md (tools/gen_dataset_doc.py writes it; a test keeps it current)."""
+    out = [f"Schema version **{SCHEMA_VERSION}**.", ""]
+    for t, cols in TABLES.items():
+        out += [f"### `{t}`", "", ABOUT[t] + ".", "", "| column | type |", "|---|---|"]
+        if t == "cycles":
+            head = len(CYCLES_HEAD) + len(tg.SIGNALS)
+            out += [f"| `{n}` | {type_name(ty)} |" for n, ty in cols[:head]]
+            out += ["", f"and {len(cols) - head} bit columns, named as the JSONL `bits` keys (`signal.bit`; quote "
+                        "them in SQL: `\"g1_zsw.sensor_error\"`), uint8 unless noted: "
+                        + ", ".join(f"`{n}`" + ("" if ty == pa.uint8() else f" ({ty})") for n, ty in cols[head:])
+                        + "."]
+        else:
+            out += [f"| `{n}` | {type_name(ty)} |" for n, ty in cols]
+        out.append("")
+    return "\n".join(out)

@@ -50,3 +50,7 @@ class ParquetSink(Sink):
         n = self.cyc.close()
         if n:
             self.written["cycles"] = n
+
+    def abort(self) -> None:
+        """Stop without writing (the writer removes the temporary files)."""
+        self.cyc.abort()

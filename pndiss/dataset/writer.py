@@ -76,16 +76,16 @@ def write_capture(path: str, dataset_dir: str, settings=None, cycles="on_change"
         return os.path.join(dataset_dir, table, tmp)
 
     sink = ParquetSink(path_of, h, cycles, keyframe_s)
-    a = None
     try:
-        refuse_non_capture(path)
-        a = adapter.run(path, settings, [sink], progress)
-    except (CaptureError, UsageError) as e:
-        a = getattr(e, "analyzer", None)
-        row["error"] = str(e)
-    except Exception as e:  # a bug must not stop a fleet run: recorded, with its type
-        row["error"] = f"internal error: {type(e).__name__}: {e}"
-    try:
+        a = None
+        try:
+            refuse_non_capture(path)
+            a = adapter.run(path, settings, [sink], progress)
+        except (CaptureError, UsageError) as e:
+            a = getattr(e, "analyzer", None)
+            row["error"] = str(e)
+        except Exception as e:  # a bug must not stop a fleet run: recorded, with its type
+            row["error"] = f"internal error: {type(e).__name__}: {e}"
         summ = a.summary() if a is not None else None
         if summ is not None:
             sink.add_rows("stations", summ["stations"])
@@ -94,7 +94,8 @@ def write_capture(path: str, dataset_dir: str, settings=None, cycles="on_change"
         if summ is not None:
             _fill(row, summ, sink)
         _commit(dataset_dir, h, sink.written, row, tmp)
-    except BaseException:
+    except BaseException:   # interrupted (Ctrl-C, a worker told to stop) or a full disk: no temporaries left
+        sink.abort()
         _remove_tmp(dataset_dir, tmp)
         raise
     return row
@@ -123,7 +124,11 @@ def _commit(dataset_dir: str, h: str, written: dict, row: dict, tmp: str | None 
     import pyarrow.parquet as pq
     from .rows import TableRows
 
+    from .reader import VERSIONS_DIR
     os.makedirs(os.path.join(dataset_dir, "captures"), exist_ok=True)
+    os.makedirs(os.path.join(dataset_dir, VERSIONS_DIR), exist_ok=True)
+    with open(os.path.join(dataset_dir, VERSIONS_DIR, str(SCHEMA_VERSION)), "a"):
+        pass
     final = table_path(dataset_dir, "captures", h)
     if os.path.exists(final):
         os.remove(final)   # incomplete from here until the new row is in place
