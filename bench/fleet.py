@@ -79,36 +79,26 @@ def fleet(inputs: str, dataset: str, workers: int) -> tuple[float, str]:
 
 
 def query_times(dataset: str, repeat: int = 5) -> dict:
-    """The question answered three ways: in a fresh process through ``pndiss.dataset.open`` (a view
-    per table, imports included); in a warm process through ``open``; and in a warm process straight
-    from the two tables' files (DIRECT: what the violations view reads). Wall and CPU seconds (CPU:
-    all of DuckDB's threads; on a loaded machine the wall time grows, the CPU time hardly)."""
-    code = ("import sys, time; t = time.perf_counter(); c = time.process_time(); from pndiss import dataset\n"
-            "con = dataset.open(sys.argv[1])\n"
-            f"rows = con.sql({QUERY!r}).fetchall(); print(time.perf_counter() - t, time.process_time() - c, len(rows))")
-    p = subprocess.run([sys.executable, "-c", code, dataset], capture_output=True, text=True, cwd=ROOT,
-                       env={**os.environ, "PYTHONPATH": ROOT}, check=True)
-    cold, cold_cpu, rows = p.stdout.split()
-    import duckdb
-
+    """The question answered by `pndiss query DS "SQL"` in a fresh process (imports included), and
+    in a warm process through ``pndiss.dataset.open`` (views over the tables the query names).
+    Wall and CPU seconds (CPU: all of DuckDB's threads; a loaded machine stretches the wall time)."""
+    cmd = [sys.executable, "-m", "pndiss", "query", dataset, QUERY, "--format", "csv"]
+    t = time.perf_counter()
+    before = os.times()
+    p = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": ROOT}, check=True)
+    after = os.times()
+    out = {"cold": time.perf_counter() - t, "rows": len(p.stdout.strip().splitlines()) - 1, "repeat": repeat,
+           "cold_cpu": (after.children_user + after.children_system) - (before.children_user + before.children_system)}
     from pndiss import dataset as ds
-    out = {"cold": float(cold), "cold_cpu": float(cold_cpu), "rows": int(rows), "repeat": repeat}
-    direct = DIRECT.format(v=os.path.join(dataset, "violations", "*.parquet"), c=os.path.join(dataset, "captures", "*.parquet"))
-    for name, run in (("open", lambda: ds.open(dataset).sql(QUERY).fetchall()),
-                      ("direct", lambda: duckdb.connect().sql(direct).fetchall())):
-        wall, cpu = [], []
-        for _ in range(repeat):
-            t, c = time.perf_counter(), time.process_time()
-            run()
-            wall.append(time.perf_counter() - t)
-            cpu.append(time.process_time() - c)
-        out[name], out[name + "_cpu"] = statistics.median(wall), statistics.median(cpu)
+    from pndiss.dataset.reader import referenced
+    wall, cpu = [], []
+    for _ in range(repeat):
+        t, c = time.perf_counter(), time.process_time()
+        ds.open(dataset, tables=referenced(QUERY)).sql(QUERY).fetchall()
+        wall.append(time.perf_counter() - t)
+        cpu.append(time.process_time() - c)
+    out["warm"], out["warm_cpu"] = statistics.median(wall), statistics.median(cpu)
     return out
-
-
-DIRECT = ("SELECT station, rule, count(*) AS n FROM read_parquet('{v}', union_by_name = true) "
-          "WHERE capture_hash IN (SELECT capture_hash FROM read_parquet('{c}', union_by_name = true)) "
-          "GROUP BY station, rule ORDER BY n DESC, station, rule")
 
 
 VOLUME_SCENARIOS = {   # one axis, telegram 81, 1 ms, 60 s: the start-up scenario and the motion scenario
@@ -268,11 +258,10 @@ def section(res: dict) -> list[str]:
             f"dataset {q['mb']:.1f} MB.", "",
             f"\"Violations by station and rule\" (`{QUERY}`, {q['rows']} rows) with DuckDB:", "",
             "| how | wall s | CPU s |", "|---|---|---|",
-            f"| fresh process: `pndiss.dataset.open(DS)` (a view per table) + the query, imports included "
+            f"| `pndiss query DS \"SQL\" --format csv`, a fresh process (imports included) "
             f"| {q['cold']:.2f} | {q['cold_cpu']:.2f} |",
-            f"| warm process: `open` + the query (median of {q['repeat']}) | {q['open']:.2f} | {q['open_cpu']:.2f} |",
-            f"| warm process: the query on the two tables' files, as the violations view reads them "
-            f"(median of {q['repeat']}) | {q['direct']:.2f} | {q['direct_cpu']:.2f} |", ""]
+            f"| warm process: `pndiss.dataset.open(DS, tables=...)` + the query (median of {q['repeat']}) "
+            f"| {q['warm']:.2f} | {q['warm_cpu']:.2f} |", ""]
     v = res.get("volume")
     if v:
         lines += [f"(commit {v['commit']}) " + volume_lines(v["rows"])[0], *volume_lines(v["rows"])[1:]]
