@@ -153,3 +153,22 @@ def _remove_tmp(dataset_dir: str, tmp: str) -> None:
             os.remove(os.path.join(dataset_dir, t, tmp))
         except OSError:
             pass
+
+
+def record_failure(dataset_dir: str, path: str, capture_hash: str, error: str, settings=None,
+                   cycles="on_change") -> dict:
+    """The ``captures`` row of a capture whose analysis never returned (its worker died again and
+    again, or the task was lost): written as ``write_capture`` writes a failed file's row, replacing
+    whatever an attempt left; returns it. (pndiss fleet)"""
+    from .. import __version__
+    from ..settings import Settings
+
+    row = {"file": path, "capture_hash": capture_hash, "pndiss_version": __version__,
+           "schema_version": SCHEMA_VERSION, "settings": (settings or Settings()).as_dict(),
+           "cycles_mode": str(cycles), "written_at": time.time_ns(), "error": error}
+    try:
+        row["size_bytes"] = os.path.getsize(path)
+    except OSError:
+        pass
+    _commit(dataset_dir, capture_hash, {}, row)
+    return row

@@ -1,0 +1,160 @@
+"""`pndiss fleet`: many captures into one dataset, each analysed once, in parallel on Dask.
+
+The plan is made here, the work is done by Dask: every capture is hashed (fleet_inputs.py), the
+ones whose hash the dataset already holds are skipped, the rest become one Dask task each on a
+``distributed`` cluster -- a LocalCluster of worker processes, or an existing scheduler (Kubernetes,
+an HPC queue: whatever Dask's deployment tools started). A task analyses one capture and writes its
+files into the dataset itself (the dataset's writer names them by content hash and renames them into
+place, so a killed worker leaves nothing half-written); only a small summary row travels back.
+
+Failures: an analysis that raises is recorded as the capture's ``captures`` row with its error and
+does not stop the rest. A worker process that dies (killed, out of memory) is replaced by its
+nanny; the scheduler gives its task to another worker (``distributed.scheduler.allowed-failures``
+times) and the file is written again from scratch. A task that still cannot finish is recorded as
+failed. An interrupted run leaves whole captures behind; the next run skips them and continues.
+"""
+from __future__ import annotations
+
+import os
+import time
+import uuid
+from dataclasses import dataclass, field
+
+from .errors import UsageError
+from .fleet_inputs import content_hash
+
+@dataclass
+class Outcome:
+    """What became of one input."""
+
+    path: str
+    sha256: str
+    status: str                  # analysed | skipped | duplicate | failed
+    error: str | None = None
+    error_kind: str | None = None  # input | internal (failed only)
+    row: dict | None = None      # the captures row (analysed, or skipped when the dataset has it)
+    seconds: float = 0.0
+    same_as: str | None = None   # duplicate: the input with the same content
+
+
+@dataclass
+class Plan:
+    todo: list = field(default_factory=list)      # (path, sha256, size)
+    outcomes: list = field(default_factory=list)  # skipped / duplicate / unreadable, known before any work
+
+
+def plan(paths: list[str], store, retry_failed: bool = False, client=None, hash_threads: int = 4) -> Plan:
+    """Hash every input and decide what to analyse. Hashing reads every byte once: in threads here
+    (hashlib releases the GIL), or on the cluster's workers when ``client`` is given (a remote
+    cluster: the files are on its storage, and its nodes read them faster than one client)."""
+    done = store.done()   # sha256 -> captures row (with "error" set for a failed capture)
+    if client is not None:
+        run = uuid.uuid4().hex[:12]   # task keys of this run: another run on the same scheduler has its own
+        hashed = client.gather(client.map(hash_one, paths, pure=False,
+                                          key=[f"pndiss-hash-{run}-{i}" for i in range(len(paths))]))
+    else:
+        from concurrent.futures import ThreadPoolExecutor
+        with ThreadPoolExecutor(max(1, hash_threads)) as ex:
+            hashed = list(ex.map(hash_one, paths))
+    p = Plan()
+    first: dict[str, str] = {}
+    for path, sha, size, err in hashed:
+        if err is not None:   # the writer records it (with its reason) under a hash of its path
+            p.todo.append((path, "", 0))
+        elif sha in first:
+            p.outcomes.append(Outcome(path, sha, "duplicate", same_as=first[sha]))
+        else:
+            first[sha] = path
+            row = done.get(sha)
+            if row is not None and not (retry_failed and row.get("error")):
+                p.outcomes.append(Outcome(path, sha, "skipped", row=row))
+            else:
+                p.todo.append((path, sha, size))
+    return p
+
+
+def hash_one(path: str) -> tuple:
+    """(path, content hash, size, None), or (path, "", 0, why) when it cannot be read."""
+    try:
+        return path, content_hash(path), os.path.getsize(path), None
+    except OSError as e:
+        return path, "", 0, e.strerror or str(e)
+
+
+def analyse_one(store, path: str, sha: str, settings, cycles: str) -> Outcome:
+    """The Dask task: analyse one capture into the dataset. A file that cannot be analysed is
+    recorded with its error by the writer and comes back as ``failed``, never raised."""
+    t0 = time.perf_counter()
+    row = store.write(path, sha, settings, cycles)
+    dt = time.perf_counter() - t0
+    error = row.get("error")
+    if error:
+        return Outcome(path, sha, "failed", error, error_kind(error), row=row, seconds=dt)
+    return Outcome(path, sha, "analysed", row=row, seconds=dt)
+
+
+def error_kind(error: str) -> str:
+    """'internal' for a bug (the writer says "internal error: ..."), else 'input' (damaged, not a capture)."""
+    return "internal" if error.startswith("internal error") else "input"
+
+
+def run_local(todo, store, settings, cycles: str, on_done=None) -> list[Outcome]:
+    """The same work in this process, one file after another (``--workers 0``; the reference run)."""
+    out = []
+    for path, sha, _size in todo:
+        o = analyse_one(store, path, sha, settings, cycles)
+        out.append(o)
+        if on_done is not None:
+            on_done(o)
+    return out
+
+
+def run_dask(client, todo, store, settings, cycles: str, on_done=None, retries: int = 2) -> list[Outcome]:
+    """One task per capture, the biggest first (a long file started last would leave the other
+    workers idle at the end); outcomes in completion order."""
+    from distributed import as_completed
+
+    order = sorted(todo, key=lambda t: -t[2])
+    run = uuid.uuid4().hex[:12]   # a run writing another dataset on the same scheduler must not share our tasks
+    futures = {}
+    for rank, (path, sha, _size) in enumerate(order):
+        fut = client.submit(analyse_one, store, path, sha, settings, cycles, key=f"pndiss-fleet-{sha or rank}-{run}",
+                            pure=False, retries=retries, priority=len(order) - rank)
+        futures[fut] = (path, sha)
+    out = []
+    for fut in as_completed(futures):
+        path, sha = futures[fut]
+        try:
+            o = fut.result()
+        except Exception as e:  # noqa: BLE001 -- KilledWorker after allowed-failures, a lost scheduler ...
+            text = f"internal error: the task did not finish: {type(e).__name__}: {e}"
+            row = store.record_failure(path, sha, text, settings, cycles)
+            o = Outcome(path, sha, "failed", text, "internal", row=row)
+        fut.release()
+        out.append(o)
+        if on_done is not None:
+            on_done(o)
+    return out
+
+
+def local_cluster(workers: int):
+    """A LocalCluster of ``workers`` single-threaded worker processes (the analysis is CPU-bound
+    Python: threads would share one GIL), quiet, without the dashboard's web server."""
+    import logging
+
+    from distributed import LocalCluster
+    return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                        silence_logs=logging.ERROR)
+
+
+def connect(scheduler: str | None, workers: int):
+    """(client, cluster or None): a client of an existing scheduler, or of a new LocalCluster."""
+    from distributed import Client
+
+    if scheduler:
+        try:
+            return Client(scheduler, timeout="20s"), None
+        except (OSError, TimeoutError) as e:
+            raise UsageError(f"--scheduler {scheduler}: cannot connect ({e})") from None
+    cluster = local_cluster(workers)
+    return Client(cluster), cluster

@@ -1,0 +1,231 @@
+"""`pndiss fleet` on a real dask.distributed LocalCluster of 2 worker processes (issue #14 item 2).
+
+Over 24 captures of captures/ (and one longer simulated one): the dataset equals a sequential run's,
+a worker killed while it analyses loses nothing (its file is analysed again and written from scratch),
+a second run does no work, failures are recorded in ``captures`` and do not stop the rest.
+"""
+from __future__ import annotations
+
+import glob
+import gzip
+import os
+import shutil
+import signal
+import time
+
+import pytest
+
+distributed = pytest.importorskip("distributed", reason="dask.distributed not installed (pip install distributed)")
+pq = pytest.importorskip("pyarrow.parquet", reason="pyarrow not installed")
+
+from pndiss import fleet  # noqa: E402
+from pndiss.capture import ReadInfo, open_capture  # noqa: E402
+from pndiss.cli import main  # noqa: E402
+from pndiss.fleet_inputs import content_hash, find_captures  # noqa: E402
+from pndiss.fleet_store import DatasetStore  # noqa: E402
+from pndiss.settings import Settings  # noqa: E402
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ALL = sorted(glob.glob(os.path.join(ROOT, "captures", "*.pcapng")))
+# every plant-like capture, then fault captures to make 24 (each its own violations)
+CAPS = ([p for p in ALL if os.path.basename(p).startswith("plant-")]
+        + [p for p in ALL if os.path.basename(p).startswith("fault-")])[:24]
+VOLATILE = {"written_at"}   # the one column that differs between two writes of the same capture
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory):
+    """24 captures in two folders (a directory input and a glob input) plus a longer one."""
+    d = tmp_path_factory.mktemp("fleet-in")
+    for i, p in enumerate(CAPS):
+        sub = d / ("a" if i % 2 else "b")
+        sub.mkdir(exist_ok=True)
+        shutil.copy(p, sub / os.path.basename(p))
+    long = d / "long" / "long.pcapng"   # a task that runs for seconds: the one whose worker is killed
+    long.parent.mkdir()
+    assert main(["simulate", "--encoders", "2", "--io-devices", "1", "--cycles", "3000", "--seed", "7",
+                 "--no-expected", "-o", str(long)]) == 0
+    return d
+
+
+@pytest.fixture(scope="module")
+def client():
+    cluster = fleet.local_cluster(2)
+    c = distributed.Client(cluster)
+    yield c
+    c.close()
+    cluster.close()
+
+
+@pytest.fixture(scope="module")
+def sequential(inputs, tmp_path_factory):
+    """The reference: every input in this process, one after another."""
+    root = str(tmp_path_factory.mktemp("seq"))
+    store = DatasetStore(root)
+    p = fleet.plan(find_captures([str(inputs)]), store)
+    out = fleet.run_local(p.todo, store, Settings(), "on_change")
+    assert [o.status for o in out] == ["analysed"] * len(out)
+    return root
+
+
+def snapshot(root: str) -> dict:
+    """table -> its rows (volatile columns dropped), order-normalised."""
+    out = {}
+    for table in sorted(os.listdir(root)):
+        files = sorted(glob.glob(os.path.join(root, table, "*.parquet")))
+        rows = []
+        for f in files:
+            for r in pq.read_table(f).to_pylist():
+                rows.append(tuple(sorted((k, repr(v)) for k, v in r.items() if k not in VOLATILE)))
+        out[table] = sorted(rows)
+    return out
+
+
+def test_inputs_dirs_globs_files_and_content_hash(inputs, tmp_path):
+    found = find_captures([str(inputs / "a"), str(inputs / "b" / "*.pcapng"), str(inputs / "long" / "long.pcapng"),
+                           str(inputs / "a")])   # named twice: once
+    assert len(found) == len(CAPS) + 1 == len(set(found))
+    # the skip hash is the reader's own hash (ReadInfo), also through gzip
+    plain = CAPS[0]
+    gz = tmp_path / "x.pcapng.gz"
+    gz.write_bytes(gzip.compress(open(plain, "rb").read()))
+    for path in (plain, str(gz)):
+        info = ReadInfo()
+        for _ in open_capture(path, info=info):
+            pass
+        assert content_hash(path) == info.sha256() != ""
+    assert find_captures([str(tmp_path)]) == [str(gz)]   # .gz captures are found in directories
+
+
+def test_parallel_equals_sequential_and_rerun_does_nothing(inputs, client, sequential, tmp_path, capsys):
+    addr = client.scheduler.address
+    root = str(tmp_path / "ds")
+    args = ["fleet", str(inputs / "a"), str(inputs / "b" / "*.pcapng"), str(inputs / "long"), "-o", root,
+            "--scheduler", addr, "--no-progress"]
+    assert main(args) == 0
+    err = capsys.readouterr().err
+    n = len(CAPS) + 1
+    assert f"{n} analysed, 0 skipped" in err
+    assert snapshot(root) == snapshot(sequential)
+    mtimes = {f: os.stat(f).st_mtime_ns for f in glob.glob(os.path.join(root, "*", "*"))}
+    assert main(args) == 0   # the second run: every capture is done
+    err = capsys.readouterr().err
+    assert f"0 analysed, {n} skipped" in err
+    assert {f: os.stat(f).st_mtime_ns for f in glob.glob(os.path.join(root, "*", "*"))} == mtimes
+    # a copy under another name (compressed) is the same capture: still no work
+    gz = tmp_path / "more" / "again.pcapng.gz"
+    gz.parent.mkdir()
+    gz.write_bytes(gzip.compress(open(CAPS[3], "rb").read()))
+    assert main(args[:4] + [str(gz.parent)] + args[4:]) == 0
+    assert f"0 analysed, {n} skipped (already in the dataset), 1 duplicate(s)" in capsys.readouterr().err
+
+
+def test_worker_killed_mid_run_loses_nothing(inputs, client, sequential, tmp_path):
+    root = str(tmp_path / "ds")
+    store = DatasetStore(root)
+    p = fleet.plan(find_captures([str(inputs)]), store)
+    long = next(t for t in p.todo if t[0].endswith("long.pcapng"))
+    key = f"pndiss-fleet-{long[1]}-"
+    pids = client.run(os.getpid)   # worker address -> pid
+    killed, seen = [], []
+
+    def killer():
+        """Kill the worker the long capture runs on, half a second after it started there."""
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline:
+            snap = client.processing()
+            seen.append(snap)
+            busy = [w for w, ks in snap.items() if any(str(k).startswith(key) for k in ks)]
+            if busy:
+                time.sleep(0.5)
+                os.kill(pids[busy[0]], signal.SIGKILL)
+                killed.append((busy[0], pids[busy[0]]))
+                return
+            time.sleep(0.02)
+
+    import threading
+    t = threading.Thread(target=killer, daemon=True)
+    t.start()
+    out = fleet.run_dask(client, p.todo, store, Settings(), "on_change")
+    t.join()
+    assert killed, f"the long capture was never seen running: {seen[-3:]}"
+    worker, pid = killed[0]
+    assert pid not in client.run(os.getpid).values()   # that process is gone (its nanny started another)
+    assert sorted(o.status for o in out) == ["analysed"] * len(p.todo)
+    assert next(o for o in out if o.sha256 == long[1]).row["frames"] > 10000
+    assert snapshot(root) == snapshot(sequential)
+    assert not glob.glob(os.path.join(root, "*", ".*.tmp"))   # nothing half-written left behind
+
+
+def test_interrupted_run_continues(inputs, sequential, tmp_path):
+    """The fleet command killed outright (SIGKILL, no clean-up) part-way: the next run does the rest."""
+    import subprocess
+    import sys
+
+    root = tmp_path / "ds"
+    cmd = [sys.executable, "-m", "pndiss", "fleet", str(inputs), "-o", str(root), "--workers", "0", "--no-progress"]
+    env = {**os.environ, "PYTHONPATH": ROOT + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 120
+    while len(glob.glob(str(root / "captures" / "*.parquet"))) < 3 and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    proc.kill()
+    proc.wait()
+    done = len(glob.glob(str(root / "captures" / "*.parquet")))
+    n = len(CAPS) + 1
+    assert 3 <= done < n, "the run was not interrupted part-way"
+    p = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    assert f"{n - done} analysed, {done} skipped" in p.stderr
+    assert snapshot(str(root)) == snapshot(sequential)
+
+
+def test_failed_files_recorded_and_the_rest_analysed(client, tmp_path, capsys):
+    src = tmp_path / "in"
+    src.mkdir()
+    for p in CAPS[:4]:
+        shutil.copy(p, src)
+    (src / "junk.pcap").write_bytes(b"not a capture at all\n")
+    data = open(CAPS[5], "rb").read()
+    (src / "cut.pcapng").write_bytes(data[: len(data) // 2])
+    root = str(tmp_path / "ds")
+    args = ["fleet", str(src), "-o", root, "--scheduler", client.scheduler.address, "--no-progress"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "4 analysed, 0 skipped" in err and "2 failed" in err
+    assert "junk.pcap: not a pcap or pcapng file" in err and "cut.pcapng" in err
+    rows = {os.path.basename(r["file"]): r for f in glob.glob(os.path.join(root, "captures", "*.parquet"))
+            for r in pq.read_table(f).to_pylist()}
+    assert len(rows) == 6
+    assert "not a pcap or pcapng" in rows["junk.pcap"]["error"]
+    assert rows["cut.pcapng"]["error"] and rows["cut.pcapng"]["frames"] > 0   # what was read is kept
+    assert all(rows[os.path.basename(p)]["error"] is None for p in CAPS[:4])
+    # the same inputs again: no work, the same exit code; --retry-failed tries the two again
+    assert main(args) == 2
+    assert "0 analysed, 6 skipped (already in the dataset; 2 of them failed before" in capsys.readouterr().err
+    assert main(args + ["--retry-failed"]) == 2
+    assert "0 analysed, 4 skipped" in capsys.readouterr().err
+
+
+def test_fail_on_counts_skipped_captures_too(tmp_path, capsys):
+    root = str(tmp_path / "ds")
+    fault = next(p for p in CAPS if "fault-" in p)
+    args = ["fleet", fault, "-o", root, "--workers", "0", "--fail-on", "error", "-q"]
+    assert main(args) == 1
+    assert main(args) == 1   # skipped now: its captures row still counts
+    assert main(args[:-3]) == 0
+    capsys.readouterr()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["/no/such/capture.pcapng"], "no such file or directory"),
+    (["{caps}", "--workers", "-1"], "--workers"),
+    (["{caps}", "--cycles", "sometimes"], "--cycles"),
+    (["{caps}/*.nothing"], "no capture matches"),
+])
+def test_bad_arguments_exit_2(argv, message, tmp_path, capsys):
+    caps = os.path.join(ROOT, "captures")
+    argv = [a.replace("{caps}", caps) for a in argv]
+    assert main(["fleet", *argv, "-o", str(tmp_path / "ds")]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
