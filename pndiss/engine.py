@@ -57,10 +57,17 @@ class Engine:
     # -- reader interface (pndiss/capture.py) ------------------------------------------------------
     def pcapng(self, bo: str, ifaces: list):
         nif = len(ifaces)
-        lts = np.array([i[0] for i in ifaces], dtype=np.int64)
-        mult = np.array([i[3] for i in ifaces], dtype=np.int64)
-        off = np.array([i[2] for i in ifaces], dtype=np.int64)
-        lim = np.array([min(max(i[5], -1), (1 << 63) - 1) for i in ifaces], dtype=np.int64)
+        BIG = 1 << 62
+
+        def fits(i) -> bool:
+            """Ethernet, and time stamps the plain multiply keeps in int64 (else the reader takes them)."""
+            return i[0] == 1 and 0 < i[3] < BIG and -BIG < i[2] < BIG and i[5] >= 0
+
+        ok = [fits(i) for i in ifaces]
+        lts = np.array([1 if k else 0 for k in ok], dtype=np.int64)
+        mult = np.array([i[3] if k else 0 for i, k in zip(ifaces, ok)], dtype=np.int64)
+        off = np.array([i[2] if k else 0 for i, k in zip(ifaces, ok)], dtype=np.int64)
+        lim = np.array([min(i[5], (1 << 63) - 1) if k else -1 for i, k in zip(ifaces, ok)], dtype=np.int64)
 
         def take(buf, pos, end, n):
             ix = frameindex.pcapng(buf, pos, end, bo, nif)

@@ -32,6 +32,7 @@ class Recorded:
         cur = {}
         # copied at emission, as a sink sees them (the session adds to some events later)
         a.sink = lambda ev: items.append(("ev", a.cur_frame, copy.deepcopy(ev)))
+        a.frame_events = True   # a sink of every kind: rt / telegram events as the reference path builds them
         self.fm_snap: dict = {}
         for fn, ts, lt, data in open_capture(path, info=a.reader):
             start = len(items)

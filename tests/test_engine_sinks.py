@@ -98,3 +98,31 @@ def test_column_rows_plant_session(tmp_path):
                     "--no-expected", "-o", out], check=True, capture_output=True, cwd=ROOT)
     rec = _check(out)
     assert sum(len(v) for v in rec.cyc.values()) > 10_000
+
+
+def test_interface_time_offset_beyond_int64(tmp_path):
+    """An IDB whose if_tsoffset (seconds) times 1e9 leaves int64 (the fuzz campaign made one): the engine
+    leaves that interface to the reader, which clamps and counts the times; analyze and export still run,
+    with the reference path's results."""
+    import struct
+    from pndiss.capture import open_capture
+    from pndiss.cli import main as cli_main
+    sim = str(tmp_path / "s.pcapng")
+    assert cli_main(["simulate", "--cycles", "300", "--no-expected", "-o", sim]) == 0
+
+    def block(btype, body):
+        body += b"\0" * (-len(body) % 4)
+        n = len(body) + 12
+        return struct.pack("<II", btype, n) + body + struct.pack("<I", n)
+    cap = str(tmp_path / "t.pcapng")
+    opts = struct.pack("<HHB3x", 9, 1, 9) + struct.pack("<HHq", 14, 8, 1 << 62) + b"\0\0\0\0"
+    with open(cap, "wb") as f:
+        f.write(block(0x0A0D0D0A, struct.pack("<IHHq", 0x1A2B3C4D, 1, 0, -1)))
+        f.write(block(1, struct.pack("<HHI", 1, 0, 65535) + opts))
+        for k, (_fn, _ts, _lt, data) in enumerate(open_capture(sim)):
+            f.write(block(6, struct.pack("<IIIII", 0, 0, k * 1000, len(data), len(data)) + data))
+    fast = analyze(cap, Settings()).summary()
+    ref = analyze(cap, Settings(fast_path=False)).summary()
+    fast.pop("settings"), ref.pop("settings")
+    assert fast == ref and fast["input"]["timestamps_clamped"] > 0
+    assert cli_main(["export", cap, "-o", str(tmp_path / "t.mcap"), "-q"]) == 0
