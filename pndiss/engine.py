@@ -36,6 +36,7 @@ ETH_PNRT = 0x8892
 K2 = np.uint64(0x9E3779B97F4A7C15)
 K3 = np.uint64(0xC2B2AE3D27D4EB4F)
 SMALL = 48          # fewer frames between two global ones go one by one
+MAX_NEW = 512       # cyclic prefixes of no known stream in one window beyond which the engine declines it
 MIN_FRAMES = 8          # a window with fewer indexed frames is left to the reader
 _MISSING = object()
 
@@ -104,6 +105,10 @@ class Engine:
     # -- one window --------------------------------------------------------------------------------
     def _window(self, buf, n: int, block, data, cap, ts, stop: int):
         w = Window(self, buf, n, data, cap, ts)
+        if w.unknown > MAX_NEW:
+            # thousands of prefixes no stream has yet (a flood of random MACs, not a plant): learning them
+            # window by window would cost O(frames) per new stream; the frame-by-frame path takes them
+            return len(data)
         w.run()
         m = len(data)
         if self.col is not None:
@@ -173,6 +178,7 @@ class Window:
         self.first, self.inv, self.cand, self.tagged = first, inv, cand, tagged
         self.known = -1
         self._resolve()
+        self.unknown = int(np.count_nonzero(cand[first] & (self.uid_sid < 0)))
 
     def _resolve(self) -> bool:
         """Look the window's distinct prefixes up in the stream table (again after it learnt streams)."""

@@ -126,3 +126,41 @@ def test_interface_time_offset_beyond_int64(tmp_path):
     fast.pop("settings"), ref.pop("settings")
     assert fast == ref and fast["input"]["timestamps_clamped"] > 0
     assert cli_main(["export", cap, "-o", str(tmp_path / "t.mcap"), "-q"]) == 0
+
+
+def test_engine_declines_a_flood_of_new_streams(tmp_path, monkeypatch):
+    """20,000 cyclic frames from 20,000 random source MACs (a flood, no plant): learning a new stream per
+    frame inside the engine's window would cost O(window) per stream; the engine hands such a window to
+    the frame-by-frame path, with the reference results."""
+    import random
+    import struct
+
+    from pndiss import engine as eng_mod
+
+    def block(btype, body):
+        body += b"\0" * (-len(body) % 4)
+        n = len(body) + 12
+        return struct.pack("<II", btype, n) + body + struct.pack("<I", n)
+    rnd = random.Random(7)
+    cap = str(tmp_path / "flood.pcapng")
+    with open(cap, "wb") as f:
+        f.write(block(0x0A0D0D0A, struct.pack("<IHHq", 0x1A2B3C4D, 1, 0, -1)))
+        f.write(block(1, struct.pack("<HHI", 1, 0, 65535)))
+        for k in range(20_000):
+            src = bytes([2]) + rnd.randbytes(5)
+            frame = (b"\x02\x00\x00\x00\x00\x01" + src + b"\x88\x92\x80\x00" + bytes(40)
+                     + struct.pack(">HBB", (k * 32) & 0xFFFF, 0x35, 0))
+            t = 1_767_225_600_000_000 + k * 1000
+            f.write(block(6, struct.pack("<IIIII", 0, t >> 32, t & 0xFFFFFFFF, len(frame), len(frame)) + frame))
+    made = []
+    real = eng_mod.Engine
+
+    def spy(*a, **kw):
+        made.append(real(*a, **kw))
+        return made[-1]
+    monkeypatch.setattr(eng_mod, "Engine", spy)
+    fast = analyze(cap, Settings()).summary()
+    assert made and made[0].frames_bulk + made[0].frames_single + made[0].frames_global < 1000
+    ref = analyze(cap, Settings(fast_path=False)).summary()
+    fast.pop("settings"), ref.pop("settings")
+    assert fast == ref and fast["frames"] == 20_000
