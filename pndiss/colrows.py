@@ -26,6 +26,7 @@ from . import iodata
 from . import telegrams as tg
 from .proto import rt
 from .proto.eth import decode_link
+from .sinks import Sink
 
 RANK_RT, RANK_BEFORE, RANK_TELEGRAM, RANK_AFTER = 0, 1, 2, 3
 HOLD_ROWS = 1 << 15   # rows held before a flush point writes them (more: no faster, 300 MB peak RSS at 1 << 18)
@@ -344,3 +345,23 @@ def axis_frames(parts) -> dict:
             ax = b.axis
             by.setdefault((ax.get("device_mac"), ax.get("slot"), ax.get("subslot")), []).append(b.frame[lo:hi])
     return {k: np.sort(np.concatenate(v)) for k, v in by.items()}
+
+
+class HeldSink(Sink):
+    """The column sinks' side of the sink contract (pndiss/mcap_sink.py, pndiss/jsonl_sink.py): events and
+    rows are held (``self.held``, a Held) and written merged in the reference order once ``hold_rows``
+    rows wait at a flush point; the subclass writes (``_flush``)."""
+
+    def event(self, ev: dict, at: int | None = None) -> None:
+        self.held.event(ev, at)
+
+    def cycle_batch(self, batch) -> None:
+        self.held.batch("tg", batch)
+
+    def stream_batch(self, batch) -> None:
+        self.held.batch("rt", batch)
+
+    def flush_point(self, frame: int) -> None:
+        if self.held.rows >= self.hold_rows:
+            self._flush(frame)
+

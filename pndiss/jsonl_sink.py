@@ -19,7 +19,6 @@ import numpy as np
 from . import colrows
 from .coltext import Pool
 from .events import ColumnFrameTimes
-from .sinks import Sink
 
 
 def _default(o):   # as commands/analyze.py's JSONL encoder
@@ -33,7 +32,7 @@ def _default(o):   # as commands/analyze.py's JSONL encoder
 _dumps = json.JSONEncoder(separators=(",", ":"), default=_default).encode
 
 
-class JsonlSink(Sink):
+class JsonlSink(colrows.HeldSink):
     def __init__(self, fileobj, kinds=None):
         self.f = fileobj
         self.kinds = None if kinds is None else frozenset(kinds)
@@ -51,19 +50,9 @@ class JsonlSink(Sink):
         self._binary = not hasattr(fileobj, "encoding")
 
     # -- the sink contract ------------------------------------------------------------------------
-    def event(self, ev: dict, at: int | None = None) -> None:
-        self.held.event(ev, at)
-
     def cycle_batch(self, batch) -> None:
         if self.tg:
             self.held.batch("tg", batch)
-
-    def stream_batch(self, batch) -> None:
-        self.held.batch("rt", batch)
-
-    def flush_point(self, frame: int) -> None:
-        if self.held.rows >= self.hold_rows:
-            self._flush(frame)
 
     def close(self) -> None:
         self._flush(None)

@@ -22,7 +22,6 @@ from . import colrows
 from .coltext import INT, Pool, Val, thin
 from .mcap_export import RT_CONST, TG_CONST, McapExporter
 from .mcap_export import dumps as _dumps
-from .sinks import Sink
 
 SEQ_MASK = 0xFFFFFFFF
 
@@ -49,7 +48,7 @@ class _Rows:
     __slots__ = ("key", "tmpl", "vals", "k", "frames", "seq", "lt", "pub", "rank", "order", "first")
 
 
-class McapSink(Sink):
+class McapSink(colrows.HeldSink):
     kinds = None      # every event kind; cyclic frames' rt / telegram events come as rows
     cycles = True
     streams = True
@@ -76,19 +75,6 @@ class McapSink(Sink):
         self.exp.reader_info = info
 
     # -- the sink contract ------------------------------------------------------------------------
-    def event(self, ev: dict, at: int | None = None) -> None:
-        self.held.event(ev, at)
-
-    def cycle_batch(self, batch) -> None:
-        self.held.batch("tg", batch)
-
-    def stream_batch(self, batch) -> None:
-        self.held.batch("rt", batch)
-
-    def flush_point(self, frame: int) -> None:
-        if self.held.rows >= self.hold_rows:
-            self._flush(frame)
-
     def finish(self) -> None:
         """Write every held row and event (the exporter stays open)."""
         if not self.exp.closed:
