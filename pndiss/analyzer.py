@@ -30,18 +30,15 @@ MAX_KEPT_MALFORMED = 1000  # the summary keeps the first ones; the JSONL stream 
 
 
 class Analyzer:
-    def __init__(self, settings: Settings | None = None, sink: Callable[[dict], None] | None = None,
-                 sink_kinds: frozenset | None = None):
+    def __init__(self, settings: Settings | None = None, sink: Callable[[dict], None] | None = None):
         from .session import SessionTracker  # PNIO-CM / AR map (imports records)
         from .cyclic import CyclicTracker    # telegrams + reference encoder
 
         self.settings = settings or Settings()
         self.sink = sink
-        # the event kinds the sink consumes (None: all); per-frame events (rt / telegram dicts) are built
-        # only when it wants them (pndiss/sinks.py)
-        from .sinks import FRAME_KINDS
-        self.sink_kinds = sink_kinds
-        self.frame_events = sink is not None and (sink_kinds is None or bool(sink_kinds & FRAME_KINDS))
+        # per-frame events (rt / telegram dicts) are built only when a sink wants them (the driver decides from
+        # the sinks' capabilities, pndiss/driver.py; a plain sink gets every kind)
+        self.frame_events = sink is not None
         self._held = None     # events held while the engine walks stream groups (hold / release)
         self._hold_fn = 0
         self.at = 0           # the frame whose processing emitted the event being emitted (sinks merge on it)
@@ -78,7 +75,7 @@ class Analyzer:
         self.kinds[kind] += 1
         if kind == "violation":  # the verdict (pndiss/verdict.py) sees every one, with or without a sink
             self.violations.add(ev)
-        if self.sink is not None and (self.sink_kinds is None or kind in self.sink_kinds):
+        if self.sink is not None:
             if self._releasing is None:
                 self.at = self.cur_frame
             self.sink(ev)

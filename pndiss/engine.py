@@ -27,7 +27,6 @@ from __future__ import annotations
 import numpy as np
 
 from . import frameindex
-from .capture import TS_MAX
 from .cyclic import RELOOKUP_EVERY
 from .pairing import Group, walk_group
 from .proto.common import Malformed
@@ -85,7 +84,7 @@ class Engine:
                     return 1 if m == 0 else m
             ifid = ix.ifid[:m]
             ts = raw[:m].astype(np.int64) * mult[ifid] + off[ifid]
-            return self._window(buf, n, ix.block[:m], ix.data[:m], ix.cap[:m], ts,
+            return self._window(buf, n, ix.data[:m], ix.cap[:m], ts,
                                 ix.end if m == len(ix) else int(ix.block[m]))
         return take
 
@@ -99,11 +98,11 @@ class Engine:
             raw = ix.raw_ts
             ts = (raw >> np.uint64(32)).astype(np.int64) * 1_000_000_000 + \
                 (raw & np.uint64(0xFFFFFFFF)).astype(np.int64) * mult
-            return self._window(buf, n, ix.block, ix.data, ix.cap, ts, ix.end)
+            return self._window(buf, n, ix.data, ix.cap, ts, ix.end)
         return take
 
     # -- one window --------------------------------------------------------------------------------
-    def _window(self, buf, n: int, block, data, cap, ts, stop: int):
+    def _window(self, buf, n: int, data, cap, ts, stop: int):
         w = Window(self, buf, n, data, cap, ts)
         if w.unknown > MAX_NEW:
             # thousands of prefixes no stream has yet (a flood of random MACs, not a plant): learning them
@@ -332,7 +331,3 @@ class Window:
         except Malformed as e:
             s.bad += 1
             a.add_malformed(fn, ts, e.layer, e.reason)
-
-
-def ts_ok(ts) -> bool:
-    return bool(((ts >= 0) & (ts <= TS_MAX)).all())
