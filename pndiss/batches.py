@@ -9,6 +9,8 @@ order; ``flush(frame)`` then tells the sinks that everything up to that frame wa
 """
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from .sinks import CycleBatch, StreamBatch
@@ -22,6 +24,7 @@ class Collector:
         self.sinks = sinks
         self.pend_c: dict = {}     # (axis key, direction) -> [axis dict, frame_id, layout names, rows]
         self.pend_s: dict = {}     # (stream key, caplen, id(frame map)) -> [off, rows, frame map]
+        self.maps: dict = {}       # id(live frame map) -> (live map, its copy the batches carry)
 
     def attach(self) -> None:
         t = self.a.cyclic
@@ -52,8 +55,21 @@ class Collector:
             p = self.pend_c[k] = [self._axis(o), frame_id, o.layout.names, []]
         p[3].append((fn, ts, -1 if iops is None else iops, ok, o.sig))
 
+    def _rt_map(self, key: tuple):
+        """The frame map an rt event of ``key`` decodes its ``iodata`` with now, as a copy that stays as it
+        is: a sink may write held rows after the AR's Release has marked the live map released."""
+        fm = self.a.session.lookup(*key)
+        if fm is None or fm.released:
+            return None
+        got = self.maps.get(id(fm))
+        if got is None or got[0] is not fm:
+            if len(self.maps) >= 4096:   # bounded (hostile captures: 100 k ARs); pending rows keep their copies
+                self.maps.clear()
+            got = self.maps[id(fm)] = (fm, dataclasses.replace(fm))
+        return got[1]
+
     def frame_row(self, key: tuple, fn: int, ts: int, data: bytes, off: int) -> None:
-        fm = self.a.session.lookup(*key)   # the rt event's iodata map at this frame
+        fm = self._rt_map(key)   # the rt event's iodata map at this frame
         k = (key, len(data), id(fm))
         p = self.pend_s.get(k)
         if p is None:
@@ -72,7 +88,7 @@ class Collector:
             s.cycle_batch(b)
 
     def bulk_frames(self, key: tuple, fn, ts, data2d, off: int) -> None:
-        fm = self.a.session.lookup(*key)   # constant within a segment (the session changes at global frames)
+        fm = self._rt_map(key)   # constant within a segment (the session changes at global frames)
         for k in [k for k in self.pend_s if k[0] == key]:
             self._flush_s(k)
         b = StreamBatch(key, np.asarray(fn, dtype=np.int64), np.asarray(ts, dtype=np.int64), data2d, off, fm)

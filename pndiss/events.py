@@ -15,6 +15,16 @@ import time
 RING = 1 << 16
 
 
+def json_default(o):
+    """What JSON cannot say natively, as every JSONL / summary writer says it: bytes as hex, sets and
+    tuples as lists, anything else as its text."""
+    if isinstance(o, (bytes, bytearray, memoryview)):
+        return bytes(o).hex()
+    if isinstance(o, (set, frozenset, tuple)):
+        return list(o)
+    return str(o)
+
+
 class FrameTimes:
     def __init__(self):
         self.frames = [0] * RING

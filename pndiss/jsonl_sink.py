@@ -18,23 +18,17 @@ import numpy as np
 
 from . import colrows
 from .coltext import Pool
-from .events import ColumnFrameTimes
+from .errors import UsageError
+from .events import ColumnFrameTimes, json_default
 
 
-def _default(o):   # as commands/analyze.py's JSONL encoder
-    if isinstance(o, (bytes, bytearray, memoryview)):
-        return bytes(o).hex()
-    if isinstance(o, (set, frozenset, tuple)):
-        return list(o)
-    return str(o)
-
-
-_dumps = json.JSONEncoder(separators=(",", ":"), default=_default).encode
+_dumps = json.JSONEncoder(separators=(",", ":"), default=json_default).encode
 
 
 class JsonlSink(colrows.HeldSink):
-    def __init__(self, fileobj, kinds=None):
+    def __init__(self, fileobj, kinds=None, where: str | None = None):
         self.f = fileobj
+        self.where = where   # the path named when writing fails (a full disk: exit 2)
         self.kinds = None if kinds is None else frozenset(kinds)
         self.rt = self.wants("rt")
         self.tg = self.wants("telegram")
@@ -144,7 +138,14 @@ class JsonlSink(colrows.HeldSink):
             self._put(data)
 
     def _put(self, data) -> None:
-        if self._binary:
-            self.f.write(data)
-        else:   # a text file (stdout, open(..., "w")): the JSON text is ASCII
-            self.f.write(bytes(data).decode("ascii"))
+        try:
+            if self._binary:
+                self.f.write(data)
+            else:   # a text file (stdout, open(..., "w")): the JSON text is ASCII
+                self.f.write(bytes(data).decode("ascii"))
+        except BrokenPipeError:
+            raise
+        except OSError as e:
+            if self.where is None:
+                raise
+            raise UsageError(f"cannot write {self.where}: {e.strerror}") from None

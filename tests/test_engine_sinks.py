@@ -164,3 +164,62 @@ def test_engine_declines_a_flood_of_new_streams(tmp_path, monkeypatch):
     ref = analyze(cap, Settings(fast_path=False)).summary()
     fast.pop("settings"), ref.pop("settings")
     assert fast == ref and fast["frames"] == 20_000
+
+
+# -- the full per-frame JSONL through the engine ------------------------------------------------------
+PUBLIC = sorted(glob.glob(os.path.join(ROOT, "..", "shared", "captures", "public", "*.pcap*")))
+
+
+def _reference_lines(path) -> list[str]:
+    """The oracle: every event as a dict from the reference path, written as `analyze --jsonl` did
+    before the column writer (one json.dumps per event, a violation's time set to its frame's)."""
+    import json
+    from pndiss.events import FrameTimes, json_default
+    dumps = json.JSONEncoder(separators=(",", ":"), default=json_default).encode
+    fix, out = FrameTimes().fix, []
+    analyze(path, Settings(fast_path=False), [lambda ev: out.append(dumps(fix(ev)))])
+    return out
+
+
+def _engine_lines(path, kinds=None) -> list[str]:
+    import io
+    from pndiss.jsonl_sink import JsonlSink
+    f = io.BytesIO()
+    s = JsonlSink(f, kinds)
+    analyze(path, Settings(), [s])
+    s.close()
+    return f.getvalue().decode().splitlines()
+
+
+@pytest.mark.parametrize("path", CAPTURES + PUBLIC, ids=os.path.basename)
+def test_full_jsonl_through_engine_equals_reference(path):
+    """`analyze --jsonl` writes every rt / telegram line from the engine's columns: line for line the
+    reference's, iodata included (a map the AR's Release marks released after its rows were held)."""
+    assert _engine_lines(path) == _reference_lines(path)
+
+
+def test_full_jsonl_plant_session(tmp_path):
+    out = str(tmp_path / "p.pcapng")
+    subprocess.run([sys.executable, "-m", "pndiss", "simulate", "--scenario", "motion", "--encoders", "2",
+                    "--io-devices", "2", "--cycle-time", "1,2", "--capture-loss", "0.002", "--cycles", "2000",
+                    "--restart", "1200", "--no-expected", "-o", out], check=True, capture_output=True, cwd=ROOT)
+    ref = _reference_lines(out)
+    assert _engine_lines(out) == ref and len(ref) > 8000
+    kinds = {"rt", "violation", "state"}
+    assert _engine_lines(out, kinds) == [x for x in ref if any(f'"kind":"{k}"' in x for k in kinds)]
+
+
+def test_cli_jsonl_uses_the_engine(tmp_path):
+    """The command line's --jsonl (file and stdout) is the column writer's output, and equal to the oracle."""
+    path = os.path.join(ROOT, "captures", "plant-3enc-cycles-io-devices.pcapng")
+    if not os.path.exists(path):
+        pytest.skip("captures/plant-3enc-cycles-io-devices.pcapng is missing")
+    out = tmp_path / "e.jsonl"
+    p = subprocess.run([sys.executable, "-m", "pndiss", "analyze", path, "--jsonl", str(out), "-q"],
+                       capture_output=True, cwd=ROOT)
+    assert p.returncode in (0, 1), p.stderr
+    ref = _reference_lines(path)
+    assert out.read_text().splitlines() == ref
+    p = subprocess.run([sys.executable, "-m", "pndiss", "analyze", path, "--jsonl", "-", "-q"],
+                       capture_output=True, cwd=ROOT)
+    assert p.stdout.decode().splitlines() == ref

@@ -169,8 +169,9 @@ def run(args) -> int:
     from ..capture import CaptureError
     from ..driver import analyze
     from ..errors import UsageError
-    from ..events import FrameTimes, Scope
+    from ..events import FrameTimes, Scope, json_default
     from ..report import ProgressReporter, render_report, render_violation
+    from ..sinks import FRAME_KINDS
     from ..verdict import one_line
 
     if args.jsonl == "-" and args.summary_json == "-":
@@ -190,9 +191,15 @@ def run(args) -> int:
     settings = settings_from_args(args)
     scope = Scope.from_args(args.station, args.time)
     sinks = []
+    jsonl_sink = None
     jsonl = open_out(args.jsonl) if args.jsonl else None
-    if jsonl is not None:
-        dumps = json.JSONEncoder(separators=(",", ":"), default=_json_default).encode
+    if jsonl is not None and scope is None and (kinds is None or kinds & FRAME_KINDS):
+        # every frame's rt / telegram line: written from the engine's columns (pndiss/jsonl_sink.py)
+        from ..jsonl_sink import JsonlSink
+        jsonl_sink = JsonlSink(getattr(jsonl, "buffer", jsonl), kinds, args.jsonl)
+        sinks.append(jsonl_sink)
+    elif jsonl is not None:
+        dumps = json.JSONEncoder(separators=(",", ":"), default=json_default).encode
         write = jsonl.write
         fix = FrameTimes().fix  # a violation's ts_ns is its frame's time
         where = args.jsonl
@@ -234,6 +241,8 @@ def run(args) -> int:
         except CaptureError as e:
             error = e
             a = e.analyzer if hasattr(e, "analyzer") else None
+        if jsonl_sink is not None:
+            jsonl_sink.close()   # the rows and events it still holds (after a damaged part too)
     finally:
         if progress:
             progress.close()
@@ -254,7 +263,7 @@ def run(args) -> int:
     if args.summary_json:
         out = open_out(args.summary_json)
         try:
-            json.dump(summary, out, indent=2, default=_json_default)
+            json.dump(summary, out, indent=2, default=json_default)
             out.write("\n")
         except OSError as e:
             if isinstance(e, BrokenPipeError):
@@ -283,10 +292,3 @@ def exit_code(log, fail_on: str | None) -> int:
             return 1
     return 0
 
-
-def _json_default(o):
-    if isinstance(o, (bytes, bytearray, memoryview)):
-        return bytes(o).hex()
-    if isinstance(o, (set, frozenset, tuple)):
-        return list(o)
-    return str(o)
