@@ -360,3 +360,25 @@ def test_batch_mutated_sessions(sessions, tmp_path, name, fmt, muts):
     path = str(tmp_path / ("m." + fmt.split("-")[0]))
     _write(path, frames, fmt)
     _same_both_ways(path)
+
+
+def test_sensor_error_code_changes_mid_error(sessions, tmp_path):
+    """A sensor error that goes on unchanged is applied in runs (the checker's steady path changes nothing
+    but the timeline); a new error code in the middle of it is a `state` event the engine must not skip."""
+    frames = list(sessions["routine"])
+    code = (0x1001).to_bytes(4, "big")
+    hits = [i for i, f in enumerate(frames) if f[3].count(code) == 1]
+    assert len(hits) > 300, "the routine's sensor error (0x1001 in G1_XIST2) is not in the session"
+    # the second half of the first error stretch reports 0x1003 instead
+    first = [i for i in hits if i < hits[0] + 400]
+    for i in first[len(first) // 2:]:
+        fn, ts, lt, data = frames[i]
+        frames[i] = (fn, ts, lt, data.replace(code, (0x1003).to_bytes(4, "big")))
+    path = str(tmp_path / "serr.pcapng")
+    _write(path, frames, "pcapng-le")
+    _same_both_ways(path)
+    s, ev, _err, eng = _run_file(path, True)
+    states = [json.loads(e) for e in ev if '"kind": "state"' in e]
+    codes = [e["value"] for e in states if e["state"] == "sensor_error"]
+    assert 0x1001 in codes and 0x1003 in codes, codes
+    assert eng.frames_bulk > 5 * eng.frames_single

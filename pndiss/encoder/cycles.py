@@ -7,11 +7,17 @@ import numpy as np
 SAFE = 1 << 62                                   # beyond this the NumPy twins do not judge (int64 arithmetic)
 
 
+def serr_state(SERR: int, X2) -> int:
+    """The value of the checker's ``sensor_error`` timeline state a cycle leaves (Checker._timeline):
+    the error code in XIST2 (1 without XIST2) during a sensor error, else 0."""
+    return (X2 if X2 is not None else 1) if SERR else 0
+
+
 class Cycle:
     """What the value rules read of one cycle (ints; None where the telegram has no such signal)."""
 
     __slots__ = ("SERR", "ATX", "PKA", "PDONE", "DLS", "X1", "X2", "X3", "NIST", "pos2", "ppos2", "motion", "pmotion",
-                 "pX3", "zsw2", "g1zsw", "has_g1", "started_D")
+                 "pX3", "zsw2", "g1zsw", "has_g1", "started_D", "serr_state", "pserr_state")
 
     @classmethod
     def of(cls, ac: dict, pa: dict | None, has_g1: bool, started_D: bool = False) -> "Cycle":
@@ -28,14 +34,16 @@ class Cycle:
         # position of the preset arithmetic and continuity: X3 in telegram 84, else X2 while ATX (§1.6, §4.3)
         c.pos2 = X3 if X3 is not None else (X2 if ATX and not SERR else None)
         c.motion = X1 if X1 is not None else X3
+        c.serr_state = serr_state(SERR, X2)
         if pa is None:
-            c.ppos2 = c.pmotion = c.pX3 = None
+            c.ppos2 = c.pmotion = c.pX3 = c.pserr_state = None
         else:
             pz = pa.get("g1_zsw", 0)
             c.ppos2 = pa.get("g1_xist3") if "g1_xist3" in pa else (
                 pa.get("g1_xist2") if (pz >> 13) & 1 and not (pz >> 15) & 1 else None)
             c.pmotion = pa.get("g1_xist1") if X1 is not None else pa.get("g1_xist3")
             c.pX3 = pa.get("g1_xist3")
+            c.pserr_state = serr_state((pz >> 15) & 1, pa.get("g1_xist2"))
         c.has_g1 = has_g1
         c.started_D = started_D
         return c
@@ -109,3 +117,9 @@ class Columns:
         else:
             self.motion = self.pmotion = None
         self.pX3_ok = pX3_have
+        # the sensor_error timeline value of each row and of the row before (-1: no previous cycle)
+        self.serr_state = np.where(self.SERR == 1, X2 if X2 is not None else 1, 0)
+        self.pserr_state = np.empty(m, dtype=np.int64)
+        self.pserr_state[1:] = self.serr_state[:-1]
+        if m:
+            self.pserr_state[0] = -1 if pa is None else serr_state((int(pz[0]) >> 15) & 1, pa.get("g1_xist2"))

@@ -266,6 +266,16 @@ def _shift_learnable_v(k, V):
     return (V.ATX == 1) & (V.SERR == 0) & _b(V.X2 != 0)
 
 
+def _serr_changes(k, c):
+    return bool(c.SERR and (k.solmon or c.pserr_state != c.serr_state))
+
+
+def _serr_changes_v(k, V):
+    if k.solmon:
+        return V.SERR == 1
+    return (V.SERR == 1) & (V.pserr_state != V.serr_state)
+
+
 def _big(k, c):
     return any(v is not None and v >= SAFE for v in (c.X3, c.pX3)) or _continuity_big(k)
 
@@ -284,8 +294,10 @@ def _big_v(k, V):
 
 
 CHECKER_CYCLES: tuple[Trigger, ...] = (
-    # a sensor error: the timeline, the acknowledgement flags and the error code follow it
-    Trigger("sensor error", lambda k, c: bool(c.SERR), lambda k, V: V.SERR == 1),
+    # a sensor error the timeline does not show yet (its first cycle, a new code): a state event. A
+    # cycle of a sensor error that goes on unchanged changes nothing in a steady checker (_cycle_steady);
+    # under sign-of-life monitoring it decides the fault report (_sign_of_life): every such cycle counts
+    Trigger("sensor error", _serr_changes, _serr_changes_v),
     # LIKA parking clears the outputs (#47): judged cycle by cycle
     Trigger("LIKA parking", lambda k, c: bool(k.lika and c.PKA), lambda k, V: (V.PKA == 1) if k.lika else _none(V)),
     # P979.3 still unknown: the first ATX cycle with both positions learns it (§1.6 R-X1-4)
