@@ -39,7 +39,7 @@ VARIANTS = [
     "--encoders 2 --irt --io-devices 1 --capture-loss 0.001",
     "--encoders 3 --telegram 82 --io-devices 2 --start-mid-session 500",
 ]
-SET_CYCLES = 10_000       # 1 ms cycles: 10 s of traffic, about 30-80 k frames per capture
+SET_CYCLES = 60_000       # 1 ms cycles: 1 min of traffic (a ring-buffer file), about 0.2-0.5 M frames per capture
 SMALL_CYCLES = 150
 SMALL_VARIANTS = ["", "--encoders 2", "--inject SOL-DEVICE-ZERO-RT", "--io-devices 1",
                   "--scenario preset --inject PRESET-ACK-MISSING", "--capture-loss 0.01",
@@ -179,6 +179,7 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default=os.path.join(HERE, "out"))
     ap.add_argument("--files", type=int, default=24)
+    ap.add_argument("--set-cycles", type=int, default=SET_CYCLES, help="cycles per capture of the speed-up set")
     ap.add_argument("--small", type=int, default=1000)
     ap.add_argument("--parts", default="speedup,query,volume",
                     help="which parts to measure now (the others keep their last figures from OUT/fleet-results.json)")
@@ -188,10 +189,12 @@ def main() -> None:
     res_path = os.path.join(args.out, "fleet-results.json")
     res = json.load(open(res_path)) if os.path.exists(res_path) else {}
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=ROOT).stdout.strip()
-    set_dir, small_dir = os.path.join(args.out, "fleet-set"), os.path.join(args.out, "fleet-small")
+    set_dir = os.path.join(args.out, f"fleet-set-{args.set_cycles}")
+    small_dir = os.path.join(args.out, "fleet-small")
     if "speedup" in parts:
-        paths = simulate(set_dir, VARIANTS, args.files, SET_CYCLES)
+        paths = simulate(set_dir, VARIANTS, args.files, args.set_cycles)
         r = {"files": len(paths), "mb": sum(os.path.getsize(p) for p in paths) / 1e6, "commit": commit,
+             "cycles": args.set_cycles,
              "load_before": os.getloadavg()[0], "runs": {}}
         for workers in (1, 2):
             before = os.times()
@@ -238,7 +241,7 @@ def section(res: dict) -> list[str]:
         lines += [
             f"Benchmark set (commit {r['commit']}; load average {r['load_before']:.1f} before, {r['load_after']:.1f} "
             f"after): {r['files']} captures, {r['mb']:.0f} MB, {r['frames']:,} frames, made by "
-            f"`pndiss simulate --cycles {SET_CYCLES} --seed I` with, in turn: " + "; ".join(f"`{v}`" for v in VARIANTS) + ".",
+            f"`pndiss simulate --cycles {r.get('cycles', SET_CYCLES)} --seed I` with, in turn: " + "; ".join(f"`{v}`" for v in VARIANTS) + ".",
             "",
             "| run | wall s | CPU s (all processes) | frames/s | frames per CPU s | result |",
             "|---|---|---|---|---|---|",

@@ -104,22 +104,30 @@ class AxisWalk:
             return 0
         sr = int(self.cumS[q])
         ar = q - sr
+        ax = self.ax
+        chk = ax.checker
+        judged = not ax.ambiguous and bool(self.okS[sr] and self.okA[ar])
+        # the checker's state first: while it cannot be advanced at once, no column work (retries are many)
+        if judged and (not chk.bulk_ready() or self.frA.fm.phase in JUDGED_FIRST):
+            return 0
+        if judged:
+            sg, ag = self.sigS.get, self.sigA.get
+            key0 = tuple(int(c[r]) & m if c is not None else 0 for c, r, m in (
+                (sg("stw2_enc"), sr, 0x0FFF), (sg("g1_stw"), sr, -1), (ag("zsw2_enc"), ar, 0x0FFF), (ag("g1_zsw"), ar, -1)))
+            if key0 != chk.prev_key:
+                return 0
+        if not judged and not chk.idle():
+            return 0
         S, A = self.S, self.A
         gaps = self.t.gaps
         ok = self.okS[sr:sr + P] & self.okA[ar:ar + P]
         bad = S.gaps_bad(gaps, sr, sr + P) | A.gaps_bad(gaps, ar, ar + P) | S.capbad[sr:sr + P] | A.capbad[ar:ar + P]
-        ax = self.ax
-        chk = ax.checker
-        if not ax.ambiguous and ok[0]:
-            if not chk.bulk_ready() or self.frA.fm.phase in JUDGED_FIRST:
-                return 0
+        if judged:
             sS = {k: v[sr:sr + P] for k, v in self.sigS.items()}
             sA = {k: v[ar:ar + P] for k, v in self.sigA.items()}
             z = np.zeros(P, dtype=np.int64)
             key = (sS.get("stw2_enc", z) & 0x0FFF, sS.get("g1_stw", z), sA.get("zsw2_enc", z) & 0x0FFF,
                    sA.get("g1_zsw", z))
-            if tuple(int(k[0]) for k in key) != chk.prev_key:
-                return 0
             keydiff = np.zeros(P, dtype=bool)
             for k in key:
                 keydiff[1:] |= k[1:] != k[:-1]
@@ -127,11 +135,8 @@ class AxisWalk:
             bad |= ~ok | ident | keydiff
             if not bad[0]:   # the value rules' vectorised twins (pndiss/encoder/registry.py)
                 bad |= chk.vector_unsafe({**sS, **sA}, "g1_stw" in sS and "g1_zsw" in sA)
-        else:
-            if not chk.idle():
-                return 0
-            if not ax.ambiguous:
-                bad |= ok
+        elif not ax.ambiguous:
+            bad |= ok
         return int(np.argmax(bad)) if bad.any() else P
 
     def _bulk(self, q: int, e: int) -> None:

@@ -25,6 +25,7 @@ class Collector:
         self.pend_c: dict = {}     # (axis key, direction) -> [axis dict, frame_id, layout names, rows]
         self.pend_s: dict = {}     # (stream key, caplen, id(frame map)) -> [off, rows, frame map]
         self.maps: dict = {}       # id(live frame map) -> (live map, its copy the batches carry)
+        self.cur_s: dict = {}      # stream key -> its pend_s key now (rows of one stream stay in frame order)
 
     def attach(self) -> None:
         t = self.a.cyclic
@@ -71,6 +72,12 @@ class Collector:
     def frame_row(self, key: tuple, fn: int, ts: int, data: bytes, off: int) -> None:
         fm = self._rt_map(key)   # the rt event's iodata map at this frame
         k = (key, len(data), id(fm))
+        last = self.cur_s.get(key)
+        if last != k:   # another length or map: what the stream has pending goes first (frame order per stream)
+            if last is not None:
+                self._flush_s(last)
+                self.pend_s.pop(last, None)
+            self.cur_s[key] = k
         p = self.pend_s.get(k)
         if p is None:
             p = self.pend_s[k] = [off, [], fm]
@@ -89,8 +96,9 @@ class Collector:
 
     def bulk_frames(self, key: tuple, fn, ts, data2d, off: int) -> None:
         fm = self._rt_map(key)   # constant within a segment (the session changes at global frames)
-        for k in [k for k in self.pend_s if k[0] == key]:
-            self._flush_s(k)
+        last = self.cur_s.get(key)   # the stream's single rows before these (one pending entry per stream)
+        if last is not None:
+            self._flush_s(last)
         b = StreamBatch(key, np.asarray(fn, dtype=np.int64), np.asarray(ts, dtype=np.int64), data2d, off, fm)
         for s in self.str:
             s.stream_batch(b)

@@ -217,6 +217,14 @@ def rt_signature(b) -> tuple:
     return ("rt", b.key, b.off, b.data.shape[1], None if fm is None else (id(fm), fm.source, fm.released))
 
 
+def _ioxs_ids(pool, dumps) -> np.ndarray:
+    """Pool entries of the 256 IOxS texts (iodata.ioxs), made once per pool."""
+    ids = getattr(pool, "ioxs_ids", None)
+    if ids is None:
+        ids = pool.ioxs_ids = np.array([pool.entry(dumps(iodata.ioxs(v)).encode()) for v in range(256)], np.int64)
+    return ids
+
+
 def rt_shape(b, lo: int, with_iodata: bool, pool, dumps):
     """(event shape, recipe) of StreamBatch b's rows like row ``lo``; None when their link header
     is not one the columns cover (stacked VLAN tags): the caller builds their events one by one.
@@ -239,7 +247,7 @@ def rt_shape(b, lo: int, with_iodata: bool, pool, dumps):
         return None
     offs, ids = [], None
     if "iodata" in ev:   # every IOxS byte a pick from the 256 texts iodata.ioxs gives
-        ids = np.array([pool.entry(dumps(iodata.ioxs(v)).encode()) for v in range(256)], np.int64)
+        ids = _ioxs_ids(pool, dumps)
 
         def marker(o):
             offs.append(b.off + 2 + o)

@@ -60,6 +60,7 @@ class Pool:
         self._arrays = None
         self._buf = None
         self.texts: dict[bytes, int] = {}  # compiled text -> template id
+        self.ioxs_ids = None               # pool entries of the 256 IOxS texts (colrows.rt_shape)
 
     def entry(self, text: bytes) -> int:
         i = self.ids.get(text)
