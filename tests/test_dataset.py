@@ -21,6 +21,7 @@ duckdb = pytest.importorskip("duckdb")
 
 from pndiss import dataset  # noqa: E402
 from pndiss.capture import open_capture  # noqa: E402
+from pndiss.dataset.cycles import CycleTable  # noqa: E402
 from pndiss.cli import main as cli_main  # noqa: E402
 from pndiss.settings import Settings  # noqa: E402
 from pndiss.dataset.schema import JSON, KIND_TABLE, TABLES  # noqa: E402
@@ -199,10 +200,14 @@ def test_failures_recorded_and_interruption_leaves_nothing(tmp_path, monkeypatch
         orig(self, batch)
     monkeypatch.setattr(sink_mod.ParquetSink, "cycle_batch", killed_late)
     monkeypatch.setattr("pndiss.dataset.cycles.ROW_GROUP", 16)
+    monkeypatch.setattr("pndiss.dataset.cycles.COALESCE", 1)
+    opened = []
+    real_write = CycleTable._write
+    monkeypatch.setattr(CycleTable, "_write", lambda self: (real_write(self), opened.append(self.writer)))
     with pytest.raises(KeyboardInterrupt):
         dataset.write_capture(cap, ds, cycles="full")
     monkeypatch.undo()
-    assert len(calls) == 2
+    assert len(calls) == 2 and opened and opened[-1] is not None   # the cycles file was open
     h = dataset.content_hash(cap)
     assert h not in dataset.done_hashes(ds)
     assert not [n for t in TABLES for n in os.listdir(os.path.join(ds, t)) if n.startswith(".")]

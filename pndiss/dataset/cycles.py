@@ -10,6 +10,8 @@ Volume as the MCAP export offers it (pndiss/mcap_export.py):
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pyarrow as pa
 
@@ -17,6 +19,8 @@ from .. import telegrams as tg
 from .schema import CYCLES_HEAD, TABLES, arrow_schema, bit_columns, ts_array
 
 ROW_GROUP = 1 << 16   # rows held before a row group is written
+COALESCE = 1 << 11    # rows of one axis and direction gathered before they become one Arrow batch (the
+                      # engine's batches are often small; Arrow's per-batch cost is per column, ~40 of them)
 
 
 def parse_mode(mode) -> tuple[bool, int, bool]:
@@ -60,6 +64,7 @@ class CycleTable:
         self.axes: dict = {}
         self.pending: list[pa.RecordBatch] = []
         self.pending_rows = 0
+        self.gather: dict = {}   # shape of a batch (axis, direction, its signals) -> [kept parts, rows]
         self.rows = 0
         self.seen = 0
         self.writer = None
@@ -106,12 +111,36 @@ class CycleTable:
         ax = b.axis
         key = (ax.get("device_mac"), ax.get("api"), ax.get("slot"), ax.get("subslot"), b.direction)
         keep = self._keep(key, b)
-        rb = self._record_batch(b, keep)
-        if rb.num_rows:
-            self.pending.append(rb)
-            self.pending_rows += rb.num_rows
+        part = b if keep is None else replace(b, frame=b.frame[keep], ts_ns=b.ts_ns[keep], iops=b.iops[keep],
+                                               judged=b.judged[keep],
+                                               signals={k: np.asarray(v)[keep] for k, v in b.signals.items()})
+        if len(part) == 0:
+            return
+        shape = (key, b.frame_id, tuple(ax.items()), tuple((k, np.asarray(v).dtype.str) for k, v in b.signals.items()))
+        g = self.gather.get(shape)
+        if g is None:
+            g = self.gather[shape] = [[], 0]
+        g[0].append(part)
+        g[1] += len(part)
+        if g[1] >= COALESCE:
+            self._gathered(shape)
             if self.pending_rows >= ROW_GROUP:
                 self._write()
+
+    def _gathered(self, shape) -> None:
+        """The parts gathered for one shape as one Arrow batch (rows of one axis stay in frame order)."""
+        parts, n = self.gather.pop(shape)
+        if len(parts) == 1:
+            b = parts[0]
+        else:
+            b0 = parts[0]
+            cat = np.concatenate
+            b = replace(b0, frame=cat([p.frame for p in parts]), ts_ns=cat([p.ts_ns for p in parts]),
+                        iops=cat([p.iops for p in parts]), judged=cat([p.judged for p in parts]),
+                        signals={k: cat([np.asarray(p.signals[k]) for p in parts]) for k in b0.signals})
+        rb = self._record_batch(b, None)
+        self.pending.append(rb)
+        self.pending_rows += rb.num_rows
 
     def _record_batch(self, b, keep) -> pa.RecordBatch:
         def sel(a):
@@ -167,6 +196,8 @@ class CycleTable:
 
     def close(self) -> int:
         """Write what is held; returns the rows written (0: no file was made)."""
+        for shape in list(self.gather):
+            self._gathered(shape)
         if self.pending:
             self._write()
         if self.writer is not None:
@@ -178,6 +209,7 @@ class CycleTable:
     def abort(self) -> None:
         """Close the file without writing what is held (an interrupted capture)."""
         self.pending, self.pending_rows = [], 0
+        self.gather = {}
         if self.writer is not None:
             try:
                 self.writer.close()
