@@ -30,7 +30,7 @@ class Cols:
         self.d = d
         self.cap0 = int(cap[0])
         self.capbad = cap != self.cap0
-        end = d + self.cap0
+        end = d + cap   # each row's own end: a shorter frame may end the buffer (its APDU status is its last 4 bytes)
         self.cc = (u8[end - 4].astype(np.int64) << 8) | u8[end - 3]
         self.ds = (u8[end - 2] & 0x14) == 0x14          # DataValid and provider RUN (wire.md §2.3)
         self.off = 18 if w.tagged[p[0]] else 14
@@ -45,7 +45,11 @@ class Cols:
             return False
         self.start = o.start
         base = self.d + self.off + 2 + o.start
-        self.M = self.w.u8[base[:, None] + np.arange(end - o.start)]
+        # rows of another length (capbad, never bulk) may be shorter than this layout: clamped to the buffer
+        ix = base[:, None] + np.arange(end - o.start)
+        if self.capbad.any():
+            np.minimum(ix, len(self.w.u8) - 1, out=ix)
+        self.M = self.w.u8[ix]
         return True
 
     def iops(self, o):

@@ -382,3 +382,21 @@ def test_sensor_error_code_changes_mid_error(sessions, tmp_path):
     codes = [e["value"] for e in states if e["state"] == "sensor_error"]
     assert 0x1001 in codes and 0x1003 in codes, codes
     assert eng.frames_bulk > 5 * eng.frames_single
+
+
+def test_shorter_frame_of_a_stream_ends_the_file(sessions, tmp_path):
+    """The fuzz campaign's crash (seed3030-m55): a stream's frame shorter than the stream's first frame
+    in the window, and the last record of the file -- the engine's columns read each frame's counter and
+    status at its own end and never past the buffer; both paths agree."""
+    frames = list(sessions["plant"])[:3000]
+    def cyclic(d):   # an RT_CLASS_1 frame, with or without its 802.1Q tag
+        o = 16 if d[12:14] == b"\x81\x00" else 12
+        return d[o:o + 2] == b"\x88\x92" and 0x80 <= d[o + 2] < 0xC0
+    i = max(k for k, f in enumerate(frames) if cyclic(f[3]))
+    fn, ts, lt, data = frames[i]
+    short = data[:-44] + data[-4:]
+    frames.append((len(frames) + 1, frames[-1][1] + 1000, len(short), short))
+    for fmt in ("pcapng-le", "pcap-be"):
+        path = str(tmp_path / ("s." + fmt.split("-")[0]))
+        _write(path, frames, fmt)
+        _same_both_ways(path)
