@@ -42,6 +42,10 @@ class Analyzer:
         self._held = None     # events held while the engine walks stream groups (hold / release)
         self._hold_fn = 0
         self.at = 0           # the frame whose processing emitted the event being emitted (sinks merge on it)
+        # the frame whose telegram rows a column sink already got (batches.Collector sets it): an event of
+        # that frame emitted before its first row goes before the rows (a relabel's or a profile's events)
+        self.rows_at = -1
+        self.after_rows = True
         self._releasing = None
         self.counts = {"decoded": 0, "not_profinet": 0, "malformed": 0}
         self.kinds: Counter = Counter()
@@ -69,7 +73,7 @@ class Analyzer:
     # -- output ---------------------------------------------------------------------------
     def emit(self, ev: dict) -> None:
         if self._held is not None:
-            self._held.append((self._hold_fn, len(self._held), ev))
+            self._held.append((self._hold_fn, len(self._held), ev, self.rows_at == self._hold_fn))
             return
         kind = ev["kind"]
         self.kinds[kind] += 1
@@ -78,6 +82,7 @@ class Analyzer:
         if self.sink is not None:
             if self._releasing is None:
                 self.at = self.cur_frame
+                self.after_rows = self.rows_at == self.cur_frame
             self.sink(ev)
 
     # -- the engine walks independent stream groups one after the other (pndiss/engine.py): their events
@@ -96,7 +101,7 @@ class Analyzer:
             self._releasing = True
             try:
                 for h in held:
-                    self.at = h[0]
+                    self.at, self.after_rows = h[0], h[3]
                     self.emit(h[2])
             finally:
                 self._releasing = None

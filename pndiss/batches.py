@@ -26,6 +26,7 @@ class Collector:
         self.pend_s: dict = {}     # (stream key, caplen, id(frame map)) -> [off, rows, frame map]
         self.maps: dict = {}       # id(live frame map) -> (live map, its copy the batches carry)
         self.cur_s: dict = {}      # stream key -> its pend_s key now (rows of one stream stay in frame order)
+        self.cur_c: dict = {}      # (axis key, direction) -> its pend_c key now
 
     def attach(self) -> None:
         t = self.a.cyclic
@@ -35,25 +36,38 @@ class Collector:
             t.stream_sink = self.frame_row
 
     # -- one row at a time (the tracker's hooks) --------------------------------------------------
-    def _axis(self, o) -> dict:
+    def _axis(self, o, fm) -> dict:
+        """The axis as a telegram event names it: station and device from the frame's map (a DCP rename
+        shows from its frame on), the data object, the axis' telegram, profile and AR."""
         ax = o.ax or self.a.cyclic.axes.get(o.key)
         info = dict(ax.info) if ax is not None else {}
-        info.update(telegram=o.telegram, telegram_source=o.source, profile=ax.profile if ax is not None else "generic",
+        do = o.do
+        info.update(station=fm.station, device_mac=fm.device_mac, api=do.api, slot=do.slot, subslot=do.subslot,
+                    telegram=o.telegram, telegram_source=o.source, profile=ax.profile if ax is not None else "generic",
                     ar_uuid=ax.fm.ar_uuid if ax is not None and ax.fm is not None else None)
         return info
 
     @staticmethod
-    def _key(o, direction: str) -> tuple:
-        """Rows of one batch share the axis' identity as the sinks see it (telegram, its source, profile)."""
+    def _key(o, fr) -> tuple:
+        """Rows of one batch share the axis' identity as the sinks see it (station, telegram, its source,
+        profile)."""
         ax = o.ax
-        return (o.key, direction, o.telegram, o.source, ax.profile if ax is not None else None)
+        return (o.key, fr.direction, fr.fm.station, o.telegram, o.source, ax.profile if ax is not None else None)
 
     def cycle_row(self, o, fr, frame_id: int, fn: int, ts: int, iops, ok: bool) -> None:
         self.a.kinds["telegram"] += 1   # a telegram event as a row: counted as the dict would be
-        k = self._key(o, fr.direction)
+        self.a.rows_at = fn             # this frame's events from now on come after its telegram rows
+        k = self._key(o, fr)
+        cur = (o.key, fr.direction)
+        last = self.cur_c.get(cur)
+        if last != k:   # the axis' identity changed: what it has pending goes first (frame order per axis)
+            if last is not None:
+                self._flush_c(last)
+                self.pend_c.pop(last, None)
+            self.cur_c[cur] = k
         p = self.pend_c.get(k)
         if p is None:
-            p = self.pend_c[k] = [self._axis(o), frame_id, o.layout.names, []]
+            p = self.pend_c[k] = [self._axis(o, fr.fm), frame_id, o.layout.names, []]
         p[3].append((fn, ts, -1 if iops is None else iops, ok, o.sig))
 
     def _rt_map(self, key: tuple):
@@ -84,11 +98,13 @@ class Collector:
         p[1].append((fn, ts, data))
 
     # -- whole columns (the engine) -----------------------------------------------------------------
-    def bulk_cycles(self, o, direction: str, frame_id: int, fn, ts, iops, ok, sig: dict) -> None:
+    def bulk_cycles(self, o, fr, frame_id: int, fn, ts, iops, ok, sig: dict) -> None:
+        direction = fr.direction
         self.a.kinds["telegram"] += len(fn)
-        for k in [k for k in self.pend_c if k[0] == o.key and k[1] == direction]:
-            self._flush_c(k)
-        b = CycleBatch(self._axis(o), direction, frame_id, np.asarray(fn, dtype=np.int64),
+        last = self.cur_c.get((o.key, direction))
+        if last is not None:
+            self._flush_c(last)
+        b = CycleBatch(self._axis(o, fr.fm), direction, frame_id, np.asarray(fn, dtype=np.int64),
                        np.asarray(ts, dtype=np.int64), np.asarray(iops, dtype=np.int16), np.asarray(ok, dtype=bool),
                        {n: sig[n] for n in o.layout.names if n in sig})
         for s in self.cyc:

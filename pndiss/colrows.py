@@ -113,13 +113,17 @@ class Held:
         self.rows = 0              # rows held
         self.pos = None
 
-    def event(self, ev: dict, at: int | None = None) -> None:
-        """``at``: the frame whose processing emitted ``ev``, when the driver knows it (exact order)."""
+    def event(self, ev: dict, at: int | None = None, after_rows: bool | None = None) -> None:
+        """``at``: the frame whose processing emitted ``ev``, when the driver knows it (exact order);
+        ``after_rows``: False when that frame's telegram rows had not begun (the event goes before them)."""
         for fn in (at,) if at is not None else (ev.get("frame"), ev.get("last_frame")):
             # without ``at``: a violation is decided at its last frame or later
             if fn.__class__ is int and (self.pos is None or fn > self.pos):
                 self.pos = fn
-        self.events.append((self.pos if self.pos is not None else 0, _rank(ev), 0, self.freeze(ev), at is not None))
+        rank = _rank(ev)
+        if after_rows is False and rank == RANK_AFTER:
+            rank = RANK_BEFORE
+        self.events.append((self.pos if self.pos is not None else 0, rank, 0, self.freeze(ev), at is not None))
 
     def batch(self, kind: str, b) -> None:
         if len(b):
@@ -360,8 +364,8 @@ class HeldSink(Sink):
     rows are held (``self.held``, a Held) and written merged in the reference order once ``hold_rows``
     rows wait at a flush point; the subclass writes (``_flush``)."""
 
-    def event(self, ev: dict, at: int | None = None) -> None:
-        self.held.event(ev, at)
+    def event(self, ev: dict, at: int | None = None, after_rows: bool | None = None) -> None:
+        self.held.event(ev, at, after_rows)
 
     def cycle_batch(self, batch) -> None:
         self.held.batch("tg", batch)

@@ -39,9 +39,10 @@ def _column(s) -> bool:
 
 
 def _per_frame(ev: dict) -> bool:
-    """An event that exists once per cyclic frame: a telegram, or the rt event of a cyclic frame."""
+    """An event a column sink gets as a row instead: a telegram, or the rt event of a cyclic frame the
+    tracker saw (one with its APDU status; a frame too short for it is malformed and has no row)."""
     k = ev["kind"]
-    return k == "telegram" or (k == "rt" and rt.classify(ev.get("frame_id", 0))[1])
+    return k == "telegram" or (k == "rt" and "cycle_counter" in ev and rt.classify(ev.get("frame_id", 0))[1])
 
 
 def _dispatch(a, sinks: list):
@@ -54,16 +55,19 @@ def _dispatch(a, sinks: list):
         if s.kinds is not None and not s.kinds:
             continue
         try:
-            at = "at" in inspect.signature(s.event).parameters
+            params = inspect.signature(s.event).parameters
         except (TypeError, ValueError):
-            at = False
+            params = {}
+        at = 2 if "after_rows" in params else 1 if "at" in params else 0
         table.append((s.event, s.kinds, at, _column(s)))
 
     def emit(ev, _table=tuple(table)):
         kind = ev["kind"]
         for fn, k, at, col in _table:
             if (k is None or kind in k) and not (col and kind in FRAME_KINDS and _per_frame(ev)):
-                if at:
+                if at == 2:
+                    fn(ev, a.at, a.after_rows)
+                elif at:
                     fn(ev, a.at)
                 else:
                     fn(ev)

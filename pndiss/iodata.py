@@ -46,8 +46,8 @@ def decode(fm, csdu: bytes, ioxs_of=ioxs) -> dict | None:
     pos = 0
     for off, is_obj, x in items:
         end = off + (x.length + x.iops_len if is_obj else x.length)
-        # a Connect may declare an IOPS length of 0: the IOPS byte read below must still be in the C_SDU
-        if off != pos or end > n or (is_obj and off + x.length >= n):
+        # a Connect may declare an IOPS or IOCS length of 0: the IOxS byte read below must still be in the C_SDU
+        if off != pos or end > n or (off + x.length >= n if is_obj else off >= n):
             break
         pos = end
         if not is_obj:

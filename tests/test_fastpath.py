@@ -291,21 +291,9 @@ def test_batch_snaplen_truncated(sessions, tmp_path):
 _OTHER = bytes.fromhex("ffffffffffff020000000099" "0806") + bytes(46)   # an ARP-typed frame: not PROFINET
 
 
-@hsettings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow,
-                                                                   HealthCheck.function_scoped_fixture])
-@given(name=st.sampled_from(("motion83", "two81", "scancon84", "plant", "irt", "routine")), fmt=st.sampled_from(FORMATS),
-       muts=st.lists(st.tuples(st.sampled_from(("byte", "bit", "zero2", "burst", "freeze", "cut", "drop", "insert",
-                                                "dup", "swap", "lose")),
-                               st.floats(0, 1, exclude_max=True), st.integers(0, 10_000), st.integers(0, 255)),
-                     max_size=8))
-def test_batch_mutated_sessions(sessions, tmp_path, name, fmt, muts):
-    """Single-frame faults at random places in long steady stretches: a byte or a telegram bit changed
-    (control/status words, sign-of-life, positions, DataStatus, IOPS, FrameID, MACs), a frame cut, dropped,
-    doubled, or a non-PROFINET frame in the middle of a run; a burst repeats one change in the next
-    frames of the stream (conditions over several cycles); a freeze repeats every stream's C_SDU for a few
-    cycles (identical inputs: the checker's own shortcut); a stretch of frames reordered (RT drift, jitter);
-    a stream losing frames (capture loss). Both paths agree on everything."""
-    frames = list(sessions[name])
+def _mutate(frames: list, muts) -> list:
+    """The mutations of test_batch_mutated_sessions applied to a copy of ``frames``."""
+    frames = list(frames)
     for kind, where, off, val in muts:
         i = int(where * len(frames))
         fn, ts, lt, data = frames[i]
@@ -357,6 +345,24 @@ def test_batch_mutated_sessions(sessions, tmp_path, name, fmt, muts):
             frames.insert(i, frames[i])
             continue
         frames[i] = (fn, ts, lt, bytes(b))
+    return frames
+
+
+@hsettings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow,
+                                                                   HealthCheck.function_scoped_fixture])
+@given(name=st.sampled_from(("motion83", "two81", "scancon84", "plant", "irt", "routine")), fmt=st.sampled_from(FORMATS),
+       muts=st.lists(st.tuples(st.sampled_from(("byte", "bit", "zero2", "burst", "freeze", "cut", "drop", "insert",
+                                                "dup", "swap", "lose")),
+                               st.floats(0, 1, exclude_max=True), st.integers(0, 10_000), st.integers(0, 255)),
+                     max_size=8))
+def test_batch_mutated_sessions(sessions, tmp_path, name, fmt, muts):
+    """Single-frame faults at random places in long steady stretches: a byte or a telegram bit changed
+    (control/status words, sign-of-life, positions, DataStatus, IOPS, FrameID, MACs), a frame cut, dropped,
+    doubled, or a non-PROFINET frame in the middle of a run; a burst repeats one change in the next
+    frames of the stream (conditions over several cycles); a freeze repeats every stream's C_SDU for a few
+    cycles (identical inputs: the checker's own shortcut); a stretch of frames reordered (RT drift, jitter);
+    a stream losing frames (capture loss). Both paths agree on everything."""
+    frames = _mutate(sessions[name], muts)
     path = str(tmp_path / ("m." + fmt.split("-")[0]))
     _write(path, frames, fmt)
     _same_both_ways(path)
@@ -400,3 +406,22 @@ def test_shorter_frame_of_a_stream_ends_the_file(sessions, tmp_path):
         path = str(tmp_path / ("s." + fmt.split("-")[0]))
         _write(path, frames, fmt)
         _same_both_ways(path)
+
+
+_MUTS = st.lists(st.tuples(st.sampled_from(("byte", "bit", "zero2", "burst", "freeze", "cut", "drop", "insert", "dup",
+                                            "swap", "lose")),
+                           st.floats(0, 1, exclude_max=True), st.integers(0, 10_000), st.integers(0, 255)),
+                 max_size=8)
+
+
+@hsettings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow,
+                                                                   HealthCheck.function_scoped_fixture])
+@given(name=st.sampled_from(("two81", "scancon84", "plant", "routine")), muts=_MUTS)
+def test_full_jsonl_mutated_sessions(sessions, tmp_path, name, muts):
+    """`analyze --jsonl` written from the engine's columns = the reference's lines on mutated sessions
+    (the fuzz campaign found a cut cyclic frame's partial rt event, a station as the frame's map names
+    it, and events a frame emits before its telegram rows)."""
+    from test_engine_sinks import _engine_lines, _reference_lines
+    path = str(tmp_path / "j.pcapng")
+    _write(path, _mutate(sessions[name], muts)[:4000], "pcapng-le")
+    assert _engine_lines(path) == _reference_lines(path)

@@ -222,3 +222,17 @@ def test_iodata_with_zero_iops_length():
                   armap.DataObject(api=0, slot=2, subslot=1, offset=3, length=3, iops_len=0)]
     io = iodata.decode(fm, bytes([1, 2, 0x80, 4, 5, 6]))
     assert [o["slot"] for o in io["objects"]] == [1] and io["gap_at"] == 3
+
+
+def test_iodata_with_zero_iocs_length_at_the_end():
+    """The fuzz campaign's seed4040-m34/m47: a mutated Connect declared an IOCS of length 0 at the
+    C_SDU's end; its IOCS byte was read anyway (IndexError in analyze --jsonl, exit 3)."""
+    from pndiss import armap, iodata
+    fm = armap.FrameMap(frame_id=0x8001, direction="output", controller_mac="02:00:00:00:00:01",
+                        device_mac="02:00:00:00:00:02", station="d", ar_uuid=None, data_length=4)
+    fm.objects = [armap.DataObject(api=0, slot=1, subslot=1, offset=0, length=2)]
+    fm.iocs = [armap.IocsEntry(api=0, slot=2, subslot=1, offset=3, length=1),
+               armap.IocsEntry(api=0, slot=3, subslot=1, offset=4, length=0)]
+    io = iodata.decode(fm, bytes([1, 2, 0x80, 0x80]))
+    assert [o["slot"] for o in io["objects"]] == [1] and [c["slot"] for c in io["iocs"]] == [2]
+    assert io["gap_at"] is None
