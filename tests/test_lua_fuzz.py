@@ -66,3 +66,21 @@ def test_random_record_and_cyclic_bytes(tmp_path_factory, data):
     assert p.returncode == 0
     assert "Lua" not in p.stderr.replace("Running as user", ""), p.stderr
     assert "Lua Error" not in p.stdout
+
+
+def test_short_frames_equal_to_each_other(tmp_path):
+    """The fuzz campaign's seed5051-m12: a telegram frame cut short (its data object ends beyond the
+    C_SDU: malformed), then a frame with the very same bytes -- the tracker keeps the object's last
+    values for an unchanged C_SDU (as cyclic.py does), and the tree must not read past the frame."""
+    frames, spots = base_session(str(tmp_path))
+    i, start, n = next((i, s, n) for i, s, n in spots if s == 20 and n > 12 and i > 100)
+    fr = frames[i]
+    short = fr[:start + 4] + fr[-4:]          # 4 bytes of C_SDU, then the APDU status
+    out = frames[:i + 1] + [short, short] + frames[i + 1:]
+    path = str(tmp_path / "short.pcap")
+    _write_pcap(path, out)
+    for two in ([], ["-2"]):
+        p = subprocess.run(["tshark", "-n", "-r", path, "-X", f"lua_script:{PLUGIN}", "-V", *two],
+                           capture_output=True, text=True, timeout=300)
+        assert p.returncode == 0
+        assert "Lua Error" not in p.stdout and "Lua" not in p.stderr.replace("Running as user", ""), p.stderr[-500:]
