@@ -22,11 +22,9 @@ class Collector:
         self.cyc = [s for s in sinks if s.cycles]
         self.str = [s for s in sinks if s.streams]
         self.sinks = sinks
-        self.pend_c: dict = {}     # (axis key, direction) -> [axis dict, frame_id, layout names, rows]
-        self.pend_s: dict = {}     # (stream key, caplen, id(frame map)) -> [off, rows, frame map]
+        self.pend_c: dict = {}     # (axis key, direction) -> [identity, axis dict, frame_id, layout names, rows]
+        self.pend_s: dict = {}     # stream key -> [(caplen, id(frame map)), off, rows, frame map]
         self.maps: dict = {}       # id(live frame map) -> (live map, its copy the batches carry)
-        self.cur_s: dict = {}      # stream key -> its pend_s key now (rows of one stream stay in frame order)
-        self.cur_c: dict = {}      # (axis key, direction) -> its pend_c key now
 
     def attach(self) -> None:
         t = self.a.cyclic
@@ -47,28 +45,20 @@ class Collector:
                     ar_uuid=ax.fm.ar_uuid if ax is not None and ax.fm is not None else None)
         return info
 
-    @staticmethod
-    def _key(o, fr) -> tuple:
-        """Rows of one batch share the axis' identity as the sinks see it (station, telegram, its source,
-        profile)."""
-        ax = o.ax
-        return (o.key, fr.direction, fr.fm.station, o.telegram, o.source, ax.profile if ax is not None else None)
-
     def cycle_row(self, o, fr, frame_id: int, fn: int, ts: int, iops, ok: bool) -> None:
         self.a.kinds["telegram"] += 1   # a telegram event as a row: counted as the dict would be
         self.a.rows_at = fn             # this frame's events from now on come after its telegram rows
-        k = self._key(o, fr)
-        cur = (o.key, fr.direction)
-        last = self.cur_c.get(cur)
-        if last != k:   # the axis' identity changed: what it has pending goes first (frame order per axis)
-            if last is not None:
-                self._flush_c(last)
-                self.pend_c.pop(last, None)
-            self.cur_c[cur] = k
+        k = (o.key, fr.direction)
+        ax = o.ax
+        # rows of one batch share the axis' identity as the sinks see it (FrameID, station, telegram, its
+        # source, profile, AR)
+        ident = (frame_id, fr.fm.station, o.telegram, o.source, ax.profile if ax is not None else None,
+                 ax.fm.ar_uuid if ax is not None and ax.fm is not None else None)
         p = self.pend_c.get(k)
-        if p is None:
-            p = self.pend_c[k] = [self._axis(o, fr.fm), frame_id, o.layout.names, []]
-        p[3].append((fn, ts, -1 if iops is None else iops, ok, o.sig))
+        if p is None or p[0] != ident:   # a new identity: the rows pending go first (frame order per axis)
+            self._flush_c(k)
+            p = self.pend_c[k] = [ident, self._axis(o, fr.fm), frame_id, o.layout.names, []]
+        p[4].append((fn, ts, -1 if iops is None else iops, ok, o.sig))
 
     def _rt_map(self, key: tuple):
         """The frame map an rt event of ``key`` decodes its ``iodata`` with now, as a copy that stays as it
@@ -85,25 +75,18 @@ class Collector:
 
     def frame_row(self, key: tuple, fn: int, ts: int, data: bytes, off: int) -> None:
         fm = self._rt_map(key)   # the rt event's iodata map at this frame
-        k = (key, len(data), id(fm))
-        last = self.cur_s.get(key)
-        if last != k:   # another length or map: what the stream has pending goes first (frame order per stream)
-            if last is not None:
-                self._flush_s(last)
-                self.pend_s.pop(last, None)
-            self.cur_s[key] = k
-        p = self.pend_s.get(k)
-        if p is None:
-            p = self.pend_s[k] = [off, [], fm]
-        p[1].append((fn, ts, data))
+        ident = (len(data), id(fm))
+        p = self.pend_s.get(key)
+        if p is None or p[0] != ident:   # another length or map: the rows pending go first (frame order)
+            self._flush_s(key)
+            p = self.pend_s[key] = [ident, off, [], fm]
+        p[2].append((fn, ts, data))
 
     # -- whole columns (the engine) -----------------------------------------------------------------
     def bulk_cycles(self, o, fr, frame_id: int, fn, ts, iops, ok, sig: dict) -> None:
         direction = fr.direction
         self.a.kinds["telegram"] += len(fn)
-        last = self.cur_c.get((o.key, direction))
-        if last is not None:
-            self._flush_c(last)
+        self._flush_c((o.key, direction))   # the axis' single rows before these
         b = CycleBatch(self._axis(o, fr.fm), direction, frame_id, np.asarray(fn, dtype=np.int64),
                        np.asarray(ts, dtype=np.int64), np.asarray(iops, dtype=np.int16), np.asarray(ok, dtype=bool),
                        {n: sig[n] for n in o.layout.names if n in sig})
@@ -112,9 +95,7 @@ class Collector:
 
     def bulk_frames(self, key: tuple, fn, ts, data2d, off: int) -> None:
         fm = self._rt_map(key)   # constant within a segment (the session changes at global frames)
-        last = self.cur_s.get(key)   # the stream's single rows before these (one pending entry per stream)
-        if last is not None:
-            self._flush_s(last)
+        self._flush_s(key)   # the stream's single rows before these
         b = StreamBatch(key, np.asarray(fn, dtype=np.int64), np.asarray(ts, dtype=np.int64), data2d, off, fm)
         for s in self.str:
             s.stream_batch(b)
@@ -122,10 +103,10 @@ class Collector:
     # -- flushing -------------------------------------------------------------------------------------
     def _flush_c(self, k) -> None:
         p = self.pend_c.get(k)
-        if not p or not p[3]:
+        if not p or not p[4]:
             return
-        info, fid, names, rows = p
-        p[3] = []
+        _ident, info, fid, names, rows = p
+        p[4] = []
         fn, ts, iops, ok, sigs = zip(*rows)
         sig = {}
         for n in names:
@@ -136,23 +117,25 @@ class Collector:
         for s in self.cyc:
             s.cycle_batch(b)
 
-    def _flush_s(self, k) -> None:
-        p = self.pend_s.get(k)
-        if not p or not p[1]:
+    def _flush_s(self, key) -> None:
+        p = self.pend_s.get(key)
+        if not p or not p[2]:
             return
-        off, rows, fm = p
-        p[1] = []
+        (caplen, _fm_id), off, rows, fm = p
+        p[2] = []
         fn, ts, data = zip(*rows)
-        arr = np.frombuffer(b"".join(data), dtype=np.uint8).reshape(len(data), k[1])
-        b = StreamBatch(k[0], np.array(fn, dtype=np.int64), np.array(ts, dtype=np.int64), arr, off, fm)
+        arr = np.frombuffer(b"".join(data), dtype=np.uint8).reshape(len(data), caplen)
+        b = StreamBatch(key, np.array(fn, dtype=np.int64), np.array(ts, dtype=np.int64), arr, off, fm)
         for s in self.str:
             s.stream_batch(b)
 
     def flush(self, frame: int) -> None:
         """Every row up to ``frame`` out; the sinks hear that everything up to it was delivered."""
-        for k in list(self.pend_c):
+        for k in self.pend_c:
             self._flush_c(k)
-        for k in list(self.pend_s):
+        for k in self.pend_s:
             self._flush_s(k)
+        self.pend_c.clear()   # only the keys of this window's single rows (a flood of streams stays bounded)
+        self.pend_s.clear()
         for s in self.sinks:
             s.flush_point(frame)
