@@ -223,10 +223,9 @@ def rt_signature(b) -> tuple:
 
 def _ioxs_ids(pool, dumps) -> np.ndarray:
     """Pool entries of the 256 IOxS texts (iodata.ioxs), made once per pool."""
-    ids = getattr(pool, "ioxs_ids", None)
-    if ids is None:
-        ids = pool.ioxs_ids = np.array([pool.entry(dumps(iodata.ioxs(v)).encode()) for v in range(256)], np.int64)
-    return ids
+    if pool.ioxs_ids is None:
+        pool.ioxs_ids = np.array([pool.entry(dumps(iodata.ioxs(v)).encode()) for v in range(256)], np.int64)
+    return pool.ioxs_ids
 
 
 def rt_shape(b, lo: int, with_iodata: bool, pool, dumps):
