@@ -869,9 +869,12 @@ local function value_block(t, off, len)
         if v ~= nil then blk.values[#blk.values + 1] = v end
         if s ~= nil then blk.shown[#blk.shown + 1] = s end
     end
-    if code == "str" then
-        local raw = t(off + 2, size * n):raw()
-        blk.values[1], blk.shown[1] = raw, raw
+    if code == "str" then   -- profidrive.py: raw.decode("latin-1"), as UTF-8 text (tshark prints it as is)
+        local text = t(off + 2, size * n):raw():gsub("[\128-\255]", function(c)
+            local b = c:byte()
+            return string.char(0xC0 + math.floor(b / 64), 0x80 + b % 64)
+        end)
+        blk.values[1], blk.shown[1] = text, text
     end
     if fmt == 0x44 and n > 0 then
         blk.error = {code = blk.values[1], text = error_text(blk.values[1])}
