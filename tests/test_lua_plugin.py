@@ -572,3 +572,28 @@ def test_random_sessions_equal_python(tmp_path, seed):
         pytest.fail(f"no session the simulator accepts in 20 draws: {refused}")
     _, viol = python_expect(path)
     assert {(f, r) for f, r, _ in rule_rows(path)} == viol
+
+
+def test_visible_string_parameter_value(tmp_path):
+    """A PROFIdrive parameter answered as VisibleString with bytes beyond ASCII (the fuzz campaign made
+    one): the plugin shows the value as profidrive.py decodes it (latin-1), and tshark's output stays
+    UTF-8 -- before, the raw wire bytes went into the tree as they were."""
+    path = os.path.join(ROOT, "captures", "preset-t81-lika.pcapng")
+    if not os.path.exists(path):
+        pytest.skip("captures/preset-t81-lika.pcapng is missing")
+    frames = _read_pcapng_frames(path)
+    evs = []
+    analyze_file(path, sink=evs.append)
+    rec = next(e for e in evs if e["kind"] == "record" and e.get("op") == "read" and e.get("data") == "4301010106010051")
+    i = rec["frame"] - 1
+    frames[i] = frames[i][:-8] + bytes.fromhex("4301010109028641")   # format 0x09, 2 characters: 0x86 'A'
+    out = str(tmp_path / "vs.pcap")
+    _write_pcap(out, frames)
+    evs2 = []
+    analyze_file(out, sink=evs2.append)
+    assert any(e["kind"] == "param" and "\x86A" in json.dumps(e, ensure_ascii=False) for e in evs2)
+    p = subprocess.run(["tshark", "-n", "-r", out, "-X", f"lua_script:{PLUGIN}", "-V"], capture_output=True)
+    text = p.stdout.decode("utf-8")                 # raises on bytes that are no UTF-8
+    assert "Lua Error" not in text
+    n, bad, _lua, _py = compare(out)
+    assert n and not bad, bad[:5]
