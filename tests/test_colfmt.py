@@ -17,10 +17,10 @@ from hypothesis import HealthCheck, given, settings as hsettings, strategies as 
 from mcap.reader import make_reader
 
 from colfmt_producer import Recorded, plan, play
+from test_engine_sinks import _reference_lines
 from pndiss import colrows
 from pndiss import telegrams as tg
 from pndiss.analyzer import analyze_file
-from pndiss.events import FrameTimes
 from pndiss.jsonl_sink import JsonlSink
 from pndiss.mcap_export import McapExporter
 from pndiss.mcap_sink import McapSink
@@ -42,15 +42,9 @@ _dumps = json.JSONEncoder(separators=(",", ":"), default=str).encode
 
 
 def _reference_jsonl(path: str, kinds=None) -> list[str]:
-    """What ``pndiss analyze --jsonl`` writes on the reference path (commands/analyze.py to_jsonl)."""
-    out, fix = [], FrameTimes().fix
-
-    def sink(ev):
-        ev = fix(ev)
-        if kinds is None or ev["kind"] in kinds:
-            out.append(_dumps(ev))
-    analyze_file(path, None, sink)
-    return out
+    """What ``pndiss analyze --jsonl`` writes on the reference path (the oracle of test_engine_sinks)."""
+    lines = _reference_lines(path)
+    return lines if kinds is None else [x for x in lines if json.loads(x)["kind"] in kinds]
 
 
 def _messages(path: str) -> tuple[dict, dict]:
