@@ -22,6 +22,7 @@ from .. import telegrams as tg
 from . import position as P
 from . import registry as REG
 from .config import EncoderConfig, U32, next_ls
+from .cycles import serr_state
 from .registry import E_MASTER_SOL, E_PARAM, E_SYNC, LIKA_CODES  # noqa: F401  (re-exported: tools/gen_lua.py)
 
 PRESET_TELEGRAMS = {t: sig for t, (sig, _bit) in tg.PRESET_WORD.items()}   # §2.5, from the telegram table
@@ -583,7 +584,7 @@ class Checker:
         self.pos_hist.append(c.motion)
         self._value_rules(c, sp.get("stw2_enc", 0) >> 12, ps.get("stw2_enc", 0) >> 12, pa.get("zsw2_enc", 0) >> 12, False)
         if c.SERR:
-            self._state("sensor_error", c.X2 if c.X2 is not None else 1)
+            self._state("sensor_error", c.serr_state)
 
     def vector_unsafe(self, cols: dict, has_g1: bool):
         """Per row of a stretch of consecutive steady cycles of this axis (``cols``: NumPy columns named as
@@ -828,7 +829,7 @@ class Checker:
         self._state("control_by_plc", CTRL)
         self._state("preset", "done" if PDONE else ("requested" if PREQ else "idle"))
         self._state("parked", PKA)
-        self._state("sensor_error", (X2 if X2 is not None else 1) if SERR else 0)
+        self._state("sensor_error", serr_state(SERR, X2))
         if self.solmon:
             self._state("sol_fault_counter_over", int(self.C > self.sol_limit))
 
