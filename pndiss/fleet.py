@@ -147,6 +147,47 @@ def local_cluster(workers: int):
                         silence_logs=logging.ERROR)
 
 
+def likely_work(paths: list[str], store) -> bool:
+    """Whether some input is probably not in the dataset yet: a path it holds no successful row
+    for. Only a guess, to start the cluster while the inputs are hashed; the hashes decide."""
+    known = {os.path.abspath(r["file"]) for r in store.done().values() if r.get("file") and not r.get("error")}
+    return any(os.path.abspath(p) not in known for p in paths)
+
+
+class EarlyCluster:
+    """A local cluster started in a thread (spawning workers and importing distributed take ~1 s,
+    hashing the inputs as long again: they overlap). ``take()`` waits for it; ``close()`` stops it."""
+
+    def __init__(self, workers: int):
+        import threading
+        self._out: list = []
+        self._thread = threading.Thread(target=self._start, args=(workers,), name="pndiss-cluster-start",
+                                        daemon=True)
+        self._thread.start()
+
+    def _start(self, workers: int) -> None:
+        try:
+            self._out.append(("ok", connect(None, workers)))
+        except BaseException as e:  # noqa: BLE001 - handed to the main thread by take()
+            self._out.append(("error", e))
+
+    def take(self):
+        """(client, cluster), or the exception starting it raised."""
+        self._thread.join()
+        what, v = self._out[0]
+        if what == "error":
+            raise v
+        return v
+
+    def close(self) -> None:
+        try:
+            client, cluster = self.take()
+        except Exception:  # it never started: nothing to stop
+            return
+        client.close()
+        cluster.close()
+
+
 def connect(scheduler: str | None, workers: int):
     """(client, cluster or None): a client of an existing scheduler, or of a new LocalCluster."""
     from distributed import Client

@@ -11,6 +11,8 @@ import os
 import shutil
 import subprocess
 import sys
+import threading
+import time
 
 import pytest
 from hypothesis import given, settings as hsettings, strategies as st
@@ -152,6 +154,64 @@ def test_cycles_thinned(tmp_path, mode):
     for rs in by_axis.values():   # a keyframe at least every slot of 0.25 s
         ts = [r["ts_ns"] for r in rs]
         assert max(b - a for a, b in zip(ts, ts[1:])) < 0.5e9
+
+
+def _batch(n, start=0, station="enc-1"):
+    import numpy as np
+
+    from pndiss.sinks import CycleBatch
+    i = np.arange(start, start + n, dtype=np.int64)
+    return CycleBatch(axis={"station": station, "device_mac": "02:00:00:00:00:01", "api": 0x3D00, "slot": 1,
+                            "subslot": 2, "telegram": 81, "telegram_source": "connect", "profile": "generic"},
+                      direction="actual", frame_id=0x8001, frame=i, ts_ns=i * 1_000_000,
+                      iops=np.full(n, 0x80, np.int16), judged=np.ones(n, bool),
+                      signals={"g1_xist1": i * 3, "g1_zsw": np.full(n, 0x2000, np.int64)})
+
+
+def test_cycles_writer_thread(tmp_path, monkeypatch):
+    """Row groups of the cycles table are encoded and written on a thread: what was added is what is
+    written (the axis as it was when added, rows in frame order), at most one row group is in flight,
+    and an error on the thread (a full disk) is raised in the caller's thread, never lost or hung on."""
+    import pyarrow.parquet as pq
+
+    from pndiss.dataset import cycles
+    monkeypatch.setattr(cycles, "COALESCE", 16)
+    monkeypatch.setattr(cycles, "ROW_GROUP", 32)
+    t = CycleTable(str(tmp_path / "c.parquet"), "0" * 64, "full")
+    in_flight, most = [0], [0]
+    real_write = pq.ParquetWriter.write_table
+
+    def slow_write(self, table, *a, **k):
+        in_flight[0] += 1
+        most[0] = max(most[0], in_flight[0])
+        time.sleep(0.005)
+        real_write(self, table, *a, **k)
+        in_flight[0] -= 1
+    monkeypatch.setattr(pq.ParquetWriter, "write_table", slow_write)
+    for k in range(50):
+        b = _batch(10, 10 * k)
+        t.add(b)
+        b.axis["station"] = "renamed later"   # the engine's dict may change after the hand-over
+    assert t.close() == 500
+    tab = pq.read_table(str(tmp_path / "c.parquet"))
+    assert tab.column("frame").to_pylist() == list(range(500))
+    assert set(tab.column("station").to_pylist()) == {"enc-1"}
+    assert most[0] == 1
+    monkeypatch.undo()
+
+    def full_disk(self, table, *a, **k):
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr(pq.ParquetWriter, "write_table", full_disk)
+    monkeypatch.setattr(cycles, "COALESCE", 16)
+    monkeypatch.setattr(cycles, "ROW_GROUP", 32)
+    for n in (3, 2000):   # raised at close, or at a later add
+        t = CycleTable(str(tmp_path / f"d{n}.parquet"), "0" * 64, "full")
+        with pytest.raises(OSError, match="No space"):
+            for k in range(n):
+                t.add(_batch(16, 16 * k))
+            t.close()
+        t.abort()   # what the dataset writer does next: returns, no thread left
+        assert not [th for th in threading.enumerate() if th.name.startswith("pndiss-parquet-cycles")]
 
 
 def test_schema_and_metadata(built):

@@ -207,6 +207,32 @@ def test_failed_files_recorded_and_the_rest_analysed(client, tmp_path, capsys):
     assert "0 analysed, 4 skipped" in capsys.readouterr().err
 
 
+def test_local_cluster_starts_while_hashing_and_not_on_a_rerun(tmp_path, capsys, monkeypatch):
+    """The local cluster starts in a thread while the inputs are hashed when some input is new to
+    the dataset; a re-run with nothing to do starts none (it stays instant)."""
+    root = str(tmp_path / "ds")
+    caps = CAPS[:3]
+    store = DatasetStore(root)
+    assert fleet.likely_work(caps, store)   # an empty dataset
+    started = []
+    real = fleet.EarlyCluster
+
+    def counted(workers):
+        started.append(workers)
+        return real(workers)
+    monkeypatch.setattr(fleet, "EarlyCluster", counted)
+    assert main(["fleet", *caps, "-o", root, "--workers", "2", "-q"]) == 0
+    assert started == [2] and "3 analysed" in capsys.readouterr().err
+    assert not fleet.likely_work(caps, store)
+    assert fleet.likely_work(caps + [CAPS[5]], store)
+
+    def no_cluster(*a, **k):
+        raise AssertionError("a re-run with nothing to do started a cluster")
+    monkeypatch.setattr(fleet, "connect", no_cluster)
+    assert main(["fleet", *caps, "-o", root, "--workers", "2", "-q"]) == 0
+    assert started == [2] and "0 analysed, 3 skipped" in capsys.readouterr().err
+
+
 def test_fail_on_counts_skipped_captures_too(tmp_path, capsys):
     root = str(tmp_path / "ds")
     fault = next(p for p in CAPS if "fault-" in p)

@@ -59,10 +59,13 @@ def run(args) -> int:
     store = open_store(args.output)
     t0 = time.perf_counter()
     say = _Say(args.quiet)
-    client = cluster = progress = None
+    client = cluster = progress = early = None
+    workers = args.workers or os.cpu_count() or 1
     try:
         if args.scheduler:   # a remote cluster hashes the files where they are
             client, cluster = fleet.connect(args.scheduler, 0)
+        elif args.workers != 0 and fleet.likely_work(paths, store):
+            early = fleet.EarlyCluster(workers)   # starts while the inputs are hashed
         p = fleet.plan(paths, store, args.retry_failed, client)
         progress = None if args.no_progress or args.quiet else FleetProgress(len(p.todo))
         on_done = progress.done if progress else None
@@ -75,11 +78,14 @@ def run(args) -> int:
             results = fleet.run_local(p.todo, store, settings, args.cycles, on_done)
         else:
             if client is None:   # started only when there is work: a re-run with nothing to do is instant
-                client, cluster = fleet.connect(None, args.workers or os.cpu_count() or 1)
+                client, cluster = early.take() if early else fleet.connect(None, workers)
+                early = None
             results = fleet.run_dask(client, p.todo, store, settings, args.cycles, on_done)
     finally:
         if progress:
             progress.close()
+        if early is not None:   # guessed wrong (nothing to do) or interrupted: stop what was started
+            early.close()
         if client is not None:
             client.close()
         if cluster is not None:

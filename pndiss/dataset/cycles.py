@@ -19,8 +19,8 @@ from .. import telegrams as tg
 from .schema import CYCLES_HEAD, TABLES, arrow_schema, bit_columns, ts_array
 
 ROW_GROUP = 1 << 16   # rows held before a row group is written
-COALESCE = 1 << 11    # rows of one axis and direction gathered before they become one Arrow batch (the
-                      # engine's batches are often small; Arrow's per-batch cost is per column, ~40 of them)
+COALESCE = 1 << 12    # rows of one axis and direction gathered before they are thinned and become one Arrow
+                      # batch (the engine's batches are often small; per-batch costs are per column, ~60 of them)
 
 
 def parse_mode(mode) -> tuple[bool, int, bool]:
@@ -60,14 +60,22 @@ class CycleTable:
         self.schema = arrow_schema("cycles", {"pndiss.cycles_mode": self.mode})
         self.types = {n: t for n, t in TABLES["cycles"]}
         self.sig_names = list(tg.SIGNALS)
-        self.bits = bit_columns()
+        self.bit_np = {c: (np.uint8 if t == pa.uint8() else np.int64) for c, t in bit_columns()}
+        self.names = self.schema.names
+        self._consts: dict = {}
+        self._bit_plans: dict = {}
         self.axes: dict = {}
         self.pending: list[pa.RecordBatch] = []
         self.pending_rows = 0
-        self.gather: dict = {}   # shape of a batch (axis, direction, its signals) -> [kept parts, rows]
+        self.gather: dict = {}   # (axis, direction) -> [batches in frame order, rows, their shape]
         self.rows = 0
         self.seen = 0
         self.writer = None
+        # Row groups are encoded and written on one thread (Arrow releases the GIL for the whole call)
+        # while the engine goes on; at most one row group in flight bounds the memory. Thinning and
+        # conversion stay here: many small GIL-releasing calls on a second thread cost more than they save.
+        self._pool = None
+        self._inflight = None
 
     # -- thinning -------------------------------------------------------------------------
     def _keep(self, key, b) -> np.ndarray | None:
@@ -108,39 +116,67 @@ class CycleTable:
         if not self.enabled or len(b) == 0:
             return
         self.seen += len(b)
+        self._add(b, tuple(b.axis.items()))
+
+    def _add(self, b, axis_items) -> None:
+        """Gather the batches of one axis and direction; thinning and conversion work on the gathered
+        rows at once (the engine's batches are often a few hundred rows: per-batch costs would rule)."""
         ax = b.axis
         key = (ax.get("device_mac"), ax.get("api"), ax.get("slot"), ax.get("subslot"), b.direction)
-        keep = self._keep(key, b)
-        part = b if keep is None else replace(b, frame=b.frame[keep], ts_ns=b.ts_ns[keep], iops=b.iops[keep],
-                                               judged=b.judged[keep],
-                                               signals={k: np.asarray(v)[keep] for k, v in b.signals.items()})
-        if len(part) == 0:
-            return
-        shape = (key, b.frame_id, tuple(ax.items()), tuple((k, np.asarray(v).dtype.str) for k, v in b.signals.items()))
-        g = self.gather.get(shape)
+        shape = (b.frame_id, axis_items, tuple((k, np.asarray(v).dtype.str) for k, v in b.signals.items()))
+        g = self.gather.get(key)
+        if g is not None and g[2] != shape:   # the axis changed (a relabel): what came before goes first
+            self._gathered(key)
+            g = None
         if g is None:
-            g = self.gather[shape] = [[], 0]
-        g[0].append(part)
-        g[1] += len(part)
+            g = self.gather[key] = [[], 0, shape]
+        g[0].append(b)
+        g[1] += len(b)
         if g[1] >= COALESCE:
-            self._gathered(shape)
+            self._gathered(key)
             if self.pending_rows >= ROW_GROUP:
                 self._write()
 
-    def _gathered(self, shape) -> None:
-        """The parts gathered for one shape as one Arrow batch (rows of one axis stay in frame order)."""
-        parts, n = self.gather.pop(shape)
+    def _gathered(self, key) -> None:
+        """The rows gathered for one axis and direction, thinned, as one Arrow batch (in frame order)."""
+        parts, n, (_fid, axis_items, _dt) = self.gather.pop(key)
+        b0 = parts[0]
         if len(parts) == 1:
-            b = parts[0]
+            b = replace(b0, axis=dict(axis_items))
         else:
-            b0 = parts[0]
             cat = np.concatenate
-            b = replace(b0, frame=cat([p.frame for p in parts]), ts_ns=cat([p.ts_ns for p in parts]),
-                        iops=cat([p.iops for p in parts]), judged=cat([p.judged for p in parts]),
+            b = replace(b0, axis=dict(axis_items), frame=cat([p.frame for p in parts]),
+                        ts_ns=cat([p.ts_ns for p in parts]), iops=cat([p.iops for p in parts]),
+                        judged=cat([p.judged for p in parts]),
                         signals={k: cat([np.asarray(p.signals[k]) for p in parts]) for k in b0.signals})
-        rb = self._record_batch(b, None)
+        keep = self._keep(key, b)
+        if keep is not None and not keep.any():
+            return
+        rb = self._record_batch(b, keep)
         self.pending.append(rb)
         self.pending_rows += rb.num_rows
+
+    def _bit_plan(self, sig: str, profile: str):
+        """(columns, shifts, masks, numpy types) of the named bits of ``sig`` for ``profile``, or None."""
+        k = (sig, profile)
+        if k not in self._bit_plans:
+            rows = [(f"{sig}.{n}", sh, mk) for n, sh, mk in tg.bit_fields(sig, profile) if f"{sig}.{n}" in self.bit_np]
+            self._bit_plans[k] = None if not rows else (
+                [r[0] for r in rows], np.array([[r[1]] for r in rows], np.uint64),
+                np.array([[r[2]] for r in rows], np.uint64), [self.bit_np[r[0]] for r in rows])
+        return self._bit_plans[k]
+
+    def _const(self, name: str, t: pa.DataType, v, n: int) -> pa.Array:
+        """A column of ``n`` times ``v``: a slice of one array per (column, value) kept for the
+        capture (slicing is free; building n strings per batch, and a scalar each time, is not)."""
+        key = (name, v)
+        a = self._consts.get(key)
+        if a is None or len(a) < n:
+            if len(self._consts) > 4096:   # a capture of very many axes: start again, never unbounded
+                self._consts.clear()
+            m = max(n, 2 * len(a) if a is not None else COALESCE)
+            a = self._consts[key] = pa.nulls(m, t) if v is None else pa.repeat(pa.scalar(v, t), m)
+        return a.slice(0, n)
 
     def _record_batch(self, b, keep) -> pa.RecordBatch:
         def sel(a):
@@ -155,28 +191,32 @@ class CycleTable:
         cols = {}
         for name, t in CYCLES_HEAD:
             if name in const:
-                v = const[name]
-                cols[name] = pa.nulls(n, t) if v is None else pa.repeat(pa.scalar(v, t), n)
+                cols[name] = self._const(name, t, const[name], n)
         cols["frame"] = pa.array(frame)
         cols["ts_ns"] = pa.array(ts)
         cols["ts"] = ts_array(ts)
-        cols["iops"] = pa.array(sel(np.asarray(b.iops)).astype(np.int16))
+        cols["iops"] = pa.array(sel(np.asarray(b.iops)).astype(np.int16, copy=False))
         cols["judged"] = pa.array(sel(np.asarray(b.judged, bool)))
         words = {}
         for s in self.sig_names:
             if s in b.signals:
-                words[s] = sel(np.asarray(b.signals[s]))
-                cols[s] = pa.array(words[s]).cast(self.types[s])
-            else:
-                cols[s] = pa.nulls(n, self.types[s])
+                w = words[s] = sel(np.asarray(b.signals[s]))
+                t = self.types[s]
+                a = pa.array(w)
+                cols[s] = a if a.type == t else a.cast(t)   # a safe cast: a value out of range raises
         profile = ax.get("profile") or "generic"
-        have = {}
         for sig, w in words.items():
-            for bname, shift, mask in tg.bit_fields(sig, profile):
-                have[f"{sig}.{bname}"] = (w.astype(np.uint64) >> np.uint64(shift)) & np.uint64(mask)
-        for col, t in self.bits:
-            cols[col] = pa.array(have[col]).cast(t) if col in have else pa.nulls(n, t)
-        return pa.RecordBatch.from_arrays([cols[f.name] for f in self.schema], schema=self.schema)
+            plan = self._bit_plan(sig, profile)
+            if plan is None:
+                continue
+            names, shifts, masks, dtypes = plan
+            # every bit field of the word at once: row j of the (fields, rows) matrix is field j
+            m = (w.astype(np.uint64, copy=False)[None, :] >> shifts) & masks
+            narrow = m.astype(np.uint8)   # mask <= the column's width: exact
+            for j, col in enumerate(names):
+                cols[col] = pa.array(narrow[j] if dtypes[j] is np.uint8 else m[j].astype(np.int64))
+        return pa.RecordBatch.from_arrays([cols[c] if c in cols else self._const(c, self.types[c], None, n)
+                                           for c in self.names], schema=self.schema)
 
     def _write(self) -> None:
         import pyarrow.parquet as pq
@@ -190,26 +230,50 @@ class CycleTable:
                       if pa.types.is_integer(f.type) or pa.types.is_timestamp(f.type)}
             self.writer = pq.ParquetWriter(self.path, self.schema, compression="zstd", use_dictionary=strs,
                                            column_encoding=deltas)
-        self.writer.write_table(pa.Table.from_batches(self.pending, schema=self.schema))
-        self.rows += self.pending_rows
+        table = pa.Table.from_batches(self.pending, schema=self.schema)
         self.pending, self.pending_rows = [], 0
+        self._wait()
+        if self._pool is None:
+            from concurrent.futures import ThreadPoolExecutor
+            self._pool = ThreadPoolExecutor(1, thread_name_prefix="pndiss-parquet-cycles")
+        self._inflight = self._pool.submit(self.writer.write_table, table)
+        self.rows += table.num_rows
+
+    def _wait(self) -> None:
+        """The row group in flight written; its error (a full disk, say) raised here."""
+        f, self._inflight = self._inflight, None
+        if f is not None:
+            f.result()
+
+    def _stop(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+            self._pool = None
 
     def close(self) -> int:
         """Write what is held; returns the rows written (0: no file was made)."""
-        for shape in list(self.gather):
-            self._gathered(shape)
-        if self.pending:
-            self._write()
+        for key in list(self.gather):
+            self._gathered(key)
+        try:
+            if self.pending:
+                self._write()
+            self._wait()
+        finally:
+            self._stop()
         if self.writer is not None:
             self.writer.close()
             self.writer = None
         return self.rows
 
-
     def abort(self) -> None:
         """Close the file without writing what is held (an interrupted capture)."""
         self.pending, self.pending_rows = [], 0
         self.gather = {}
+        try:
+            self._wait()
+        except Exception:  # already failing (a full disk): the file is removed anyway
+            pass
+        self._stop()
         if self.writer is not None:
             try:
                 self.writer.close()
