@@ -63,17 +63,21 @@ class ReadInfo:
     FIFO is read once and a big file not twice), whether it was read to its end, and how many time
     stamps were out of the range every sink can show (clamped to [0, TS_MAX] ns)."""
 
-    __slots__ = ("_h", "complete", "ts_clamped", "ts_clamped_first")
+    __slots__ = ("_h", "_known", "complete", "ts_clamped", "ts_clamped_first")
 
-    def __init__(self):
-        self._h = hashlib.sha256()
+    def __init__(self, known_sha256: str | None = None):
+        # a digest the caller took already (pndiss fleet hashes every input to plan): not taken twice
+        self._known = known_sha256
+        self._h = None if known_sha256 else hashlib.sha256()
         self.complete = False
         self.ts_clamped = 0
         self.ts_clamped_first = None
 
     def sha256(self) -> str:
         """The digest of the whole input, or '' when it was not read to its end."""
-        return self._h.hexdigest() if self.complete else ""
+        if not self.complete:
+            return ""
+        return self._known or self._h.hexdigest()
 
     def clamp(self, fn: int, ts: int) -> int:
         self.ts_clamped += 1
@@ -106,7 +110,8 @@ class _Buffer:
         """Hash the part of ``data`` (read at file offset ``start``) not hashed yet."""
         end = start + len(data)
         if end > self.hashed:
-            self.info._h.update(memoryview(data)[self.hashed - start:])
+            if self.info._h is not None:
+                self.info._h.update(memoryview(data)[self.hashed - start:])
             self.hashed = end
 
     def need(self, n: int) -> bool:

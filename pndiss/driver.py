@@ -86,16 +86,20 @@ def frame_events(sinks) -> bool:
     return any(not _column(s) and (s.kinds is None or s.kinds & FRAME_KINDS) for s in sinks)
 
 
-def analyze(paths, settings=None, sinks=(), progress=None, verdict_hooks: dict | None = None):
+def analyze(paths, settings=None, sinks=(), progress=None, verdict_hooks: dict | None = None,
+            known_sha256: str | None = None):
     """Analyse the capture (one path, or the pieces of one ring buffer) and return the Analyzer.
-    Raises capture.CaptureError on bad input after every complete frame was analysed (``e.analyzer``)."""
+    Raises capture.CaptureError on bad input after every complete frame was analysed (``e.analyzer``).
+    ``known_sha256``: the input's digest, taken by the caller (it is not taken again)."""
     from .analyzer import Analyzer
-    from .capture import CaptureError
+    from .capture import CaptureError, ReadInfo
 
     if isinstance(paths, (str, os.PathLike)):
         paths = [paths]
     sinks = _as_sinks(sinks)
     a = Analyzer(settings)
+    if known_sha256:
+        a.reader = ReadInfo(known_sha256)
     a.sink = _dispatch(a, sinks)
     a.frame_events = frame_events(sinks)
     hooks = dict(verdict_hooks or {})

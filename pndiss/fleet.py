@@ -81,11 +81,13 @@ def hash_one(path: str) -> tuple:
         return path, "", 0, e.strerror or str(e)
 
 
-def analyse_one(store, path: str, sha: str, settings, cycles: str) -> Outcome:
+def analyse_one(store, path: str, sha: str, settings, cycles: str, write_thread: bool = False) -> Outcome:
     """The Dask task: analyse one capture into the dataset. A file that cannot be analysed is
-    recorded with its error by the writer and comes back as ``failed``, never raised."""
+    recorded with its error by the writer and comes back as ``failed``, never raised. A Dask worker
+    is one core (``threads_per_worker=1``, as many workers as cores): no writer thread of its own there;
+    ``--workers 0`` (one process, the other cores idle) writes the cycles table on a second thread."""
     t0 = time.perf_counter()
-    row = store.write(path, sha, settings, cycles)
+    row = store.write(path, sha, settings, cycles, write_thread)
     dt = time.perf_counter() - t0
     error = row.get("error")
     if error:
@@ -102,7 +104,7 @@ def run_local(todo, store, settings, cycles: str, on_done=None) -> list[Outcome]
     """The same work in this process, one file after another (``--workers 0``; the reference run)."""
     out = []
     for path, sha, _size in todo:
-        o = analyse_one(store, path, sha, settings, cycles)
+        o = analyse_one(store, path, sha, settings, cycles, write_thread=True)
         out.append(o)
         if on_done is not None:
             on_done(o)

@@ -27,7 +27,7 @@ class DatasetStore:
         t = pads.dataset(dataset.files(self.root, "captures"), format="parquet").to_table(columns=DONE_COLUMNS)
         return {r["capture_hash"]: r for r in t.to_pylist()}
 
-    def write(self, path: str, sha: str, settings, cycles: str) -> dict:
+    def write(self, path: str, sha: str, settings, cycles: str, write_thread: bool = False) -> dict:
         """Analyse ``path`` into the dataset under content hash ``sha`` ('' when it could not be
         read: the writer records why); its ``captures`` row (``error`` set when the file could not
         be analysed, what was read kept)."""
@@ -35,7 +35,8 @@ class DatasetStore:
 
         if sha:
             self.clear_attempts(sha)
-        return _small(write_capture(path, self.root, settings, cycles=cycles, capture_hash=sha or None))
+        return _small(write_capture(path, self.root, settings, cycles=cycles, capture_hash=sha or None,
+                                    write_thread=write_thread))
 
     def record_failure(self, path: str, sha: str, error: str, settings, cycles: str) -> dict:
         """The ``captures`` row, with its error, of a capture whose analysis never returned."""

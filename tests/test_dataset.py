@@ -197,6 +197,11 @@ def test_cycles_writer_thread(tmp_path, monkeypatch):
     assert tab.column("frame").to_pylist() == list(range(500))
     assert set(tab.column("station").to_pylist()) == {"enc-1"}
     assert most[0] == 1
+    # without the thread (a Dask worker, one core): the same file
+    t2 = CycleTable(str(tmp_path / "c2.parquet"), "0" * 64, "full", write_thread=False)
+    for k in range(50):
+        t2.add(_batch(10, 10 * k))
+    assert t2.close() == 500 and pq.read_table(str(tmp_path / "c2.parquet")).equals(tab)
     monkeypatch.undo()
 
     def full_disk(self, table, *a, **k):

@@ -52,7 +52,8 @@ class _Axis:
 class CycleTable:
     """Writes the cycles table of one capture to ``path`` (a Parquet file) as batches arrive."""
 
-    def __init__(self, path: str, capture_hash: str, mode="on_change", keyframe_s: float = 1.0):
+    def __init__(self, path: str, capture_hash: str, mode="on_change", keyframe_s: float = 1.0,
+                 write_thread: bool = True):
         self.on_change, self.decimate, self.enabled = parse_mode(mode)
         self.mode = "none" if not self.enabled else str(mode)
         self.keyframe_ns = max(1, int(keyframe_s * 1e9))
@@ -74,6 +75,7 @@ class CycleTable:
         # Row groups are encoded and written on one thread (Arrow releases the GIL for the whole call)
         # while the engine goes on; at most one row group in flight bounds the memory. Thinning and
         # conversion stay here: many small GIL-releasing calls on a second thread cost more than they save.
+        self.write_thread = write_thread
         self._pool = None
         self._inflight = None
 
@@ -232,12 +234,15 @@ class CycleTable:
                                            column_encoding=deltas)
         table = pa.Table.from_batches(self.pending, schema=self.schema)
         self.pending, self.pending_rows = [], 0
+        self.rows += table.num_rows
+        if not self.write_thread:
+            self.writer.write_table(table)
+            return
         self._wait()
         if self._pool is None:
             from concurrent.futures import ThreadPoolExecutor
             self._pool = ThreadPoolExecutor(1, thread_name_prefix="pndiss-parquet-cycles")
         self._inflight = self._pool.submit(self.writer.write_table, table)
-        self.rows += table.num_rows
 
     def _wait(self) -> None:
         """The row group in flight written; its error (a full disk, say) raised here."""

@@ -16,11 +16,12 @@ class ParquetSink(Sink):
     kinds = frozenset(KIND_TABLE)
     cycles = True
 
-    def __init__(self, path_of, capture_hash: str, cycles_mode="on_change", keyframe_s: float = 1.0):
+    def __init__(self, path_of, capture_hash: str, cycles_mode="on_change", keyframe_s: float = 1.0,
+                 write_thread: bool = True):
         self.path_of = path_of
         self.capture_hash = capture_hash
         self.tables = {t: TableRows(t, capture_hash) for t in sorted(set(KIND_TABLE.values()))}
-        self.cyc = CycleTable(path_of("cycles"), capture_hash, cycles_mode, keyframe_s)
+        self.cyc = CycleTable(path_of("cycles"), capture_hash, cycles_mode, keyframe_s, write_thread)
         self.cycles = self.cyc.enabled
         self.written: dict[str, int] = {}   # table -> rows, after close()
 

@@ -43,11 +43,13 @@ def done_hashes(dataset_dir: str) -> set[str]:
 
 
 def write_capture(path: str, dataset_dir: str, settings=None, cycles="on_change", *,
-                  capture_hash: str | None = None, keyframe_s: float = 1.0, progress=None) -> dict:
+                  capture_hash: str | None = None, keyframe_s: float = 1.0, progress=None,
+                  write_thread: bool = True) -> dict:
     """Analyse ``path`` and write its rows into ``dataset_dir``; returns its ``captures`` row.
 
     A file that cannot be analysed (not a capture, damaged, unreadable) is recorded with its
-    ``error`` (what was read before a damaged part is kept) and does not raise."""
+    ``error`` (what was read before a damaged part is kept) and does not raise. ``write_thread``: the
+    cycles table's row groups are encoded on a second thread (off where each process is one core)."""
     from .. import __version__
     from ..capture import CaptureError, refuse_non_capture
     from ..errors import UsageError
@@ -75,12 +77,13 @@ def write_capture(path: str, dataset_dir: str, settings=None, cycles="on_change"
     def path_of(table):
         return os.path.join(dataset_dir, table, tmp)
 
-    sink = ParquetSink(path_of, h, cycles, keyframe_s)
+    sink = ParquetSink(path_of, h, cycles, keyframe_s, write_thread)
     try:
         a = None
         try:
             refuse_non_capture(path)
-            a = analyze(path, settings, [sink], progress)   # the one driver: events + the engine's columns
+            # the one driver: events + the engine's columns (the file hashed above, not again)
+            a = analyze(path, settings, [sink], progress, known_sha256=h)
         except (CaptureError, UsageError) as e:
             a = getattr(e, "analyzer", None)
             row["error"] = str(e)
