@@ -95,6 +95,14 @@ def test_inputs_dirs_globs_files_and_content_hash(inputs, tmp_path):
             pass
         assert content_hash(path) == info.sha256() != ""
     assert find_captures([str(tmp_path)]) == [str(gz)]   # .gz captures are found in directories
+    # a digest the plan took already is not taken again: the reader reports it (read to the end) ...
+    known = ReadInfo("ab" * 32)
+    frames = sum(1 for _ in open_capture(plain, info=known))
+    assert known.sha256() == "ab" * 32 and frames > 0
+    # ... and the analysis it feeds is the same
+    from pndiss.driver import analyze
+    a, b = analyze(plain), analyze(plain, known_sha256="ab" * 32)
+    assert a.summary() == b.summary() and b.reader.sha256() == "ab" * 32
 
 
 def test_parallel_equals_sequential_and_rerun_does_nothing(inputs, client, sequential, tmp_path, capsys):
