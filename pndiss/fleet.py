@@ -149,10 +149,12 @@ def local_cluster(workers: int):
                         silence_logs=logging.ERROR)
 
 
-def likely_work(paths: list[str], store) -> bool:
-    """Whether some input is probably not in the dataset yet: a path it holds no successful row
-    for. Only a guess, to start the cluster while the inputs are hashed; the hashes decide."""
-    known = {os.path.abspath(r["file"]) for r in store.done().values() if r.get("file") and not r.get("error")}
+def likely_work(paths: list[str], store, retry_failed: bool = False) -> bool:
+    """Whether some input is probably not in the dataset yet: a path it holds no row for (a failed
+    one counts as done unless ``retry_failed``, as the plan treats it). Only a guess, to start the
+    cluster while the inputs are hashed; the hashes decide."""
+    known = {os.path.abspath(r["file"]) for r in store.done().values()
+             if r.get("file") and not (retry_failed and r.get("error"))}
     return any(os.path.abspath(p) not in known for p in paths)
 
 
@@ -182,12 +184,16 @@ class EarlyCluster:
         return v
 
     def close(self) -> None:
-        try:
-            client, cluster = self.take()
-        except Exception:  # it never started: nothing to stop
+        """Stop it (waiting for its start first: a half-started cluster would leave processes)."""
+        self._thread.join()   # a second Ctrl-C here goes through to the caller
+        what, v = self._out[0]
+        if what == "error":   # it never started: nothing to stop
             return
-        client.close()
-        cluster.close()
+        client, cluster = v
+        try:
+            client.close()
+        finally:
+            cluster.close()
 
 
 def connect(scheduler: str | None, workers: int):
@@ -200,4 +206,8 @@ def connect(scheduler: str | None, workers: int):
         except (OSError, TimeoutError) as e:
             raise UsageError(f"--scheduler {scheduler}: cannot connect ({e})") from None
     cluster = local_cluster(workers)
-    return Client(cluster), cluster
+    try:
+        return Client(cluster), cluster
+    except BaseException:
+        cluster.close()
+        raise

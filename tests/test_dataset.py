@@ -178,12 +178,13 @@ def test_cycles_writer_thread(tmp_path, monkeypatch):
     monkeypatch.setattr(cycles, "COALESCE", 16)
     monkeypatch.setattr(cycles, "ROW_GROUP", 32)
     t = CycleTable(str(tmp_path / "c.parquet"), "0" * 64, "full")
-    in_flight, most = [0], [0]
+    in_flight, most, where = [0], [0], []
     real_write = pq.ParquetWriter.write_table
 
     def slow_write(self, table, *a, **k):
         in_flight[0] += 1
         most[0] = max(most[0], in_flight[0])
+        where.append(threading.current_thread() is threading.main_thread())
         time.sleep(0.005)
         real_write(self, table, *a, **k)
         in_flight[0] -= 1
@@ -196,12 +197,24 @@ def test_cycles_writer_thread(tmp_path, monkeypatch):
     tab = pq.read_table(str(tmp_path / "c.parquet"))
     assert tab.column("frame").to_pylist() == list(range(500))
     assert set(tab.column("station").to_pylist()) == {"enc-1"}
-    assert most[0] == 1
-    # without the thread (a Dask worker, one core): the same file
+    assert most[0] == 1 and where and not any(where)   # off the caller's thread, one at a time
+    # without the thread (a Dask worker, one core): the same file, written by the caller
+    where.clear()
     t2 = CycleTable(str(tmp_path / "c2.parquet"), "0" * 64, "full", write_thread=False)
     for k in range(50):
         t2.add(_batch(10, 10 * k))
     assert t2.close() == 500 and pq.read_table(str(tmp_path / "c2.parquet")).equals(tab)
+    assert where and all(where)
+    # an axis whose shape changes every batch (two frame IDs): row groups are still written as
+    # they fill, not all held until the end
+    t3 = CycleTable(str(tmp_path / "c3.parquet"), "0" * 64, "full")
+    for k in range(40):
+        b = _batch(5, 5 * k)
+        b.frame_id = 0x8001 + k % 2
+        t3.add(b)
+        if k == 30:
+            assert t3.rows >= 64 or in_flight[0]   # written (or being written) before close
+    assert t3.close() == 200 and pq.ParquetFile(str(tmp_path / "c3.parquet")).metadata.num_row_groups > 2
     monkeypatch.undo()
 
     def full_disk(self, table, *a, **k):
@@ -214,6 +227,9 @@ def test_cycles_writer_thread(tmp_path, monkeypatch):
         with pytest.raises(OSError, match="No space"):
             for k in range(n):
                 t.add(_batch(16, 16 * k))
+            t.close()
+        assert t.rows == 0   # nothing counted that is not in the file
+        with pytest.raises(OSError, match="No space"):   # and close() after it says so again
             t.close()
         t.abort()   # what the dataset writer does next: returns, no thread left
         assert not [th for th in threading.enumerate() if th.name.startswith("pndiss-parquet-cycles")]

@@ -96,8 +96,18 @@ def test_inputs_dirs_globs_files_and_content_hash(inputs, tmp_path):
         assert content_hash(path) == info.sha256() != ""
     assert find_captures([str(tmp_path)]) == [str(gz)]   # .gz captures are found in directories
     # a digest the plan took already is not taken again: the reader reports it (read to the end) ...
-    known = ReadInfo("ab" * 32)
-    frames = sum(1 for _ in open_capture(plain, info=known))
+    import pndiss.capture as capture_mod
+
+    class NoHash:
+        def __init__(self, *a):
+            raise AssertionError("hashed again")
+    real_sha = capture_mod.hashlib.sha256
+    capture_mod.hashlib.sha256 = NoHash
+    try:
+        known = ReadInfo("ab" * 32)
+        frames = sum(1 for _ in open_capture(plain, info=known))
+    finally:
+        capture_mod.hashlib.sha256 = real_sha
     assert known.sha256() == "ab" * 32 and frames > 0
     # ... and the analysis it feeds is the same
     from pndiss.driver import analyze
@@ -239,6 +249,16 @@ def test_local_cluster_starts_while_hashing_and_not_on_a_rerun(tmp_path, capsys,
     monkeypatch.setattr(fleet, "connect", no_cluster)
     assert main(["fleet", *caps, "-o", root, "--workers", "2", "-q"]) == 0
     assert started == [2] and "0 analysed, 3 skipped" in capsys.readouterr().err
+    # a capture that failed is done too (unless --retry-failed): still no cluster
+    bad = tmp_path / "not-a-capture.pcapng"
+    bad.write_bytes(b"no capture here" * 10)
+    monkeypatch.undo()
+    assert main(["fleet", str(bad), "-o", root, "--workers", "0", "-q"]) == 2   # recorded as failed
+    capsys.readouterr()
+    assert not fleet.likely_work([str(bad)], store) and fleet.likely_work([str(bad)], store, retry_failed=True)
+    monkeypatch.setattr(fleet, "connect", no_cluster)
+    assert main(["fleet", *caps, str(bad), "-o", root, "--workers", "2", "-q"]) == 2   # it failed before
+    assert "0 analysed, 4 skipped" in capsys.readouterr().err
 
 
 def test_fail_on_counts_skipped_captures_too(tmp_path, capsys):

@@ -64,7 +64,7 @@ def run(args) -> int:
     try:
         if args.scheduler:   # a remote cluster hashes the files where they are
             client, cluster = fleet.connect(args.scheduler, 0)
-        elif args.workers != 0 and fleet.likely_work(paths, store):
+        elif args.workers != 0 and fleet.likely_work(paths, store, args.retry_failed):
             early = fleet.EarlyCluster(workers)   # starts while the inputs are hashed
         p = fleet.plan(paths, store, args.retry_failed, client)
         progress = None if args.no_progress or args.quiet else FleetProgress(len(p.todo))

@@ -19,6 +19,7 @@ from .. import telegrams as tg
 from .schema import CYCLES_HEAD, TABLES, arrow_schema, bit_columns, ts_array
 
 ROW_GROUP = 1 << 16   # rows held before a row group is written
+CONST_BYTES = 8 << 20  # memory of the cached constant columns (station names, MACs, ...) at most
 COALESCE = 1 << 12    # rows of one axis and direction gathered before they are thinned and become one Arrow
                       # batch (the engine's batches are often small; per-batch costs are per column, ~60 of them)
 
@@ -64,6 +65,8 @@ class CycleTable:
         self.bit_np = {c: (np.uint8 if t == pa.uint8() else np.int64) for c, t in bit_columns()}
         self.names = self.schema.names
         self._consts: dict = {}
+        self._consts_bytes = 0
+        self._failed: BaseException | None = None   # a row group that could not be written
         self._bit_plans: dict = {}
         self.axes: dict = {}
         self.pending: list[pa.RecordBatch] = []
@@ -136,8 +139,6 @@ class CycleTable:
         g[1] += len(b)
         if g[1] >= COALESCE:
             self._gathered(key)
-            if self.pending_rows >= ROW_GROUP:
-                self._write()
 
     def _gathered(self, key) -> None:
         """The rows gathered for one axis and direction, thinned, as one Arrow batch (in frame order)."""
@@ -157,6 +158,8 @@ class CycleTable:
         rb = self._record_batch(b, keep)
         self.pending.append(rb)
         self.pending_rows += rb.num_rows
+        if self.pending_rows >= ROW_GROUP:   # after every gather: an axis flushed on each shape change too
+            self._write()
 
     def _bit_plan(self, sig: str, profile: str):
         """(columns, shifts, masks, numpy types) of the named bits of ``sig`` for ``profile``, or None."""
@@ -174,10 +177,13 @@ class CycleTable:
         key = (name, v)
         a = self._consts.get(key)
         if a is None or len(a) < n:
-            if len(self._consts) > 4096:   # a capture of very many axes: start again, never unbounded
-                self._consts.clear()
             m = max(n, 2 * len(a) if a is not None else COALESCE)
-            a = self._consts[key] = pa.nulls(m, t) if v is None else pa.repeat(pa.scalar(v, t), m)
+            a = pa.nulls(m, t) if v is None else pa.repeat(pa.scalar(v, t), m)
+            if self._consts_bytes + a.nbytes > CONST_BYTES:   # many axes, long names: start again, bounded
+                self._consts.clear()
+                self._consts_bytes = 0
+            self._consts[key] = a
+            self._consts_bytes += a.nbytes
         return a.slice(0, n)
 
     def _record_batch(self, b, keep) -> pa.RecordBatch:
@@ -232,17 +238,27 @@ class CycleTable:
                       if pa.types.is_integer(f.type) or pa.types.is_timestamp(f.type)}
             self.writer = pq.ParquetWriter(self.path, self.schema, compression="zstd", use_dictionary=strs,
                                            column_encoding=deltas)
+        if self._failed is not None:   # the file is broken: nothing more goes into it
+            raise self._failed
         table = pa.Table.from_batches(self.pending, schema=self.schema)
         self.pending, self.pending_rows = [], 0
-        self.rows += table.num_rows
         if not self.write_thread:
-            self.writer.write_table(table)
+            self._written(self.writer.write_table, table)
             return
         self._wait()
         if self._pool is None:
             from concurrent.futures import ThreadPoolExecutor
             self._pool = ThreadPoolExecutor(1, thread_name_prefix="pndiss-parquet-cycles")
-        self._inflight = self._pool.submit(self.writer.write_table, table)
+        self._inflight = self._pool.submit(self._written, self.writer.write_table, table)
+
+    def _written(self, write, table) -> None:
+        """Write one row group; rows count once they are in the file, a failure is kept."""
+        try:
+            write(table)
+        except BaseException as e:
+            self._failed = e
+            raise
+        self.rows += table.num_rows
 
     def _wait(self) -> None:
         """The row group in flight written; its error (a full disk, say) raised here."""
@@ -257,14 +273,16 @@ class CycleTable:
 
     def close(self) -> int:
         """Write what is held; returns the rows written (0: no file was made)."""
-        for key in list(self.gather):
-            self._gathered(key)
         try:
+            for key in list(self.gather):
+                self._gathered(key)
             if self.pending:
                 self._write()
             self._wait()
         finally:
             self._stop()
+        if self._failed is not None:
+            raise self._failed
         if self.writer is not None:
             self.writer.close()
             self.writer = None
