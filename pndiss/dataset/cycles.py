@@ -121,12 +121,11 @@ class CycleTable:
         if not self.enabled or len(b) == 0:
             return
         self.seen += len(b)
-        self._add(b, tuple(b.axis.items()))
-
-    def _add(self, b, axis_items) -> None:
-        """Gather the batches of one axis and direction; thinning and conversion work on the gathered
-        rows at once (the engine's batches are often a few hundred rows: per-batch costs would rule)."""
+        # Gather the batches of one axis and direction; thinning and conversion work on the gathered
+        # rows at once (the engine's batches are often a few hundred rows: per-batch costs would rule).
+        # The axis is kept as it is now: the engine's dict may change after the hand-over.
         ax = b.axis
+        axis_items = tuple(ax.items())
         key = (ax.get("device_mac"), ax.get("api"), ax.get("slot"), ax.get("subslot"), b.direction)
         shape = (b.frame_id, axis_items, tuple((k, np.asarray(v).dtype.str) for k, v in b.signals.items()))
         g = self.gather.get(key)
@@ -243,18 +242,18 @@ class CycleTable:
         table = pa.Table.from_batches(self.pending, schema=self.schema)
         self.pending, self.pending_rows = [], 0
         if not self.write_thread:
-            self._written(self.writer.write_table, table)
+            self._written(table)
             return
         self._wait()
         if self._pool is None:
             from concurrent.futures import ThreadPoolExecutor
             self._pool = ThreadPoolExecutor(1, thread_name_prefix="pndiss-parquet-cycles")
-        self._inflight = self._pool.submit(self._written, self.writer.write_table, table)
+        self._inflight = self._pool.submit(self._written, table)
 
-    def _written(self, write, table) -> None:
+    def _written(self, table) -> None:
         """Write one row group; rows count once they are in the file, a failure is kept."""
         try:
-            write(table)
+            self.writer.write_table(table)
         except BaseException as e:
             self._failed = e
             raise

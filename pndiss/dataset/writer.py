@@ -13,19 +13,9 @@ import hashlib
 import os
 import time
 
+from ..fleet_inputs import content_hash  # noqa: F401  (the reader's digest: decompressed bytes)
 from .schema import SCHEMA_VERSION, TABLES
 from .sink import ParquetSink
-
-CHUNK = 1 << 20
-
-
-def content_hash(path: str) -> str:
-    """SHA-256 of the file's bytes: the hash the capture reader computes (ReadInfo.sha256)."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        while chunk := f.read(CHUNK):
-            h.update(chunk)
-    return h.hexdigest()
 
 
 def table_path(dataset_dir: str, table: str, capture_hash: str) -> str:
@@ -66,7 +56,7 @@ def write_capture(path: str, dataset_dir: str, settings=None, cycles="on_change"
         row["size_bytes"] = os.path.getsize(path)
     except OSError as e:
         h = "unreadable-" + hashlib.sha256(os.path.abspath(path).encode()).hexdigest()[:32]
-        row.update(capture_hash=h, error=f"cannot read {path}: {e.strerror}")
+        row.update(capture_hash=h, error=f"cannot read {path}: {e.strerror or e}")
         _commit(dataset_dir, h, {}, row)
         return row
     row["capture_hash"] = h
