@@ -11,6 +11,7 @@ import gzip
 import os
 import shutil
 import signal
+import sys
 import time
 
 import pytest
@@ -136,6 +137,32 @@ def test_parallel_equals_sequential_and_rerun_does_nothing(inputs, client, seque
     gz.write_bytes(gzip.compress(open(CAPS[3], "rb").read()))
     assert main(args[:4] + [str(gz.parent)] + args[4:]) == 0
     assert f"0 analysed, {n} skipped (already in the dataset), 1 duplicate(s)" in capsys.readouterr().err
+
+
+def test_local_workers_pinned_one_per_core_and_warm(client):
+    """Each worker of the local cluster is set up by pndiss/fleet_worker.py as it starts: on a
+    core of its own (when there are cores enough) and with the dataset writer already imported."""
+    cores = sorted(os.sched_getaffinity(0))
+    pinned = client.run(os.sched_getaffinity, 0)
+    if len(cores) >= 2:
+        assert all(len(c) == 1 for c in pinned.values())
+        assert len(set().union(*pinned.values())) == 2   # two workers, two cores
+    else:
+        assert all(c == set(cores) for c in pinned.values())   # more workers than cores: left to the OS
+    loaded = client.run(lambda: all(m in sys.modules for m in ("pyarrow.parquet", "pndiss.dataset.writer")))
+    assert all(loaded.values())
+
+
+def test_pin_only_when_cores_suffice():
+    from pndiss.fleet_worker import pin
+    before = os.sched_getaffinity(0)
+    try:
+        assert pin(0, None) is None and pin("a-name", "2") is None
+        assert pin(0, str(len(before) + 1)) is None and os.sched_getaffinity(0) == before
+        got = pin(len(before), str(len(before)))   # the i-th worker takes the (i mod cores)-th core
+        assert got == {sorted(before)[0]} == os.sched_getaffinity(0)
+    finally:
+        os.sched_setaffinity(0, before)
 
 
 def test_worker_killed_mid_run_loses_nothing(inputs, client, sequential, tmp_path):

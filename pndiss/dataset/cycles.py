@@ -20,6 +20,7 @@ from .schema import CYCLES_HEAD, TABLES, arrow_schema, bit_columns, ts_array
 
 ROW_GROUP = 1 << 16   # rows held before a row group is written
 CONST_BYTES = 8 << 20  # memory of the cached constant columns (station names, MACs, ...) at most
+STR_DICT = pa.dictionary(pa.int32(), pa.string())   # how the axis's strings reach the writer (see __init__)
 COALESCE = 1 << 12    # rows of one axis and direction gathered before they are thinned and become one Arrow
                       # batch (the engine's batches are often small; per-batch costs are per column, ~60 of them)
 
@@ -59,8 +60,14 @@ class CycleTable:
         self.mode = "none" if not self.enabled else str(mode)
         self.keyframe_ns = max(1, int(keyframe_s * 1e9))
         self.path, self.capture_hash = path, capture_hash
-        self.schema = arrow_schema("cycles", {"pndiss.cycles_mode": self.mode})
-        self.types = {n: t for n, t in TABLES["cycles"]}
+        plain = arrow_schema("cycles", {"pndiss.cycles_mode": self.mode})
+        # The strings of a row (hash, station, MAC, profile, direction) are the axis' and repeat on
+        # every row: handed to the writer as dictionary arrays (one value, zero indices), they are
+        # written without hashing a million equal strings. The file says "string" all the same: it
+        # is written without the Arrow schema (store_schema=False) and with the metadata added.
+        self.schema = pa.schema([pa.field(f.name, STR_DICT) if pa.types.is_string(f.type) else f for f in plain],
+                                metadata=plain.metadata)
+        self.types = {f.name: f.type for f in self.schema}
         self.sig_names = list(tg.SIGNALS)
         self.bit_np = {c: (np.uint8 if t == pa.uint8() else np.int64) for c, t in bit_columns()}
         self.names = self.schema.names
@@ -177,7 +184,12 @@ class CycleTable:
         a = self._consts.get(key)
         if a is None or len(a) < n:
             m = max(n, 2 * len(a) if a is not None else COALESCE)
-            a = pa.nulls(m, t) if v is None else pa.repeat(pa.scalar(v, t), m)
+            if v is None:
+                a = pa.nulls(m, t)
+            elif t == STR_DICT:
+                a = pa.DictionaryArray.from_arrays(pa.array(np.zeros(m, np.int32)), pa.array([v], pa.string()))
+            else:
+                a = pa.repeat(pa.scalar(v, t), m)
             if self._consts_bytes + a.nbytes > CONST_BYTES:   # many axes, long names: start again, bounded
                 self._consts.clear()
                 self._consts_bytes = 0
@@ -196,9 +208,9 @@ class CycleTable:
                  **{k: ax.get(k) for k in ("station", "device_mac", "api", "slot", "subslot", "telegram",
                                            "telegram_source", "profile")}}
         cols = {}
-        for name, t in CYCLES_HEAD:
+        for name, _t in CYCLES_HEAD:
             if name in const:
-                cols[name] = self._const(name, t, const[name], n)
+                cols[name] = self._const(name, self.types[name], const[name], n)
         cols["frame"] = pa.array(frame)
         cols["ts_ns"] = pa.array(ts)
         cols["ts"] = ts_array(ts)
@@ -231,12 +243,14 @@ class CycleTable:
             return
         if self.writer is None:
             # counters, times and positions move by small steps: delta encoding makes them a few bits
-            # a row and writes faster than dictionaries of distinct values; the axis' strings repeat
-            strs = [f.name for f in self.schema if pa.types.is_string(f.type)]
+            # a row and writes faster than dictionaries of distinct values; bit fields (uint8) are
+            # written plain (faster still, zstd makes them as small); the axis' strings repeat
+            strs = [f.name for f in self.schema if f.type == STR_DICT]
             deltas = {f.name: "DELTA_BINARY_PACKED" for f in self.schema
-                      if pa.types.is_integer(f.type) or pa.types.is_timestamp(f.type)}
+                      if (pa.types.is_integer(f.type) and f.type != pa.uint8()) or pa.types.is_timestamp(f.type)}
             self.writer = pq.ParquetWriter(self.path, self.schema, compression="zstd", use_dictionary=strs,
-                                           column_encoding=deltas)
+                                           column_encoding=deltas, store_schema=False)
+            self.writer.add_key_value_metadata(self.schema.metadata)
         if self._failed is not None:   # the file is broken: nothing more goes into it
             raise self._failed
         table = pa.Table.from_batches(self.pending, schema=self.schema)

@@ -1,0 +1,51 @@
+"""Set-up of a worker process of the local cluster `pndiss fleet` starts (a Dask preload module: its
+``dask_setup`` runs as the worker starts, while the client is still hashing the inputs).
+
+Two things, both measured on `bench/fleet.py` (bench/NOTES.md, "Fleet start-up"):
+
+- **Imports.** A worker's first capture paid ~0.3 s for pyarrow, Parquet and the pandas shim pyarrow
+  loads on its first array; done here they overlap the hashing instead of delaying the first task.
+- **One core per worker.** With as many workers as cores, the OS moved workers between cores and
+  each capture took ~12 % longer than alone; pinned, ~8 %. Only when the cluster has no more workers
+  than this process may use cores (``--workers`` above the CPU count leaves the OS to share them).
+"""
+from __future__ import annotations
+
+import os
+
+PIN_ENV = "PNDISS_FLEET_PIN"   # "N": the cluster has N workers, worker i may take the i-th allowed core
+
+
+def dask_setup(worker) -> None:
+    pin(worker.name, os.environ.get(PIN_ENV))
+    warm()
+
+
+def pin(name, workers: str | None) -> set[int] | None:
+    """Pin this process to one core when the cluster has a worker per core at most; the cores pinned
+    to, or None when left to the OS."""
+    if not workers or not hasattr(os, "sched_setaffinity"):
+        return None
+    try:
+        cores = sorted(os.sched_getaffinity(0))
+        index = int(name)
+    except (OSError, TypeError, ValueError):   # a named worker (not a LocalCluster's 0..N-1): leave it
+        return None
+    if int(workers) > len(cores):
+        return None
+    core = {cores[index % len(cores)]}
+    try:
+        os.sched_setaffinity(0, core)
+    except OSError:
+        return None
+    return core
+
+
+def warm() -> None:
+    """Import what analysing a capture into the dataset needs, and let pyarrow load its pandas shim."""
+    import pyarrow as pa
+    import pyarrow.parquet  # noqa: F401
+
+    from . import driver, fleet_store  # noqa: F401
+    from .dataset import write_capture  # noqa: F401
+    pa.array([0], pa.int8())
