@@ -246,7 +246,7 @@ def main() -> None:
         if args.reuse and os.path.isdir(small_ds) and "query" in res:   # the same dataset, queried again
             dt_small, load = res["query"]["fleet_s"], res["query"]["load"]
         else:
-            dt_small, _line = fleet(small_dir, small_ds, 2)
+            dt_small, _line = fleet([small_dir], small_ds, 2)
         q = query_times(small_ds)
         q.update(n=args.small, fleet_s=dt_small, mb=du(small_ds) / 1e6, load=load, commit=commit)
         res["query"] = q
