@@ -6,8 +6,9 @@ Two things, both measured on `bench/fleet.py` (bench/NOTES.md, "Fleet start-up")
 - **Imports.** A worker's first capture paid ~0.3 s for pyarrow, Parquet and the pandas shim pyarrow
   loads on its first array; done here they overlap the hashing instead of delaying the first task.
 - **One core per worker.** With as many workers as cores, the OS moved workers between cores and
-  each capture took ~12 % longer than alone; pinned, ~8 %. Only when the cluster has no more workers
-  than this process may use cores (``--workers`` above the CPU count leaves the OS to share them).
+  each capture took ~12 % longer than alone; pinned, ~3 %. Only when the cluster has exactly a worker
+  per core this process may use (the default ``--workers``): with fewer, the OS keeps the freedom to
+  move them away from other busy processes; with more, it has to share the cores anyway.
 """
 from __future__ import annotations
 
@@ -22,8 +23,8 @@ def dask_setup(worker) -> None:
 
 
 def pin(name, workers: str | None) -> set[int] | None:
-    """Pin this process to one core when the cluster has a worker per core at most; the cores pinned
-    to, or None when left to the OS."""
+    """Pin this process to one core when the cluster has exactly one worker per core; the cores
+    pinned to, or None when left to the OS."""
     if not workers or not hasattr(os, "sched_setaffinity"):
         return None
     try:
@@ -31,7 +32,7 @@ def pin(name, workers: str | None) -> set[int] | None:
         index = int(name)
     except (OSError, TypeError, ValueError):   # a named worker (not a LocalCluster's 0..N-1): leave it
         return None
-    if int(workers) > len(cores):
+    if int(workers) != len(cores):
         return None
     core = {cores[index % len(cores)]}
     try:

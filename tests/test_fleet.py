@@ -144,11 +144,11 @@ def test_local_workers_pinned_one_per_core_and_warm(client):
     core of its own (when there are cores enough) and with the dataset writer already imported."""
     cores = sorted(os.sched_getaffinity(0))
     pinned = client.run(os.sched_getaffinity, 0)
-    if len(cores) >= 2:
+    if len(cores) == 2:
         assert all(len(c) == 1 for c in pinned.values())
         assert len(set().union(*pinned.values())) == 2   # two workers, two cores
     else:
-        assert all(c == set(cores) for c in pinned.values())   # more workers than cores: left to the OS
+        assert all(c == set(cores) for c in pinned.values())   # not a worker per core: left to the OS
     loaded = client.run(lambda: all(m in sys.modules for m in ("pyarrow.parquet", "pndiss.dataset.writer")))
     assert all(loaded.values())
 
@@ -159,6 +159,8 @@ def test_pin_only_when_cores_suffice():
     try:
         assert pin(0, None) is None and pin("a-name", "2") is None
         assert pin(0, str(len(before) + 1)) is None and os.sched_getaffinity(0) == before
+        if len(before) > 1:   # fewer workers than cores: the OS may still move them
+            assert pin(0, str(len(before) - 1)) is None and os.sched_getaffinity(0) == before
         got = pin(len(before), str(len(before)))   # the i-th worker takes the (i mod cores)-th core
         assert got == {sorted(before)[0]} == os.sched_getaffinity(0)
     finally:
