@@ -19,7 +19,10 @@ PIN_ENV = "PNDISS_FLEET_PIN"   # "N": the cluster has N workers, worker i may ta
 
 def dask_setup(worker) -> None:
     pin(worker.name, os.environ.get(PIN_ENV))
-    warm()
+    try:
+        warm()
+    except Exception:  # noqa: BLE001 -- a worker that cannot import starts anyway: its tasks record why
+        pass
 
 
 def pin(name, workers: str | None) -> set[int] | None:

@@ -248,9 +248,12 @@ class CycleTable:
             strs = [f.name for f in self.schema if f.type == STR_DICT]
             deltas = {f.name: "DELTA_BINARY_PACKED" for f in self.schema
                       if (pa.types.is_integer(f.type) and f.type != pa.uint8()) or pa.types.is_timestamp(f.type)}
+            # an older pyarrow without add_key_value_metadata keeps the Arrow schema (and so the metadata)
+            bare = hasattr(pq.ParquetWriter, "add_key_value_metadata")
             self.writer = pq.ParquetWriter(self.path, self.schema, compression="zstd", use_dictionary=strs,
-                                           column_encoding=deltas, store_schema=False)
-            self.writer.add_key_value_metadata(self.schema.metadata)
+                                           column_encoding=deltas, store_schema=not bare)
+            if bare:
+                self.writer.add_key_value_metadata(self.schema.metadata)
         if self._failed is not None:   # the file is broken: nothing more goes into it
             raise self._failed
         table = pa.Table.from_batches(self.pending, schema=self.schema)
