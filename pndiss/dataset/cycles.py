@@ -20,6 +20,7 @@ from .schema import CYCLES_HEAD, TABLES, arrow_schema, bit_columns, ts_array
 
 ROW_GROUP = 1 << 16   # rows held before a row group is written
 CONST_BYTES = 8 << 20  # memory of the cached constant columns (station names, MACs, ...) at most
+STATS_COLUMNS = ("api", "slot", "subslot", "telegram", "frame_id", "frame", "ts_ns", "ts")   # see _write
 STR_DICT = pa.dictionary(pa.int32(), pa.string())   # how the axis's strings reach the writer (see __init__)
 COALESCE = 1 << 12    # rows of one axis and direction gathered before they are thinned and become one Arrow
                       # batch (the engine's batches are often small; per-batch costs are per column, ~60 of them)
@@ -248,10 +249,14 @@ class CycleTable:
             strs = [f.name for f in self.schema if f.type == STR_DICT]
             deltas = {f.name: "DELTA_BINARY_PACKED" for f in self.schema
                       if (pa.types.is_integer(f.type) and f.type != pa.uint8()) or pa.types.is_timestamp(f.type)}
+            # min/max statistics where a reader prunes row groups by them (the axis' numbers, frames,
+            # times); not on the constant strings (their min/max over dictionary arrays cost ~12 % of
+            # the encoding) nor on signals and bits (bench/NOTES.md, "The Parquet sink")
+            stats = [n for n in STATS_COLUMNS if n in self.types]
             # an older pyarrow without add_key_value_metadata keeps the Arrow schema (and so the metadata)
             bare = hasattr(pq.ParquetWriter, "add_key_value_metadata")
             self.writer = pq.ParquetWriter(self.path, self.schema, compression="zstd", use_dictionary=strs,
-                                           column_encoding=deltas, store_schema=not bare)
+                                           column_encoding=deltas, store_schema=not bare, write_statistics=stats)
             if bare:
                 self.writer.add_key_value_metadata(self.schema.metadata)
         if self._failed is not None:   # the file is broken: nothing more goes into it
