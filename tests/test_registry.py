@@ -170,3 +170,52 @@ def test_each_value_rule_is_exercised_by_the_rule_tables(rule):
     tests/test_rules_records.py) name every value rule."""
     text = "".join((ROOT / "tests" / f).read_text(encoding="utf-8") for f in ("test_encoder_rules.py", "test_rules_records.py"))
     assert f'"{rule}"' in text
+
+
+# ---------------------------------------------------------------------------------- windows after a key change
+WINDOW_RULES = {r["rule"] for r in REG.FOLLOWS} | {"CTRLREQ-MISMATCH"}
+G1 = [t for t in STD if "g1_stw" in dict(tg.TELEGRAMS[t]["setpoint"])]
+
+
+@st.composite
+def key_changes(draw):
+    """A checker that saw one set of control/status words for a while, then another (the edge)."""
+    cfg = EncoderConfig(profile=draw(st.sampled_from(tg.PROFILES)), telegram=draw(st.sampled_from(G1)),
+                        compat=draw(st.sampled_from([0, 1])), class4=draw(st.sampled_from([0, 1])))
+
+    def words():
+        stw2 = draw(st.sampled_from([0, 0x400]))                        # control by PLC
+        g1_stw = draw(st.sampled_from([0, 0x2000, 0x4000, 0x6000, 0x8000, 0xA000]))   # AREQ, PARK, SACK
+        zsw2 = draw(st.sampled_from([0, 0x200, 0x400, 0x600]))          # control requested (either bit)
+        g1_zsw = draw(st.sampled_from([0, 0x800, 0x2000, 0x4000, 0x6000, 0x2800, 0xA000]))  # ACKIP, ATX, PKA, SERR
+        return {"stw2_enc": stw2, "g1_stw": g1_stw}, {"zsw2_enc": zsw2, "g1_zsw": g1_zsw, "g1_xist1": 100,
+                                                      "g1_xist2": 100}
+    return cfg, words(), words(), draw(st.integers(0, 3))
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(key_changes())
+def test_windows_quiet_only_when_no_window_rule_can_fire(case):
+    """Checker.windows_quiet() lets the bulk engine advance the cycles after a key change while the window
+    W(n, -L_max, 0) still holds the old words: then no window rule (#13, the FOLLOWS rows) may start in
+    them. Run per cycle (the reference) and check."""
+    cfg, (sp0, ac0), (sp1, ac1), extra = case
+    chk = Checker(cfg)
+    L = chk.L
+    events, n = [], 0
+
+    def cycle(sp, ac):
+        nonlocal n
+        n += 1
+        events.extend(chk.cycle(n, n * 1000, dict(sp), dict(ac)))   # new dicts: not the identical-input branch
+
+    for _ in range(L + 3 + extra):
+        cycle(sp0, ac0)
+    cycle(sp1, ac1)   # the edge
+    edge, quiet = n, chk.windows_quiet()
+    for _ in range(L + 3):
+        cycle(sp1, ac1)
+    events.extend(chk.finish())
+    late = sorted({e["rule"] for e in events if e.get("rule") in WINDOW_RULES and e["frame"] > edge})
+    if quiet:
+        assert not late, f"windows_quiet() after the edge, yet {late} started later ({sp0, ac0} -> {sp1, ac1})"

@@ -138,6 +138,7 @@ class Checker:
         self.same = 0
         self.prev_key = None       # control/status words without the sign-of-life nibbles
         self.steady_n = 0
+        self.last_status = None    # (CTRL, CREQ, has_g1, {status bit: value}) of the last _cycle_std (windows_quiet)
 
     def gap(self, frame: int, ts: int, reason: str) -> list[dict]:
         """A cycle that is reported, not judged (provider STOP, DataValid = 0, IOPS bad)."""
@@ -309,8 +310,9 @@ class Checker:
         shift = c.shift or 0
 
         # ---- 9.2 control by PLC -----------------------------------------------------------------
+        self.last_status = (CTRL, CREQ, has_g1, {"ATX": ATX, "PKA": PKA, "ACKIP": ACKIP})
         if c.compat == 1:
-            if full and all(h[0] == CTRL for h in H) and CREQ != CTRL:
+            if full and self._ctrlreq_mismatch(H, CTRL, CREQ):
                 # 13: CREQ follows CTRL within L_max (000_37bf2397999f1108.txt:3100-3106)
                 self._hit("CTRLREQ-MISMATCH", f"control requested (ZSW2_ENC.{self.creq_bit})={CREQ} while control by PLC "
                                               f"(STW2_ENC.10)={CTRL} for {L + 1} cycles; expected {CTRL}")
@@ -539,10 +541,38 @@ class Checker:
     def _follows(self, group: str, status: dict) -> None:
         """The "status bit follows control bit within L_max" rows of one group (registry.FOLLOWS): the status
         bit still shows ``is`` although every cycle of the full window W(n, -L_max, 0) met the row's window."""
-        H = self.hist
+        for rule, msg in self._follows_hits(group, status, self.hist):
+            self._hit(rule, msg.replace("{n}", str(self.L + 1)))
+
+    @staticmethod
+    def _follows_hits(group: str, status: dict, H):
+        """The rows of ``group`` whose status and window (every cycle of ``H``) hold: (rule, message)."""
         for rule, name, value, window, msg in REG.follows(group):
             if status[name] == value and all(all(bool(h[i]) == v for i, v in window) for h in H):
-                self._hit(rule, msg.replace("{n}", str(self.L + 1)))
+                yield rule, msg
+
+    @staticmethod
+    def _ctrlreq_mismatch(H, CTRL, CREQ) -> bool:
+        """#13's condition on a full window: control by PLC the same in every cycle, control requested not."""
+        return all(h[0] == CTRL for h in H) and CREQ != CTRL
+
+    def windows_quiet(self) -> bool:
+        """No window rule (#13, the FOLLOWS rows) can fire while the words stay those of the last cycle.
+        Each needs its condition on every cycle of W(n, -L_max, 0), the newest included: a rule whose
+        condition fails on the last cycle's own tuple, or whose status is not the one it reports, stays
+        quiet until the key changes. So the cycles after a key change, while the window still holds
+        older tuples, may be advanced at once like steady ones (advance_steady)."""
+        if self.last_status is None or not self.hist:
+            return False
+        CTRL, CREQ, has_g1, status = self.last_status
+        T = (self.hist[-1],)
+        if self.cfg.compat == 1 and self._ctrlreq_mismatch(T, CTRL, CREQ):
+            return False
+        if has_g1:
+            for group in REG.FOLLOW_GROUPS:
+                for _hit in self._follows_hits(group, status, T):
+                    return False
+        return True
 
     def _value_rules(self, c: REG.Cycle, CLS, pCLS, pDLS, first) -> None:
         """The value rules (pndiss/encoder/registry.py): they run every cycle, also in steady state."""
@@ -602,9 +632,10 @@ class Checker:
     # -- what a bulk engine may ask (pndiss/engine.py): read-only views of the state ------------------------
     def bulk_ready(self) -> bool:
         """The next cycle may go through advance_steady: a previous cycle on both sides, no open run, the
-        key steady for more than L+1 cycles, nothing pending (no deadline open)."""
+        key steady for more than L+1 cycles or no window rule able to fire on it (windows_quiet), nothing
+        pending (no deadline open)."""
         return (self.prev_ac is not None and self.prev_sp is not None and not self._open
-                and self.steady_n > self.L + 1 and not self._pending_steady())
+                and (self.steady_n > self.L + 1 or self.windows_quiet()) and not self._pending_steady())
 
     def idle(self) -> bool:
         """No history and no open run: gated cycles only count (gap() would flush nothing)."""
@@ -630,7 +661,7 @@ class Checker:
                        motion_refs: list, cls_seen: bool, dls_seen: bool) -> None:
         """``cycles`` calls of cycle() that all take the _cycle_steady branch and hit no rule, at once
         (pndiss/axiswalk.py). The caller has checked on its arrays what makes that so: sign-of-life
-        monitoring off, the checker steady (same key, steady_n > L+1, nothing open or pending), in every
+        monitoring off, the checker steady (same key, steady_n > L+1 or windows_quiet(), nothing open or pending), in every
         cycle a new decode (not the identical-input branch), no sensor error, the key unchanged and no
         value rule condition (shift learning, #8, #39-42, #44). Then a cycle only moves: n, the frame /
         time stamps, ``same`` (0 after a new decode), pos_hist, started_C/started_D, value_runs (0: no
@@ -638,6 +669,9 @@ class Checker:
         ``sp``/``ac`` the last cycle's signal dicts, cls_seen/dls_seen: some C-LS/DLS was non-zero."""
         self.out = []
         self.n += cycles
+        if self.steady_n <= self.L + 1:   # after a key change (windows_quiet): the window fills with its tuple
+            self.hist.extend([self.hist[-1]] * min(cycles, self.L + 1))
+        self.steady_n += cycles
         self.f, self.ts = frame, ts
         self.fc = frame if sp_frame is None else sp_frame
         self.last_fc = self.fc

@@ -51,6 +51,9 @@ for _row in FOLLOWS:
                                           _row["message"]),)
 
 
+FOLLOW_GROUPS = tuple(_FOLLOWS_BY_GROUP)   # every group _cycle_std judges (Checker.windows_quiet asks them all)
+
+
 def follows(group: str):
     """The compiled rows of one group: (rule, status name, status value, ((history index, value), ...), message)."""
     return _FOLLOWS_BY_GROUP[group]
