@@ -219,3 +219,56 @@ def test_windows_quiet_only_when_no_window_rule_can_fire(case):
     late = sorted({e["rule"] for e in events if e.get("rule") in WINDOW_RULES and e["frame"] > edge})
     if quiet:
         assert not late, f"windows_quiet() after the edge, yet {late} started later ({sp0, ac0} -> {sp1, ac1})"
+
+
+@st.composite
+def key_runs(draw):
+    """Runs of constant control/status words, some cut by lost cycles (capture loss)."""
+    cfg = EncoderConfig(profile=draw(st.sampled_from(tg.PROFILES)), telegram=draw(st.sampled_from(G1)),
+                        compat=draw(st.sampled_from([0, 1])), class4=draw(st.sampled_from([0, 1])),
+                        l_max=draw(st.sampled_from([2, 2, 5])))
+    words = st.tuples(st.sampled_from([0, 0x400]), st.sampled_from([0, 0x2000, 0x4000, 0x8000]),
+                      st.sampled_from([0, 0x200, 0x400, 0x600]), st.sampled_from([0, 0x800, 0x2000, 0x4000, 0x6000]))
+    runs = draw(st.lists(st.tuples(words, st.integers(1, 14), st.sampled_from([0, 0, 0, 1, 3]),
+                                   st.integers(1, 6)), min_size=2, max_size=8))
+    # often the same words again after lost cycles: the key goes on across the gap, the window starts afresh
+    for i in range(1, len(runs)):
+        if runs[i][2] and draw(st.booleans()):
+            runs[i] = (runs[i - 1][0],) + runs[i][1:]
+    return cfg, runs
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(key_runs())
+def test_advance_steady_equals_the_cycles_it_replaces(case):
+    """What a bulk engine does (advance_steady whenever bulk_ready() says so, in pieces of any size) reports
+    exactly what the per-cycle checker reports: the windows after a key change and after lost cycles included."""
+    cfg, runs = case
+    ref, blk = Checker(cfg), Checker(cfg)
+    out = {id(ref): [], id(blk): []}
+    n = 0
+    for (stw2, g1_stw, zsw2, g1_zsw), length, lost, piece in runs:
+        if lost:
+            for chk in (ref, blk):
+                out[id(chk)].extend(chk.lost(n + 1, (n + 1) * 1000, lost))
+            n += lost
+        i = 0
+        while i < length:
+            sp, ac = {"stw2_enc": stw2, "g1_stw": g1_stw}, {"zsw2_enc": zsw2, "g1_zsw": g1_zsw, "g1_xist1": 100, "g1_xist2": 100}
+            if i > 0 and blk.bulk_ready() and not blk.vector_unsafe(
+                    {k: np.array([v]) for k, v in {**sp, **ac}.items()}, True).any():
+                m = min(piece, length - i)
+                for j in range(m):   # the reference, cycle by cycle
+                    out[id(ref)].extend(ref.cycle(n + 1 + j, (n + 1 + j) * 1000, dict(sp), dict(ac)))
+                blk.advance_steady(m, n + m, (n + m) * 1000, None, dict(sp), dict(ac), [100] * min(3, m), False, False)
+                n += m
+                i += m
+                continue
+            n += 1
+            for chk in (ref, blk):
+                out[id(chk)].extend(chk.cycle(n, n * 1000, dict(sp), dict(ac)))
+            i += 1
+    for chk in (ref, blk):
+        out[id(chk)].extend(chk.finish())
+    assert out[id(blk)] == out[id(ref)]
+    assert blk.counts == ref.counts and blk.state == ref.state

@@ -669,9 +669,13 @@ class Checker:
         ``sp``/``ac`` the last cycle's signal dicts, cls_seen/dls_seen: some C-LS/DLS was non-zero."""
         self.out = []
         self.n += cycles
-        if self.steady_n <= self.L + 1:   # after a key change (windows_quiet): the window fills with its tuple
-            self.hist.extend([self.hist[-1]] * min(cycles, self.L + 1))
-        self.steady_n += cycles
+        # After a key change (windows_quiet) the reference runs _cycle_std while steady_n <= L+1: each such
+        # cycle counts in steady_n and appends the key's tuple to the window (after a gap the window may
+        # be shorter than steady_n says: exactly those appends, not a full window)
+        k = min(cycles, self.L + 2 - self.steady_n) if self.steady_n <= self.L + 1 else 0
+        if k:
+            self.hist.extend([self.hist[-1]] * min(k, self.L + 1))
+            self.steady_n += k
         self.f, self.ts = frame, ts
         self.fc = frame if sp_frame is None else sp_frame
         self.last_fc = self.fc
