@@ -245,12 +245,12 @@ def test_advance_steady_equals_the_cycles_it_replaces(case):
     exactly what the per-cycle checker reports: the windows after a key change and after lost cycles included."""
     cfg, runs = case
     ref, blk = Checker(cfg), Checker(cfg)
-    out = {id(ref): [], id(blk): []}
+    out = {ref: [], blk: []}
     n = 0
     for (stw2, g1_stw, zsw2, g1_zsw), length, lost, piece in runs:
         if lost:
             for chk in (ref, blk):
-                out[id(chk)].extend(chk.lost(n + 1, (n + 1) * 1000, lost))
+                out[chk].extend(chk.lost(n + 1, (n + 1) * 1000, lost))
             n += lost
         i = 0
         while i < length:
@@ -259,16 +259,16 @@ def test_advance_steady_equals_the_cycles_it_replaces(case):
                     {k: np.array([v]) for k, v in {**sp, **ac}.items()}, True).any():
                 m = min(piece, length - i)
                 for j in range(m):   # the reference, cycle by cycle
-                    out[id(ref)].extend(ref.cycle(n + 1 + j, (n + 1 + j) * 1000, dict(sp), dict(ac)))
+                    out[ref].extend(ref.cycle(n + 1 + j, (n + 1 + j) * 1000, dict(sp), dict(ac)))
                 blk.advance_steady(m, n + m, (n + m) * 1000, None, dict(sp), dict(ac), [100] * min(3, m), False, False)
                 n += m
                 i += m
                 continue
             n += 1
             for chk in (ref, blk):
-                out[id(chk)].extend(chk.cycle(n, n * 1000, dict(sp), dict(ac)))
+                out[chk].extend(chk.cycle(n, n * 1000, dict(sp), dict(ac)))
             i += 1
     for chk in (ref, blk):
-        out[id(chk)].extend(chk.finish())
-    assert out[id(blk)] == out[id(ref)]
+        out[chk].extend(chk.finish())
+    assert out[blk] == out[ref]
     assert blk.counts == ref.counts and blk.state == ref.state

@@ -254,10 +254,10 @@ class CycleTable:
             # the encoding) nor on signals and bits (bench/NOTES.md, "The Parquet sink")
             stats = [n for n in STATS_COLUMNS if n in self.types]
             # an older pyarrow without add_key_value_metadata keeps the Arrow schema (and so the metadata)
-            bare = hasattr(pq.ParquetWriter, "add_key_value_metadata")
+            add_kv = hasattr(pq.ParquetWriter, "add_key_value_metadata")
             self.writer = pq.ParquetWriter(self.path, self.schema, compression="zstd", use_dictionary=strs,
-                                           column_encoding=deltas, store_schema=not bare, write_statistics=stats)
-            if bare:
+                                           column_encoding=deltas, store_schema=not add_kv, write_statistics=stats)
+            if add_kv:
                 self.writer.add_key_value_metadata(self.schema.metadata)
         if self._failed is not None:   # the file is broken: nothing more goes into it
             raise self._failed

@@ -13,7 +13,7 @@ import hashlib
 import os
 import time
 
-from ..fleet_inputs import content_hash  # noqa: F401  (the reader's digest: decompressed bytes)
+from ..fleet_inputs import content_hash  # the reader's digest (decompressed bytes), also dataset.content_hash
 from .schema import SCHEMA_VERSION, TABLES
 from .sink import ParquetSink
 

@@ -568,11 +568,7 @@ class Checker:
         T = (self.hist[-1],)
         if self.cfg.compat == 1 and self._ctrlreq_mismatch(T, CTRL, CREQ):
             return False
-        if has_g1:
-            for group in REG.FOLLOW_GROUPS:
-                for _hit in self._follows_hits(group, status, T):
-                    return False
-        return True
+        return not (has_g1 and any(next(self._follows_hits(g, status, T), None) for g in REG.FOLLOW_GROUPS))
 
     def _value_rules(self, c: REG.Cycle, CLS, pCLS, pDLS, first) -> None:
         """The value rules (pndiss/encoder/registry.py): they run every cycle, also in steady state."""
