@@ -3,8 +3,8 @@
 
 Two things, both measured on `bench/fleet.py` (bench/NOTES.md, "Fleet start-up"):
 
-- **Imports.** A worker's first capture paid ~0.3 s for pyarrow, Parquet and the pandas shim pyarrow
-  loads on its first array; done here they overlap the hashing instead of delaying the first task.
+- **Imports.** A worker's first capture paid ~0.1 s for pyarrow and Parquet; done here they overlap
+  the hashing instead of delaying the first task. (pandas is never imported: pndiss/dataset/arrays.py.)
 - **One core per worker.** With as many workers as cores, the OS moved workers between cores and
   each capture took ~12 % longer than alone; pinned, ~3 %. Only when the cluster has exactly a worker
   per core this process may use (the default ``--workers``): with fewer, the OS keeps the freedom to
@@ -46,10 +46,8 @@ def pin(name, workers: str | None) -> set[int] | None:
 
 
 def warm() -> None:
-    """Import what analysing a capture into the dataset needs, and let pyarrow load its pandas shim."""
-    import pyarrow as pa
+    """Import what analysing a capture into the dataset needs."""
     import pyarrow.parquet  # noqa: F401
 
     from . import driver, fleet_store  # noqa: F401
     from .dataset import write_capture  # noqa: F401
-    pa.array([0], pa.int8())

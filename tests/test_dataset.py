@@ -466,3 +466,57 @@ def test_stations_axes_and_captures_equal_the_summary(built, tmp_path):
     assert events.pop("telegram", 0) > 0 and events == {k: v for k, v in summ["events"].items() if k != "telegram"}
     assert c["violations"] == summ["verdict"]["total"] and c["file"] == cap
     assert c["capture_hash"] == dataset.content_hash(cap) and c["cycles_mode"] == "full"
+
+
+# -- Arrow arrays built from their buffers (pndiss/dataset/arrays.py) ---------------------------
+_TYPES = [pa.int64(), pa.int32(), pa.int16(), pa.uint8(), pa.uint64(), pa.bool_(), pa.float64(), pa.string(),
+          pa.timestamp("ns")]
+
+
+def _values(t):
+    if pa.types.is_string(t):
+        return st.text()
+    if pa.types.is_boolean(t):
+        return st.booleans()
+    if pa.types.is_floating(t):
+        return st.floats(allow_nan=False)
+    if pa.types.is_timestamp(t):
+        return st.integers(-2**63, 2**63 - 1)
+    bits, signed = t.bit_width, pa.types.is_signed_integer(t)
+    return st.integers(-2 ** (bits - 1) if signed else 0, 2 ** (bits - 1) - 1 if signed else 2 ** bits - 1)
+
+
+@st.composite
+def _typed_values(draw):
+    t = draw(st.sampled_from(_TYPES))
+    return t, draw(st.lists(st.none() | _values(t), max_size=40))
+
+
+@hsettings(max_examples=300, deadline=None)
+@given(_typed_values(), st.integers(0, 70))
+def test_arrays_equal_pa_array(tv, n):
+    """The buffer-built arrays equal pa.array's, nulls and all; repeats equal n scalars."""
+    from pndiss.dataset import arrays
+    np = pytest.importorskip("numpy")
+    t, values = tv
+    got = arrays.column(values, t)
+    assert got.type == t and got.validate(full=True) is None
+    assert got.equals(pa.array(values, t))
+    present = [v for v in values if v is not None]
+    if present:
+        assert arrays.repeat(present[0], t, n).equals(pa.array([present[0]] * n, t))
+        if not pa.types.is_string(t) and not pa.types.is_timestamp(t):
+            a = np.array(present, t.to_pandas_dtype())
+            assert arrays.numeric(a[::2]).equals(pa.array(a[::2]))   # a strided view too
+    assert arrays.repeat(None, t, n).equals(pa.nulls(n, t))
+
+
+def test_writing_a_dataset_does_not_import_pandas(tmp_path):
+    """pa.array's pandas check imports pandas (0.2 s, ~40 MB) in every capture process: not ours."""
+    cap = os.path.join(CAPS, "plant-rt-loss-t81.pcapng")
+    code = ("import sys; from pndiss import dataset; from pndiss.settings import Settings; "
+            f"dataset.write_capture({cap!r}, {str(tmp_path / 'ds')!r}, Settings(), cycles='full'); "
+            "print('pandas' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip().splitlines()[-1] == "False"

@@ -16,6 +16,7 @@ import numpy as np
 import pyarrow as pa
 
 from .. import telegrams as tg
+from . import arrays
 from .schema import CYCLES_HEAD, TABLES, arrow_schema, bit_columns, ts_array
 
 ROW_GROUP = 1 << 16   # rows held before a row group is written
@@ -188,9 +189,9 @@ class CycleTable:
             if v is None:
                 a = pa.nulls(m, t)
             elif t == STR_DICT:
-                a = pa.DictionaryArray.from_arrays(pa.array(np.zeros(m, np.int32)), pa.array([v], pa.string()))
+                a = pa.DictionaryArray.from_arrays(arrays.numeric(np.zeros(m, np.int32)), arrays.strings([v]))
             else:
-                a = pa.repeat(pa.scalar(v, t), m)
+                a = arrays.repeat(v, t, m)
             if self._consts_bytes + a.nbytes > CONST_BYTES:   # many axes, long names: start again, bounded
                 self._consts.clear()
                 self._consts_bytes = 0
@@ -212,18 +213,17 @@ class CycleTable:
         for name, _t in CYCLES_HEAD:
             if name in const:
                 cols[name] = self._const(name, self.types[name], const[name], n)
-        cols["frame"] = pa.array(frame)
-        cols["ts_ns"] = pa.array(ts)
+        cols["frame"] = arrays.numeric(frame)
+        cols["ts_ns"] = arrays.numeric(ts)
         cols["ts"] = ts_array(ts)
-        cols["iops"] = pa.array(sel(np.asarray(b.iops)).astype(np.int16, copy=False))
-        cols["judged"] = pa.array(sel(np.asarray(b.judged, bool)))
+        cols["iops"] = arrays.numeric(sel(np.asarray(b.iops)).astype(np.int16, copy=False))
+        cols["judged"] = arrays.numeric(sel(np.asarray(b.judged, bool)))
         words = {}
         for s in self.sig_names:
             if s in b.signals:
                 w = words[s] = sel(np.asarray(b.signals[s]))
                 t = self.types[s]
-                a = pa.array(w)
-                cols[s] = a if a.type == t else a.cast(t)   # a safe cast: a value out of range raises
+                cols[s] = arrays.numeric(w, t)   # a safe cast: a value out of range raises
         profile = ax.get("profile") or "generic"
         for sig, w in words.items():
             plan = self._bit_plan(sig, profile)
@@ -234,7 +234,7 @@ class CycleTable:
             m = (w.astype(np.uint64, copy=False)[None, :] >> shifts) & masks
             narrow = m.astype(np.uint8)   # mask <= the column's width: exact
             for j, col in enumerate(names):
-                cols[col] = pa.array(narrow[j] if dtypes[j] is np.uint8 else m[j].astype(np.int64))
+                cols[col] = arrays.numeric(narrow[j] if dtypes[j] is np.uint8 else m[j].astype(np.int64))
         return pa.RecordBatch.from_arrays([cols[c] if c in cols else self._const(c, self.types[c], None, n)
                                            for c in self.names], schema=self.schema)
 

@@ -9,6 +9,7 @@ import json
 
 import pyarrow as pa
 
+from .arrays import column
 from .schema import JSON, TABLES, arrow_schema, arrow_type, ts_array
 
 
@@ -82,5 +83,5 @@ class TableRows:
             if pa.types.is_timestamp(f.type):   # held as ns integers
                 arrays.append(ts_array(self.data[n]))
             else:
-                arrays.append(pa.array(self.data[n], arrow_type(t)))
+                arrays.append(column(self.data[n], arrow_type(t)))
         return pa.Table.from_arrays(arrays, schema=schema)

@@ -11,9 +11,11 @@ readers union files by column name).
 """
 from __future__ import annotations
 
+import numpy as np
 import pyarrow as pa
 
 from .. import telegrams as tg
+from .arrays import column, numeric
 
 SCHEMA_VERSION = 1
 
@@ -132,7 +134,8 @@ TABLES["cycles"] = (CYCLES_HEAD + [(n, _signal_type(n)) for n in tg.SIGNALS]
 
 def ts_array(ns) -> pa.Array:
     """A TS column from integer ns since the epoch (None: null), cut to µs."""
-    return pa.array(ns, pa.int64()).cast(pa.timestamp("ns")).cast(TS, safe=False)
+    a = numeric(ns) if isinstance(ns, np.ndarray) else column(ns, pa.int64())
+    return a.cast(pa.timestamp("ns")).cast(TS, safe=False)
 
 
 def arrow_type(t) -> pa.DataType:
