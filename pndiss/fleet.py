@@ -145,10 +145,10 @@ def local_cluster(workers: int):
     import logging
 
     from distributed import LocalCluster
-    from .fleet_worker import PIN_ENV
+    from .fleet_worker import PIN_ENV, arrow_pool_env
     return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
                         silence_logs=logging.ERROR, preload=["pndiss.fleet_worker"],
-                        env={PIN_ENV: str(workers)})
+                        env={PIN_ENV: str(workers), **arrow_pool_env()})
 
 
 def likely_work(paths: list[str], store, retry_failed: bool = False) -> bool:

@@ -11,6 +11,7 @@ import gzip
 import os
 import shutil
 import signal
+import subprocess
 import sys
 import time
 
@@ -151,6 +152,25 @@ def test_local_workers_pinned_one_per_core_and_warm(client):
         assert all(c == set(cores) for c in pinned.values())   # not a worker per core: left to the OS
     loaded = client.run(lambda: all(m in sys.modules for m in ("pyarrow.parquet", "pndiss.dataset.writer")))
     assert all(loaded.values())
+    pools = client.run(lambda: __import__("pyarrow").default_memory_pool().backend_name)
+    assert set(pools.values()) == {"system"}   # fleet_worker.arrow_pool_env
+
+
+def test_the_fleet_command_writes_with_the_system_allocator(tmp_path):
+    """`pndiss fleet --workers 0` analyses in its own process: Arrow's pool is chosen before pyarrow's
+    import; a pool the user chose stays."""
+    code = ("import sys; from pndiss.cli import main; r = main(sys.argv[1:]); "
+            "import pyarrow as pa; print(pa.default_memory_pool().backend_name)")
+    args = [CAPS[0], "-o", str(tmp_path / "ds"), "--workers", "0", "-q"]
+    env = {k: v for k, v in os.environ.items() if k != "ARROW_DEFAULT_MEMORY_POOL"}
+    out = subprocess.run([sys.executable, "-c", code, "fleet", *args], capture_output=True, text=True, env=env,
+                         cwd=os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split()[-1] == "system"
+    env["ARROW_DEFAULT_MEMORY_POOL"] = "mimalloc"
+    out = subprocess.run([sys.executable, "-c", code, "fleet", *args], capture_output=True, text=True, env=env,
+                         cwd=os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    assert out.stdout.split()[-1] == "mimalloc"
 
 
 def test_pin_only_when_cores_suffice():

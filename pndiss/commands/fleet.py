@@ -37,6 +37,8 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
+    from ..fleet_worker import arrow_pool
+    arrow_pool()   # before pyarrow's import (a --workers 0 run writes the dataset in this process)
     from .. import fleet
     from ..errors import UsageError
     from ..fleet_inputs import find_captures
