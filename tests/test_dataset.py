@@ -511,6 +511,19 @@ def test_arrays_equal_pa_array(tv, n):
     assert arrays.repeat(None, t, n).equals(pa.nulls(n, t))
 
 
+@hsettings(max_examples=200, deadline=None)
+@given(st.lists(st.none() | st.integers(-2**63, 2**63 - 1), max_size=30))
+def test_ts_array_cuts_as_arrow_casts(ns):
+    """ts: ns since the epoch cut toward zero to µs, as the two casts pa.array(...).cast(ns).cast(us,
+    safe=False) cut (lists with nulls, and numpy columns)."""
+    np = pytest.importorskip("numpy")
+    from pndiss.dataset.schema import TS, ts_array
+    want = pa.array(ns, pa.int64()).cast(pa.timestamp("ns")).cast(TS, safe=False)
+    assert ts_array(ns).equals(want)
+    full = [0 if v is None else v for v in ns]
+    assert ts_array(np.array(full, np.int64)).equals(pa.array(full, pa.int64()).cast(pa.timestamp("ns")).cast(TS, safe=False))
+
+
 def test_writing_a_dataset_does_not_import_pandas(tmp_path):
     """pa.array's pandas check imports pandas (0.2 s, ~40 MB) in every capture process: not ours."""
     cap = os.path.join(CAPS, "plant-rt-loss-t81.pcapng")

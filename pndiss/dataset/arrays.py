@@ -34,6 +34,21 @@ def numeric(a, t: pa.DataType | None = None, valid: np.ndarray | None = None) ->
     return arr if t is None or arr.type == t else arr.cast(t)
 
 
+_PER_UNIT = {"s": 10**9, "ms": 10**6, "us": 1000, "ns": 1}
+
+
+def timestamps(ns, t: pa.DataType, valid: np.ndarray | None = None) -> pa.Array:
+    """Integer ns since the epoch as timestamps of type ``t``, cut toward zero to its unit as Arrow's
+    unsafe cast cuts (two casts cost 0.12 s per 1 M rows; this, a division)."""
+    ns = np.asarray(ns, np.int64)
+    div = _PER_UNIT[t.unit]
+    q = ns // div
+    if div > 1:
+        q += (q < 0) & (ns % div != 0)   # floor -> toward zero
+    vbuf, nulls = _validity(valid)
+    return pa.Array.from_buffers(t, len(q), [vbuf, _buf(q)], nulls)
+
+
 def strings(values: list, valid: np.ndarray | None = None) -> pa.Array:
     """str values (None where ``valid`` is False) as a string array."""
     data = [v.encode() if isinstance(v, str) else b"" for v in values]
@@ -67,7 +82,10 @@ def column(values, t: pa.DataType) -> pa.Array:
     dtype = _dtype(t)
     if dtype is None:
         return pa.array(values, t)   # pragma: no cover - every dataset column is one of the above
-    arr = numeric(np.array([0 if v is None else v for v in values], dtype), None, valid)
+    a = np.array([0 if v is None else v for v in values], dtype)
+    if pa.types.is_timestamp(t):
+        return numeric(a, None, valid).view(t)   # integers of t's unit already
+    arr = numeric(a, None, valid)
     return arr if arr.type == t else arr.cast(t)
 
 

@@ -15,7 +15,7 @@ import numpy as np
 import pyarrow as pa
 
 from .. import telegrams as tg
-from .arrays import column, numeric
+from .arrays import timestamps
 
 SCHEMA_VERSION = 1
 
@@ -134,8 +134,10 @@ TABLES["cycles"] = (CYCLES_HEAD + [(n, _signal_type(n)) for n in tg.SIGNALS]
 
 def ts_array(ns) -> pa.Array:
     """A TS column from integer ns since the epoch (None: null), cut to µs."""
-    a = numeric(ns) if isinstance(ns, np.ndarray) else column(ns, pa.int64())
-    return a.cast(pa.timestamp("ns")).cast(TS, safe=False)
+    if isinstance(ns, np.ndarray):
+        return timestamps(ns, TS)
+    ns = list(ns)
+    return timestamps([0 if v is None else v for v in ns], TS, np.fromiter((v is not None for v in ns), bool, len(ns)))
 
 
 def arrow_type(t) -> pa.DataType:
