@@ -6,7 +6,7 @@ pndiss.telegrams and pairs the controller's setpoint (output frame) with the dev
 value (input frame) of the same cycle: each input frame closes a cycle with the latest setpoint.
 IOPS and DataStatus gate what is judged: data from a provider in STOP, with DataValid = 0 or IOPS
 bad is reported (telegram event, ``judged`` false) but not fed to the checker. So does the AR's phase
-(pndiss.session PHASES): an AR whose Connect was seen is judged from its PrmEnd on, whatever its
+(pndiss.session_ar PHASES): an AR whose Connect was seen is judged from its PrmEnd on, whatever its
 IOxS said before (devices that send GOOD data during parameterisation are not judged on it), until
 its Release / abort, and
 STARTUP-NO-PARAM-RECORD is decided at the PrmEnd (on_phase), not from cyclic timing.

@@ -117,7 +117,7 @@ def tables() -> dict:
     bitmaps = {sig: [{"name": b["name"], "bit": b["bit"], "width": b["width"], "title": b.get("title", b["name"]),
                       "profiles": list(b["profiles"]) if "profiles" in b else None} for b in rows]
                for sig, rows in tg.BITMAPS.items()}
-    # telegram preference for the length guess (telegrams.json guess_rank, as session.py)
+    # telegram preference for the length guess (telegrams.json guess_rank, as session_ar.py)
     lengths = [[t, tg.length(t, "setpoint"), tg.length(t, "actual")] for t in tg.GUESS_ORDER]
     idx_names = dict(names.TSHARK_NAMES)
     for k, v in names.ENCODER_NAMES.items():
