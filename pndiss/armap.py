@@ -54,7 +54,7 @@ class FrameMap:
     iocs: list[IocsEntry] = field(default_factory=list)
     source: str = "connect"     # 'connect' | 'map' | 'length'
     released: bool = False      # the AR was released; the map stays for late frames
-    # the AR's phase (pndiss.session PHASES); None = no Connect seen (map, mid-session): judged as data
+    # the AR's phase (pndiss.session_ar PHASES); None = no Connect seen (map, mid-session): judged as data
     # exchange. Cycles of an AR still in 'parameterisation' (Connect seen, no PrmEnd yet) are not judged.
     phase: str | None = None
 

@@ -6,10 +6,13 @@ pndiss.telegrams and pairs the controller's setpoint (output frame) with the dev
 value (input frame) of the same cycle: each input frame closes a cycle with the latest setpoint.
 IOPS and DataStatus gate what is judged: data from a provider in STOP, with DataValid = 0 or IOPS
 bad is reported (telegram event, ``judged`` false) but not fed to the checker. So does the AR's phase
-(pndiss.session PHASES): an AR whose Connect was seen is judged from its PrmEnd on, whatever its
+(pndiss.session_ar PHASES): an AR whose Connect was seen is judged from its PrmEnd on, whatever its
 IOxS said before (devices that send GOOD data during parameterisation are not judged on it), until
 its Release / abort, and
 STARTUP-NO-PARAM-RECORD is decided at the PrmEnd (on_phase), not from cyclic timing.
+
+The axes (one reference-encoder Checker per AR/submodule), their telegram and profile, the AR
+phases and the records they follow are cyclic_axes.py's, a mixin of CyclicTracker.
 
 Hot path: an unchanged C_SDU reuses the previous decode (same dict objects), and the checker
 skips identical cycles when no rule has anything pending; ``telegram`` events are built only when
@@ -19,15 +22,14 @@ from __future__ import annotations
 
 from . import limits, rules
 from . import telegrams as tg
+from .cyclic_axes import Axis, AxisTracking
+from .encoder.acyclic import tg_length_problem
 from .gaps import GapTracker
 from .infer import Inference
-from .encoder import Checker, EncoderConfig
-from .encoder.acyclic import tg_length_problem
 from .proto.common import Malformed
 
 IOPS_GOOD = 0x80          # IOxS DataState bit (wire.md §2.3, IEC 61158-6-10)
 RELOOKUP_EVERY = 1024     # frames between lookups of a still unmapped frame ID
-BF00_INDEXES = (0xBF00, 0xFFFF)
 # AR phases whose cyclic data is not judged: Connect seen but no PrmEnd yet (the settings are not final), or
 # the AR ended (released / aborted: frames still mapped to it belong to no data exchange, e.g. the next
 # AR's device sending before its Connect response; nothing is judged in the silence between two ARs)
@@ -56,7 +58,7 @@ class _Obj:
         self.bits = None
         self.length_checked = False
         self.rejected = None
-        self.ax = None            # its _Axis once known (axes are never replaced): saves a tuple hash per frame
+        self.ax = None            # its Axis once known (axes are never replaced): saves a tuple hash per frame
 
 
 class _Frame:
@@ -70,33 +72,7 @@ class _Frame:
         self.misses = 0
 
 
-class _Axis:
-    """One encoder (AR/submodule): its checker, latest setpoint and identity."""
-
-    __slots__ = ("key", "info", "checker", "sp", "sp_frame", "sp_ok", "telegram", "source", "profile", "reason",
-                 "fm", "ambiguous", "sp_before", "sp_new", "sp_break", "sp_key", "pend")
-
-    def __init__(self, key, info):
-        self.key = key
-        self.info = info
-        self.checker = None
-        self.sp = None
-        self.sp_frame = None
-        self.sp_ok = False
-        self.sp_before = None     # the setpoint frame before sp (the controller's sign-of-life is judged on them)
-        self.telegram = None
-        self.source = None
-        self.profile = "generic"
-        self.reason = ""
-        self.fm = None
-        self.ambiguous = None     # telegram guessed from a length that fits several: report, don't judge
-        self.sp_new = False       # the latest setpoint is not paired with an actual value yet
-        self.sp_break = False     # setpoint cycles lost (or one never paired) since the last paired cycle
-        self.sp_key = None        # the setpoint's stream key
-        self.pend = None          # (signals, frame, ts, ok) of an actual value waiting for its setpoint
-
-
-class CyclicTracker:
+class CyclicTracker(AxisTracking):
     def __init__(self, analyzer):
         self.a = analyzer
         self.s = analyzer.settings
@@ -106,7 +82,7 @@ class CyclicTracker:
         self.frames: dict = lim.table(self.s.max_streams, "streams",
                                                   lambda k, _v: self.misses.pop(k, None))
         self.map_generation = None    # session.map_generation the cached layouts belong to
-        self.axes: dict = lim.table(self.s.max_streams, "streams")   # axis key -> _Axis
+        self.axes: dict = lim.table(self.s.max_streams, "streams")   # axis key -> Axis
         self.unmapped = 0
         # unmapped key -> frames: those of a stream an AR maps later (a device sending before the Connect
         # response, as real devices do) are not "unknown streams" in the verdict's trust signals
@@ -289,7 +265,7 @@ class CyclicTracker:
             ax.sp_new = False
             self._judge(ax, o.sig, fn, ts, ok)
 
-    def _judge(self, ax: _Axis, sig: dict, fn: int, ts: int, ok) -> None:
+    def _judge(self, ax: Axis, sig: dict, fn: int, ts: int, ok) -> None:
         """One cycle: the actual value ``sig`` with the axis' setpoint (gated on DataStatus / IOPS)."""
         chk = ax.checker
         if not (ok and ax.sp_ok) or ax.ambiguous:
@@ -302,7 +278,7 @@ class CyclicTracker:
         if evs:
             self._out(evs)
 
-    def _unpaired(self, ax: _Axis, key: tuple, miss: int, fn: int, ts: int, sig: dict, ok: bool) -> bool:
+    def _unpaired(self, ax: Axis, key: tuple, miss: int, fn: int, ts: int, sig: dict, ok: bool) -> bool:
         """Capture loss around this actual value: the lost cycles elapse unjudged (Checker.lost). True when
         the value waits for its own setpoint (the latest one was paired already and both streams run at
         one step): the next setpoint is paired with it, or, if that setpoint was lost, it is not judged."""
@@ -328,64 +304,6 @@ class CyclicTracker:
         self.gaps.keep({k: ev[k] for k in ("frame_id", "src", "dst", "station", "direction",
                                           "prev_frame", "next_frame", "cycles_missing")})
         self.a.emit(ev)
-
-    def _relabel(self, o: _Obj, fr: _Frame) -> None:
-        t = o.do.telegram
-        ax = self.axes.get(o.key)
-        if t not in tg.TELEGRAMS or (ax is not None and ax.checker.p922_rejected == t):
-            o.rejected = t  # P922 contradicts the AR's lengths: the checker reported it, keep the AR's view
-            return
-        o.telegram, o.source = t, o.do.telegram_source
-        o.layout = tg.layout(t, fr.direction, self.byte_order)
-        o.sig = o.bits = None
-        o.length_checked = False
-        if ax is None:
-            return
-        ax.telegram, ax.source, ax.ambiguous = t, o.source, False
-        ax.sp = ax.sp_before = None  # decoded with the old layout
-        c = ax.checker.cfg
-        if c.telegram != t or "length" in str(c.sources.get("telegram")):
-            c.telegram = t
-            c.sources["telegram"] = o.source or "session"
-        self._refine_profile(ax)
-        chk = ax.checker
-        chk.reconfigure()
-        self._out(chk.end_runs())  # the open runs end with the old layout
-
-    def _ambiguous(self, ax, o: _Obj) -> bool:
-        """A length guess is judged when both data lengths leave one candidate among the profile's telegrams,
-        or a standard telegram among several (81 is mandatory in every class, 002_d69f444daf0f8af2.txt:528);
-        otherwise cycles are reported, not judged, until P922 names the telegram (cyclic.md §14)."""
-        return self._guess_fits_several(ax, o.source)
-
-    @staticmethod
-    def _guess_fits_several(ax, source) -> bool:
-        if "length" not in str(source):
-            return False
-        io = ax.checker.io_len
-        cands = [t for t in tg.telegrams_for_length(io.get("actual"), io.get("setpoint"))
-                 if ax.profile in tg.TELEGRAMS[t]["profiles"] or (ax.profile == "generic" and t in tg.STANDARD)]
-        return len(cands) > 1 and ax.telegram not in tg.STANDARD
-
-    def _refine_profile(self, ax) -> None:
-        """Telegrams 86-89/100/101 exist only in PS/PSM (cyclic.md §2): a 'generic' device using one is PS/PSM."""
-        t = ax.telegram
-        if "length" in str(ax.source) and tg.telegrams_for_length(ax.checker.io_len.get("actual"),
-                                                                  ax.checker.io_len.get("setpoint")) != [t]:
-            return  # a length guess proves the vendor only when no other telegram fits
-        if ax.profile == "generic" and t in tg.TELEGRAMS and tg.TELEGRAMS[t]["profiles"] == ["psm"]:
-            ax.profile, ax.reason = "psm", f"telegram {t} exists only in PS/PSM (cyclic.md §2); {ax.reason}"
-            for fr in self.frames.values():  # bits were cached with the old profile
-                for ob in (fr.objs if fr else ()):
-                    if ob.key == ax.key:
-                        ob.bits = None
-            if ax.checker is not None:
-                ax.checker.cfg.profile = "psm"
-                ax.checker.cfg.sources["profile"] = ax.reason
-                ax.checker.reconfigure()
-                for ev in self.records.get(ax.info["device_mac"], ()):  # PS/PSM keeps its parameters at 0xFFFF
-                    if ev.get("kind") == "record" and ev.get("index") == 0xFFFF:
-                        self._out(ax.checker.on_record(ev))
 
     def _out(self, evs) -> None:
         if evs:
@@ -422,112 +340,6 @@ class CyclicTracker:
                                                                          "severity": "error", "side": side,
                                                                          "message": words})["events"] += 1
 
-    # -- encoders ----------------------------------------------------------------------------------
-    def _axis(self, o: _Obj, fr: _Frame) -> _Axis:
-        fm, do = fr.fm, o.do
-        info = {"station": fm.station, "device_mac": fm.device_mac, "api": do.api, "slot": do.slot, "subslot": do.subslot}
-        ax = _Axis(o.key, info)
-        ax.fm = fm
-        ax.telegram, ax.source = o.telegram, o.source
-        prof = getattr(self.a.session, "profile_for", None)
-        ax.profile, ax.reason = prof(fm.device_mac) if prof else (self.s.profile if self.s.profile != "auto" else "generic",
-                                                                  "settings" if self.s.profile != "auto" else "no session profile")
-        iso = None
-        fid = fm.frame_id
-        if fid is not None:
-            iso = tg_is_irt(fid)
-        cfg = EncoderConfig.from_settings(self.s, profile=ax.profile, telegram=o.telegram, cycle_ns=fm.cycle_time_ns,
-                                          iso=iso, profile_reason=ax.reason, telegram_source=o.source)
-        ax.checker = Checker(cfg, info)
-        ax.checker.io_len[fr.direction] = do.length
-        self._refine_profile(ax)
-        ax.checker.prev_bf00 = self.prev_bf00.get(fm.device_mac)
-        self.axes[o.key] = ax
-        for ev in self.records.get(fm.device_mac, ()):  # records seen before the first cyclic frame, in order
-            if ev.get("ar_uuid") is None or fm.ar_uuid is None or ev.get("ar_uuid") == fm.ar_uuid:
-                self._out(ax.checker.on_record(ev))  # a 0xBF00 among them configures the checker
-        return ax
-
-    # -- AR phases (pndiss.session.set_phase) --------------------------------------------------------
-    def on_phase(self, ar: dict, phase: str, fn: int, ts: int) -> None:
-        if phase == "prm_end":
-            for ax in self._ar_axes(ar):
-                self._startup(ax, fn, ts)
-        elif phase in ("released", "aborted"):
-            for key, _fm in self.a.session.frame_keys(ar):
-                self.gaps.restart(key)   # a later AR on these streams is no capture loss
-
-    def _exchange(self, fm, fn: int, ts: int) -> None:
-        """The AR's first judged cycle: its phase becomes data_exchange."""
-        ar = self.a.session.ars.get(fm.ar_uuid)
-        if ar is not None and any(m is fm for m in ar["maps"]):
-            self.a.session.set_phase(ar, "data_exchange", fn, ts, "first judged cycle")
-        else:
-            fm.phase = "data_exchange"
-
-    def _ar_axes(self, ar: dict) -> list:
-        """The encoder axes of an AR, created now if no cyclic frame of them came yet (like on_cyclic would)."""
-        gen = self.a.session.map_generation
-        if gen != self.map_generation:
-            self.map_generation = gen
-            self.frames.clear()
-            self.misses.clear()
-        out = []
-        for key, fm in self.a.session.frame_keys(ar):
-            fr = self.frames.get(key)
-            if fr is None:
-                fr = self._frame(key, None)
-            if fr is None or fr.fm is not fm:
-                continue
-            for o in fr.objs:
-                ax = o.ax or self.axes.get(o.key)
-                if ax is None:
-                    ax = self._axis(o, fr)
-                o.ax = ax
-                if fr.direction not in ax.checker.io_len:
-                    ax.checker.io_len[fr.direction] = o.do.length
-                    self._refine_profile(ax)
-                if ax not in out:
-                    out.append(ax)
-        return out
-
-    def _startup(self, ax: _Axis, fn: int, ts: int) -> None:
-        """66: 0xBF00 (PS/PSM 0xFFFF) is written at every start-up, before PrmEnd (000_37bf2397999f1108.txt:
-        1162-1163), on its own or inside a MultipleWrite (0xE040: pndiss.session emits the inner writes)."""
-        chk = ax.checker
-        if ax.fm is None or ax.fm.source != "connect" or not chk.cfg.std or chk.bf00_seen or self._unsure(ax):
-            return
-        ev = rules.violation("STARTUP-NO-PARAM-RECORD", fn, ts,
-                             "PrmEnd without a write of 0xBF00" + (" / 0xFFFF" if ax.profile == "psm" else "")
-                             + " since the Connect of this AR", **ax.info)
-        chk.counts["STARTUP-NO-PARAM-RECORD"] = {"events": 1, "cycles": 1, "first_frame": ev["frame"],
-                                                 "severity": ev["severity"], "side": ev["side"],
-                                                 "message": ev["message"]}
-        self.a.emit(ev)
-
-    def _unsure(self, ax: _Axis) -> bool:
-        """A telegram only guessed from lengths that fit several is not judged (cyclic.md §14): nor is #66."""
-        return self._guess_fits_several(ax, ax.source)
-
-    # -- records -----------------------------------------------------------------------------------
-    def on_record(self, ev: dict) -> None:
-        """``record`` / ``param`` events from the session tracker, in capture order."""
-        dev = ev.get("device_mac")
-        if ev.get("kind") == "record" and ev.get("index") in BF00_INDEXES and ev.get("op") == "write":
-            old = self.bf00.get(dev)
-            if old is not None and old[0] != ev.get("ar_uuid"):
-                self.prev_bf00[dev] = old[1]
-            self.bf00[dev] = (ev.get("ar_uuid"), ev.get("decoded") or {})
-        lst = self.records.setdefault(dev, [])
-        if len(lst) < 256:
-            lst.append(ev)
-        for ax in self.axes.values():
-            if ax.info["device_mac"] == dev and (ev.get("ar_uuid") is None or ax.fm is None or ax.fm.ar_uuid is None
-                                                  or ev.get("ar_uuid") == ax.fm.ar_uuid):
-                if ax.checker.prev_bf00 is None:  # an axis of a restarted AR seen before its own 0xBF00 (#31)
-                    ax.checker.prev_bf00 = self.prev_bf00.get(dev)
-                self._out(ax.checker.on_record(ev))
-
     # -- results -----------------------------------------------------------------------------------
     def finish(self) -> None:
         self.infer.finish()
@@ -555,8 +367,3 @@ class CyclicTracker:
         summ = self.summary()
         from .infer_report import sections as infer_sections
         return [x for x in [section(summ["capture_gaps"])] if x is not None] + infer_sections(summ) + sections(summ)
-
-
-def tg_is_irt(frame_id: int) -> bool:
-    """RT_CLASS_3 frame IDs (0x0100-0x0FFF) mean IRT, i.e. isochronous operation (wire.md §2.2)."""
-    return 0x0100 <= frame_id < 0x1000

@@ -192,6 +192,6 @@ def sections(tracker) -> list:
             e = by_dev.get(mac)
             if e is not None:  # the profile the encoder was judged with, and its reason
                 p, why = e.get("profile", p), profile_reason(e)
-            row(t, str(mac), tracker._station(mac) or "", p, why)
+            row(t, str(mac), tracker.station_name(mac) or "", p, why)
         out.append(t)
     return out

@@ -86,9 +86,9 @@ def test_captures_replay_identically(paths):
 
 
 def _all_python_rules() -> set:
-    """Every rule ID the Python checker names (pndiss/encoder/_state.py, acyclic.py)."""
+    """Every rule ID the Python checker names (pndiss/encoder/_state.py and its rule mixins, acyclic.py)."""
     src = ""
-    for f in ("_state.py", "acyclic.py"):
+    for f in ("_state.py", "words.py", "presets.py", "sign_of_life.py", "steady.py", "acyclic.py"):
         src += open(os.path.join(ROOT, "pndiss", "encoder", f), encoding="utf-8").read()
     return set(re.findall(r'"([A-Z][A-Z0-9]+(?:-[A-Z0-9]+)+)"', src)) & set(rules.RULES)
 

@@ -10,7 +10,7 @@ from hypothesis import given, settings, strategies as st
 
 import rpc_frames as rf
 from pndiss.records.build import build_param_request, build_param_response
-from pndiss.session import guess_telegram
+from pndiss.session_ar import guess_telegram
 from pndiss.settings import Settings
 from pndiss.usermap import MapError, load_map
 from test_rpc import FakeAnalyzer, public, run_capture

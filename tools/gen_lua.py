@@ -117,7 +117,7 @@ def tables() -> dict:
     bitmaps = {sig: [{"name": b["name"], "bit": b["bit"], "width": b["width"], "title": b.get("title", b["name"]),
                       "profiles": list(b["profiles"]) if "profiles" in b else None} for b in rows]
                for sig, rows in tg.BITMAPS.items()}
-    # telegram preference for the length guess (telegrams.json guess_rank, as session.py)
+    # telegram preference for the length guess (telegrams.json guess_rank, as session_ar.py)
     lengths = [[t, tg.length(t, "setpoint"), tg.length(t, "actual")] for t in tg.GUESS_ORDER]
     idx_names = dict(names.TSHARK_NAMES)
     for k, v in names.ENCODER_NAMES.items():
@@ -178,8 +178,8 @@ def checker_tables() -> dict:
         "preset_words": {t: {"signal": s, "bit": b} for t, (s, b) in tg.PRESET_WORD.items()},
         "preset_handshake": {t: {k: tg.bit_position(*h[k].split("."), profile="psm") for k in ("trigger", "ack")}
                              for t, h in tg.PRESET_HANDSHAKE.items()},
-        "lika_codes": {c: True for c in _state.LIKA_CODES},
-        "e_master_sol": _state.E_MASTER_SOL, "e_sync": _state.E_SYNC, "e_param": _state.E_PARAM,
+        "lika_codes": {c: True for c in registry.LIKA_CODES},
+        "e_master_sol": registry.E_MASTER_SOL, "e_sync": registry.E_SYNC, "e_param": registry.E_PARAM,
         "preset_telegrams": dict(_state.PRESET_TELEGRAMS),
         "bf00_indexes": {i: True for i in _state.BF00_INDEXES},
         "bf00_len": acyclic.BF00_LEN,

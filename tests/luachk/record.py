@@ -5,7 +5,7 @@ tests/luachk/replay.lua can replay the same calls through lua/pndiss_checker.lua
 (constructor, cycle, gap, on_record, finish, _apply_cfg, _flush_all, _reset_history). Only
 outermost calls are logged (the checker calls _apply_cfg itself, too). Before each logged call
 the checker's externally writable state (every EncoderConfig field, io_len, prev_bf00) is diffed
-against its state after the previous call: a difference was made from outside (cyclic.py
+against its state after the previous call: a difference was made from outside (cyclic_axes.py
 _relabel / _refine_profile / _axis) and is logged as a ``set`` op, in order.
 """
 from __future__ import annotations

@@ -362,7 +362,7 @@ def run(rnd) -> Checker:
             chk.lost(frame, ts, rnd.randrange(1, 4))
         elif r < 0.06:
             chk.on_record(record_event(rnd, frame, ts, chk))
-        elif r < 0.065:  # cyclic.py _refine_profile / _relabel from outside
+        elif r < 0.065:  # cyclic_axes.py _refine_profile / _relabel from outside
             if rnd.random() < 0.5:
                 chk.cfg.profile = "psm"
                 chk.cfg.sources["profile"] = "telegram exists only in PS/PSM"

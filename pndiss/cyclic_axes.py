@@ -1,0 +1,216 @@
+"""The encoder axes of the cyclic tracker: one reference-encoder Checker per AR/submodule.
+
+An axis is created at its first cyclic frame (or at its AR's PrmEnd) and configured from the settings,
+the session's profile choice and the records seen before it; it follows what the session learns later
+(a P922 read relabels its telegram, a PS/PSM-only telegram refines its profile) and what the AR does
+(PrmEnd decides STARTUP-NO-PARAM-RECORD, #66). Record and parameter events go to the axes of their
+device, and are kept to be replayed into axes that appear later.
+
+A mixin of pndiss.cyclic.CyclicTracker: the tracker's own tables.
+"""
+from __future__ import annotations
+
+from . import rules
+from . import telegrams as tg
+from .encoder import Checker, EncoderConfig
+
+BF00_INDEXES = (0xBF00, 0xFFFF)
+
+
+class Axis:
+    """One encoder (AR/submodule): its checker, latest setpoint and identity."""
+
+    __slots__ = ("key", "info", "checker", "sp", "sp_frame", "sp_ok", "telegram", "source", "profile", "reason",
+                 "fm", "ambiguous", "sp_before", "sp_new", "sp_break", "sp_key", "pend")
+
+    def __init__(self, key, info):
+        self.key = key
+        self.info = info
+        self.checker = None
+        self.sp = None
+        self.sp_frame = None
+        self.sp_ok = False
+        self.sp_before = None     # the setpoint frame before sp (the controller's sign-of-life is judged on them)
+        self.telegram = None
+        self.source = None
+        self.profile = "generic"
+        self.reason = ""
+        self.fm = None
+        self.ambiguous = None     # telegram guessed from a length that fits several: report, don't judge
+        self.sp_new = False       # the latest setpoint is not paired with an actual value yet
+        self.sp_break = False     # setpoint cycles lost (or one never paired) since the last paired cycle
+        self.sp_key = None        # the setpoint's stream key
+        self.pend = None          # (signals, frame, ts, ok) of an actual value waiting for its setpoint
+
+
+class AxisTracking:
+    """CyclicTracker mixin: the axes, their telegram and profile, the AR phases and records they follow."""
+
+    # -- encoders ----------------------------------------------------------------------------------
+    def _axis(self, o, fr) -> Axis:
+        fm, do = fr.fm, o.do
+        info = {"station": fm.station, "device_mac": fm.device_mac, "api": do.api, "slot": do.slot, "subslot": do.subslot}
+        ax = Axis(o.key, info)
+        ax.fm = fm
+        ax.telegram, ax.source = o.telegram, o.source
+        prof = getattr(self.a.session, "profile_for", None)
+        ax.profile, ax.reason = prof(fm.device_mac) if prof else (self.s.profile if self.s.profile != "auto" else "generic",
+                                                                  "settings" if self.s.profile != "auto" else "no session profile")
+        iso = None
+        fid = fm.frame_id
+        if fid is not None:
+            iso = tg_is_irt(fid)
+        cfg = EncoderConfig.from_settings(self.s, profile=ax.profile, telegram=o.telegram, cycle_ns=fm.cycle_time_ns,
+                                          iso=iso, profile_reason=ax.reason, telegram_source=o.source)
+        ax.checker = Checker(cfg, info)
+        ax.checker.io_len[fr.direction] = do.length
+        self._refine_profile(ax)
+        ax.checker.prev_bf00 = self.prev_bf00.get(fm.device_mac)
+        self.axes[o.key] = ax
+        for ev in self.records.get(fm.device_mac, ()):  # records seen before the first cyclic frame, in order
+            if ev.get("ar_uuid") is None or fm.ar_uuid is None or ev.get("ar_uuid") == fm.ar_uuid:
+                self._out(ax.checker.on_record(ev))  # a 0xBF00 among them configures the checker
+        return ax
+
+    def _relabel(self, o, fr) -> None:
+        t = o.do.telegram
+        ax = self.axes.get(o.key)
+        if t not in tg.TELEGRAMS or (ax is not None and ax.checker.p922_rejected == t):
+            o.rejected = t  # P922 contradicts the AR's lengths: the checker reported it, keep the AR's view
+            return
+        o.telegram, o.source = t, o.do.telegram_source
+        o.layout = tg.layout(t, fr.direction, self.byte_order)
+        o.sig = o.bits = None
+        o.length_checked = False
+        if ax is None:
+            return
+        ax.telegram, ax.source, ax.ambiguous = t, o.source, False
+        ax.sp = ax.sp_before = None  # decoded with the old layout
+        c = ax.checker.cfg
+        if c.telegram != t or "length" in str(c.sources.get("telegram")):
+            c.telegram = t
+            c.sources["telegram"] = o.source or "session"
+        self._refine_profile(ax)
+        chk = ax.checker
+        chk.reconfigure()
+        self._out(chk.end_runs())  # the open runs end with the old layout
+
+    def _ambiguous(self, ax, o) -> bool:
+        """A length guess is judged when both data lengths leave one candidate among the profile's telegrams,
+        or a standard telegram among several (81 is mandatory in every class, 002_d69f444daf0f8af2.txt:528);
+        otherwise cycles are reported, not judged, until P922 names the telegram (cyclic.md §14)."""
+        return self._guess_fits_several(ax, o.source)
+
+    @staticmethod
+    def _guess_fits_several(ax, source) -> bool:
+        if "length" not in str(source):
+            return False
+        io = ax.checker.io_len
+        cands = [t for t in tg.telegrams_for_length(io.get("actual"), io.get("setpoint"))
+                 if ax.profile in tg.TELEGRAMS[t]["profiles"] or (ax.profile == "generic" and t in tg.STANDARD)]
+        return len(cands) > 1 and ax.telegram not in tg.STANDARD
+
+    def _refine_profile(self, ax) -> None:
+        """Telegrams 86-89/100/101 exist only in PS/PSM (cyclic.md §2): a 'generic' device using one is PS/PSM."""
+        t = ax.telegram
+        if "length" in str(ax.source) and tg.telegrams_for_length(ax.checker.io_len.get("actual"),
+                                                                  ax.checker.io_len.get("setpoint")) != [t]:
+            return  # a length guess proves the vendor only when no other telegram fits
+        if ax.profile == "generic" and t in tg.TELEGRAMS and tg.TELEGRAMS[t]["profiles"] == ["psm"]:
+            ax.profile, ax.reason = "psm", f"telegram {t} exists only in PS/PSM (cyclic.md §2); {ax.reason}"
+            for fr in self.frames.values():  # bits were cached with the old profile
+                for ob in (fr.objs if fr else ()):
+                    if ob.key == ax.key:
+                        ob.bits = None
+            if ax.checker is not None:
+                ax.checker.cfg.profile = "psm"
+                ax.checker.cfg.sources["profile"] = ax.reason
+                ax.checker.reconfigure()
+                for ev in self.records.get(ax.info["device_mac"], ()):  # PS/PSM keeps its parameters at 0xFFFF
+                    if ev.get("kind") == "record" and ev.get("index") == 0xFFFF:
+                        self._out(ax.checker.on_record(ev))
+
+    # -- AR phases (SessionTracker.set_phase, session_ar.py) --------------------------------------------
+    def on_phase(self, ar: dict, phase: str, fn: int, ts: int) -> None:
+        if phase == "prm_end":
+            for ax in self._ar_axes(ar):
+                self._startup(ax, fn, ts)
+        elif phase in ("released", "aborted"):
+            for key, _fm in self.a.session.frame_keys(ar):
+                self.gaps.restart(key)   # a later AR on these streams is no capture loss
+
+    def _exchange(self, fm, fn: int, ts: int) -> None:
+        """The AR's first judged cycle: its phase becomes data_exchange."""
+        ar = self.a.session.ars.get(fm.ar_uuid)
+        if ar is not None and any(m is fm for m in ar["maps"]):
+            self.a.session.set_phase(ar, "data_exchange", fn, ts, "first judged cycle")
+        else:
+            fm.phase = "data_exchange"
+
+    def _ar_axes(self, ar: dict) -> list:
+        """The encoder axes of an AR, created now if no cyclic frame of them came yet (like on_cyclic would)."""
+        gen = self.a.session.map_generation
+        if gen != self.map_generation:
+            self.map_generation = gen
+            self.frames.clear()
+            self.misses.clear()
+        out = []
+        for key, fm in self.a.session.frame_keys(ar):
+            fr = self.frames.get(key)
+            if fr is None:
+                fr = self._frame(key, None)
+            if fr is None or fr.fm is not fm:
+                continue
+            for o in fr.objs:
+                ax = o.ax or self.axes.get(o.key)
+                if ax is None:
+                    ax = self._axis(o, fr)
+                o.ax = ax
+                if fr.direction not in ax.checker.io_len:
+                    ax.checker.io_len[fr.direction] = o.do.length
+                    self._refine_profile(ax)
+                if ax not in out:
+                    out.append(ax)
+        return out
+
+    def _startup(self, ax: Axis, fn: int, ts: int) -> None:
+        """66: 0xBF00 (PS/PSM 0xFFFF) is written at every start-up, before PrmEnd (000_37bf2397999f1108.txt:
+        1162-1163), on its own or inside a MultipleWrite (0xE040: pndiss.session emits the inner writes)."""
+        chk = ax.checker
+        if ax.fm is None or ax.fm.source != "connect" or not chk.cfg.std or chk.bf00_seen or self._unsure(ax):
+            return
+        ev = rules.violation("STARTUP-NO-PARAM-RECORD", fn, ts,
+                             "PrmEnd without a write of 0xBF00" + (" / 0xFFFF" if ax.profile == "psm" else "")
+                             + " since the Connect of this AR", **ax.info)
+        chk.counts["STARTUP-NO-PARAM-RECORD"] = {"events": 1, "cycles": 1, "first_frame": ev["frame"],
+                                                 "severity": ev["severity"], "side": ev["side"],
+                                                 "message": ev["message"]}
+        self.a.emit(ev)
+
+    def _unsure(self, ax: Axis) -> bool:
+        """A telegram only guessed from lengths that fit several is not judged (cyclic.md §14): nor is #66."""
+        return self._guess_fits_several(ax, ax.source)
+
+    # -- records -----------------------------------------------------------------------------------
+    def on_record(self, ev: dict) -> None:
+        """``record`` / ``param`` events from the session tracker, in capture order."""
+        dev = ev.get("device_mac")
+        if ev.get("kind") == "record" and ev.get("index") in BF00_INDEXES and ev.get("op") == "write":
+            old = self.bf00.get(dev)
+            if old is not None and old[0] != ev.get("ar_uuid"):
+                self.prev_bf00[dev] = old[1]
+            self.bf00[dev] = (ev.get("ar_uuid"), ev.get("decoded") or {})
+        lst = self.records.setdefault(dev, [])
+        if len(lst) < 256:
+            lst.append(ev)
+        for ax in self.axes.values():
+            if ax.info["device_mac"] == dev and (ev.get("ar_uuid") is None or ax.fm is None or ax.fm.ar_uuid is None
+                                                  or ev.get("ar_uuid") == ax.fm.ar_uuid):
+                if ax.checker.prev_bf00 is None:  # an axis of a restarted AR seen before its own 0xBF00 (#31)
+                    ax.checker.prev_bf00 = self.prev_bf00.get(dev)
+                self._out(ax.checker.on_record(ev))
+
+
+def tg_is_irt(frame_id: int) -> bool:
+    """RT_CLASS_3 frame IDs (0x0100-0x0FFF) mean IRT, i.e. isochronous operation (wire.md §2.2)."""
+    return 0x0100 <= frame_id < 0x1000

@@ -1,0 +1,274 @@
+"""Application relations for the PNIO-CM session tracker: Connect, Release and Control (PrmEnd,
+ApplicationReady), the AR's phases and the telegram each data object carries.
+
+A Connect response completes an AR: its IOCRs become FrameMaps (pndiss.armap) keyed by (frame ID,
+source MAC, destination MAC); each data object's telegram comes from the user map, a P922 read,
+the GSDML or, last, its data lengths (docs/map.md).
+
+A mixin of pndiss.session.SessionTracker: the tracker's own tables and counts.
+"""
+from __future__ import annotations
+
+from . import armap
+from .session_records import MAX_RECORD_ROWS
+
+API_PROFIDRIVE = 0x3A00  # spec/network.md §1.7
+API_ENCODER = 0x3D00
+DRIVE_APIS = (API_PROFIDRIVE, API_ENCODER)
+
+# An AR's phases in order (issue #12): Connect -> parameterisation (records; IOPS BAD, provider STOP) ->
+# PrmEnd -> ApplicationReady -> data exchange (first judged cycle) -> released / aborted. A phase only
+# moves forward; cyclic data of an AR in 'parameterisation' is reported, not judged (pndiss.cyclic).
+PHASES = ("parameterisation", "prm_end", "application_ready", "data_exchange", "released", "aborted")
+_PHASE_RANK = {p: i for i, p in enumerate(PHASES)}
+
+MAX_ARS = 4096          # ARs (and their frame maps) kept for lookups
+
+
+def _telegram_lengths() -> list[tuple[int, int, int]]:
+    """(telegram, setpoint bytes, actual bytes) in preference order: standard telegrams first,
+    then manufacturer 860, then OEM ones (spec/cyclic.md §2, spec/behaviour.md §1.1)."""
+    from . import telegrams as tg
+
+    def size(t, direction):
+        return sum(tg.SIGNALS[name]["size"] for name, _ in tg.TELEGRAMS[t][direction])
+
+    return [(t, size(t, "setpoint"), size(t, "actual")) for t in tg.GUESS_ORDER]
+
+
+_TG_LENGTHS: list[tuple[int, int, int]] | None = None
+
+
+def guess_telegram(out_len: int, in_len: int, api: int) -> tuple[int | None, str | None]:
+    """Telegram for a submodule with these output/input lengths (both directions must match).
+
+    Telegrams whose lengths also fit plain IO modules (87: 4/4, 86 and 860: 4/8) are only
+    guessed on the PROFIdrive or encoder API. Returns (telegram, note) or (None, None).
+    """
+    global _TG_LENGTHS
+    if _TG_LENGTHS is None:
+        _TG_LENGTHS = _telegram_lengths()
+    hits = [t for t, o, i in _TG_LENGTHS if (o, i) == (out_len, in_len)]
+    if not hits:
+        return None, None
+    if api not in DRIVE_APIS and (out_len, in_len) in ((4, 4), (4, 8)):
+        return None, None
+    note = f"guessed from lengths out {out_len} / in {in_len}"
+    if len(hits) > 1:
+        note += f"; also fits {', '.join(map(str, hits[1:]))} (standard telegram preferred)"
+    return hits[0], note
+
+
+class ArLayer:
+    """SessionTracker mixin: Connect / Release / Control responses in, ``ar`` and ``ar_phase`` events out."""
+
+    def _connect(self, fn, ts, req, res, call, src, dst) -> None:
+        self.counts["connects"] += 1
+        rb, sb = {}, {}
+        for blocks, by in ((req["blocks"], rb), (res["blocks"], sb)):
+            for b in blocks:
+                if "undecoded" not in b:  # a block version tshark does not decode either
+                    by.setdefault(b["block_type"], []).append(b)
+        arq = (rb.get(0x0101) or [None])[0]
+        if arq is None:
+            return
+        ars = (sb.get(0x8101) or [None])[0]
+        ok = res["status"]["ok"]
+        controller = arq["cminitiator_mac_add"]
+        device = ars["cmresponder_macadd"] if ars else src  # the responder sent this frame
+        if not ok:
+            self.counts["connect_refused"] += 1
+        # expected submodules: (api, slot, subslot) -> description per direction
+        expected: dict[tuple, dict] = {}
+        for b in rb.get(0x0104, []):
+            for a in b.get("apis", []):
+                for s in a["submodules"]:
+                    e = {"module_ident": a["module_ident_number"], "submodule_ident": s["submodule_ident_number"],
+                         "type": s["submodule_properties_type"]}
+                    for dd in s["data_descriptions"]:
+                        e[dd["direction"] or "other"] = (dd["submodule_data_length"], dd["length_iops"],
+                                                        dd["length_iocs"])
+                    expected[(a["api"], a["slot_nr"], s["subslot_nr"])] = e
+        res_fid = {b["iocr_reference"]: b["frame_id"] for b in sb.get(0x8102, [])}
+        station = arq.get("cminitiator_station_name")
+        dev_station = self.station_name(device) or ((sb.get(0x8106) or [{}])[0].get("cminitiator_station_name"))
+        ar_uuid = arq["ar_uuid"]
+        iocrs, frame_maps, map_keys = [], [], []
+        for cr in rb.get(0x0102, []):
+            fid = res_fid.get(cr["iocr_reference"], cr["frame_id"])
+            direction = {1: "input", 2: "output", 3: "input"}.get(cr["iocr_type"])
+            info = {"iocr_type": cr["iocr_type"], "direction": cr["direction"], "iocr_reference": cr["iocr_reference"],
+                    "frame_id": fid, "requested_frame_id": cr["frame_id"], "data_length": cr["data_length"],
+                    "send_clock_factor": cr["send_clock_factor"], "reduction_ratio": cr["reduction_ratio"],
+                    "phase": cr["phase"], "watchdog_factor": cr["watchdog_factor"],
+                    "data_hold_factor": cr["data_hold_factor"], "rt_class": cr["iocr_properties_rtclass"],
+                    "objects": [], "iocs": []}
+            fm = None
+            if direction is not None and ok:
+                s_mac, d_mac = (device, controller) if direction == "input" else (controller, device)
+                if cr["iocr_type"] == 3:
+                    d_mac = cr["iocr_multicast_mac_add"]
+                fm = armap.FrameMap(frame_id=fid, direction=direction, controller_mac=controller, device_mac=device,
+                                    station=dev_station, ar_uuid=ar_uuid, data_length=cr["data_length"],
+                                    send_clock_factor=cr["send_clock_factor"],
+                                    reduction_ratio=cr["reduction_ratio"], watchdog_factor=cr["watchdog_factor"])
+            other = "output" if direction == "input" else "input"
+            for a in cr["apis"]:
+                for o in a["io_data_objects"]:
+                    e = expected.get((a["api"], o["slot_nr"], o["subslot_nr"]), {})
+                    ln, iops, _ = e.get(direction or "", (0, 1, 1))
+                    do = armap.DataObject(api=a["api"], slot=o["slot_nr"], subslot=o["subslot_nr"],
+                                          offset=o["io_data_object_frame_offset"], length=ln, iops_len=iops,
+                                          module_ident=e.get("module_ident"), submodule_ident=e.get("submodule_ident"))
+                    note = self._assign_telegram(do, e, device, dev_station)
+                    info["objects"].append(dict(_do_row(do), telegram_note=note) if note else _do_row(do))
+                    if fm is not None:
+                        fm.objects.append(do)
+                for o in a["iocs"]:
+                    e = expected.get((a["api"], o["slot_nr"], o["subslot_nr"]), {})
+                    iocs_len = e.get(other, (0, 1, 1))[2]
+                    ic = armap.IocsEntry(api=a["api"], slot=o["slot_nr"], subslot=o["subslot_nr"],
+                                         offset=o["iocs_frame_offset"], length=iocs_len)
+                    info["iocs"].append({"api": ic.api, "slot": ic.slot, "subslot": ic.subslot,
+                                         "offset": ic.offset, "length": ic.length})
+                    if fm is not None:
+                        fm.iocs.append(ic)
+            if fm is not None:
+                self.maps[(fid, s_mac, d_mac)] = fm
+                frame_maps.append(fm)
+                map_keys.append((fid, s_mac, d_mac))
+            iocrs.append(info)
+        alarm = (rb.get(0x0103) or [None])[0]
+        alarm_res = (sb.get(0x8103) or [None])[0]
+        ar = {"frame": fn, "ts_ns": ts, "kind": "ar", "ar_uuid": ar_uuid, "request_frame": call["frame"],
+              "ok": ok, "status": res["status"], "ar_type": arq["artype_req"], "ar_type_name": arq["ar_type_name"],
+              "session_key": arq["session_key"], "controller_mac": controller, "device_mac": device,
+              "controller_station": station, "station": dev_station,
+              "controller_ip": call["conv"][0], "device_ip": call["conv"][2],
+              "iocrs": iocrs,
+              "alarm_cr": None if alarm is None else {
+                  "controller_ref": alarm["localalarmref"], "device_ref": alarm_res and alarm_res["localalarmref"],
+                  "rta_timeout_factor": alarm["rta_timeoutfactor"], "rta_retries": alarm["rta_retries"],
+                  "max_alarm_data_length": alarm["maxalarmdatalength"],
+                  "transport": "RTA_CLASS_UDP" if alarm["alarmcr_properties_transport"] else "RTA_CLASS_1"},
+              "expected_submodules": [{"api": k[0], "slot": k[1], "subslot": k[2], "module_ident": v["module_ident"],
+                                       "submodule_ident": v["submodule_ident"],
+                                       "input_length": v.get("input", (None,))[0],
+                                       "output_length": v.get("output", (None,))[0]}
+                                      for k, v in expected.items()],
+              "module_diff": [{"api": a["api"], "slot": m["slot_nr"], "module_state": m["module_state"],
+                               "submodules": [{"subslot": s["subslot_nr"], "state": s["submodule_state"]}
+                                              for s in m["submodules"]]}
+                              for b in sb.get(0x8104, []) for a in b["apis"] for m in a["modules"]],
+              "released": False, "phase": "parameterisation" if ok else "refused",
+              "phases": [{"phase": "parameterisation", "frame": fn}] if ok else []}
+        for fm in frame_maps:
+            fm.phase = ar["phase"]
+        rec = dict(ar, maps=frame_maps, map_keys=map_keys, phases=list(ar["phases"]))
+        if ok or ar_uuid not in self.ars:  # a refused retry does not hide the AR that is up
+            self.ars[ar_uuid] = rec   # bounded: the oldest AR goes, with its frame maps (_forget_ar)
+        for cr in rb.get(0x0102, []):  # RT_CLASS_UDP: follow the UDP port the AR names
+            if cr["iocr_properties_rtclass"] == 4:
+                self.rt_ports.add(arq["cminitiator_udprtport"])
+                if ars:
+                    self.rt_ports.add(ars["cmresponder_udprtport"])
+        if len(self.ar_list) < MAX_RECORD_ROWS:
+            self.ar_list.append(rec)
+        if dev_station:
+            self.a.stations.update(device, name=dev_station)
+        self.map_generation += 1
+        self.a.emit(ar)
+
+    def _forget_ar(self, _uuid, old: dict) -> None:
+        """An AR evicted from the bounded table: drop its frame maps (those no newer AR replaced)."""
+        for k in old["map_keys"]:   # where its maps sit in self.maps
+            fm = self.maps.get(k)
+            if fm is not None and any(fm is m for m in old["maps"]):
+                del self.maps[k]
+        self.map_generation += 1
+
+    def _assign_telegram(self, do: armap.DataObject, e: dict, device: str, station: str | None) -> str | None:
+        """user map > P922 > GSDML > length guess (docs/map.md); returns the guess's note, if any."""
+        if self.usermap is not None:
+            t = self.usermap.telegram_for(device, station, do.api, do.slot, do.subslot)
+            if t is not None:
+                do.telegram, do.telegram_source = t, "map"
+                return None
+        t = self.telegram_p922.get((device, do.api, do.slot, do.subslot))
+        if t is not None:
+            do.telegram, do.telegram_source = t, "P922"
+            return None
+        if self.gsdml is not None and do.submodule_ident is not None:
+            t = self.gsdml.telegram_for(do.module_ident, do.submodule_ident)
+            if t is not None:
+                do.telegram, do.telegram_source = t, "gsdml"
+                return None
+        if "input" in e and "output" in e:
+            t, note = guess_telegram(e["output"][0], e["input"][0], do.api)
+            if t is not None:
+                do.telegram, do.telegram_source = t, "length"
+                return note
+        return None
+
+    def _release(self, fn, ts, pdu) -> None:
+        self.counts["releases"] += 1
+        for b in pdu["blocks"]:
+            if b["block_type"] == 0x8114 and b.get("ar_uuid") in self.ars:
+                ar = self.ars[b["ar_uuid"]]
+                ar["released"] = True
+                ar["release_frame"] = fn
+                for fm in ar["maps"]:  # kept for late frames; armap.FrameMap has no field for it yet
+                    fm.released = True
+                self.set_phase(ar, "released", fn, ts, "Release")
+
+    def _control(self, fn, ts, pdu) -> None:
+        for b in pdu["blocks"]:
+            ar = self.ars.get(b.get("ar_uuid"))
+            if ar is not None and "command" in b:
+                ar.setdefault("control", []).extend(c for c in b["command"] if c != "done")
+                if "prmend" in b["command"]:
+                    self.set_phase(ar, "prm_end", fn, ts, "PrmEnd")
+                if "applready" in b["command"]:
+                    self.set_phase(ar, "application_ready", fn, ts, "ApplicationReady")
+
+    def on_rta_error(self, fn, ts, src, dst) -> None:
+        """An ERR-RTA-PDU between an AR's controller and device aborts the AR (wire.md §7.1)."""
+        for ar in reversed(list(self.ars.values())):
+            if {src, dst} == {ar["controller_mac"], ar["device_mac"]} and ar["ok"] \
+                    and ar["phase"] not in ("released", "aborted"):
+                self.set_phase(ar, "aborted", fn, ts, "ERR-RTA-PDU")
+                return
+
+    def set_phase(self, ar: dict, phase: str, fn: int, ts: int, cause: str) -> None:
+        """Move an AR forward to ``phase``: its frame maps, an ``ar_phase`` event, the cyclic tracker
+        (STARTUP-NO-PARAM-RECORD is decided at PrmEnd). A step back (ApplicationReady after the first
+        judged cycle) is kept as a milestone of the AR, not as a phase change."""
+        old = ar.get("phase")
+        if old not in _PHASE_RANK or _PHASE_RANK[phase] <= _PHASE_RANK[old]:
+            if old in _PHASE_RANK:
+                ar.setdefault("milestones", []).append({"phase": phase, "frame": fn})
+            return
+        ar["phase"] = phase
+        ar["phases"].append({"phase": phase, "frame": fn})
+        for fm in ar["maps"]:
+            fm.phase = phase
+        self.a.emit({"frame": fn, "ts_ns": ts, "kind": "ar_phase", "ar_uuid": ar["ar_uuid"], "phase": phase,
+                     "previous_phase": old, "cause": cause, "device_mac": ar["device_mac"], "station": ar["station"],
+                     "controller_mac": ar["controller_mac"]})
+        self.a.cyclic.on_phase(ar, phase, fn, ts)
+
+
+def _do_row(do: armap.DataObject) -> dict:
+    return {"api": do.api, "slot": do.slot, "subslot": do.subslot, "offset": do.offset, "length": do.length,
+            "iops_len": do.iops_len, "module_ident": do.module_ident, "submodule_ident": do.submodule_ident,
+            "telegram": do.telegram, "telegram_source": do.telegram_source}
+
+
+def ar_summary(ar: dict) -> dict:
+    out = {k: v for k, v in ar.items() if k not in ("maps", "map_keys", "kind", "ts_ns")}
+    # telegrams may have changed since the ar event (P922 read later): refresh from the maps
+    objs = {(fm.frame_id, do.api, do.slot, do.subslot): do for fm in ar["maps"] for do in fm.objects}
+    out["iocrs"] = [dict(cr, objects=[_do_row(objs[(cr["frame_id"], o["api"], o["slot"], o["subslot"])])
+                                      if (cr["frame_id"], o["api"], o["slot"], o["subslot"]) in objs else o
+                                      for o in cr["objects"]]) for cr in ar["iocrs"]]
+    return out
