@@ -174,7 +174,7 @@ pndiss.prefs.telegram = Pref.uint("Telegram", 0, "telegram when neither Connect 
 pndiss.prefs.settings = Pref.string("Settings", "",
     "reference encoder settings like pndiss --set, comma separated (e.g. l_max=3,sol_monitor_rt=1,st_phys=8192); "
     .. "keys: " .. "l_max preset_deadline_ms sol_threshold_ge sol_monitor_rt iso master_cycle_ratio compat class4 "
-    .. "st_phys mt_phys xist1_shift max_position_step")
+    .. "st_phys mt_phys xist1_shift max_position_step p65000")
 local PROFILE_PREF = {"auto", "lika", "scancon", "hohner", "psm", "generic"}
 
 -- pndiss.settings.Settings defaults of the keys EncoderConfig.from_settings reads
@@ -183,7 +183,7 @@ local SETTING_DEFAULTS = {l_max = 2, preset_deadline_ms = 10.0, sol_threshold_ge
 local SETTING_BOOLS = {sol_threshold_ge = true, sol_monitor_rt = true, iso = true}
 local SETTING_KEYS = {l_max = true, preset_deadline_ms = true, sol_threshold_ge = true, sol_monitor_rt = true,
                       iso = true, master_cycle_ratio = true, compat = true, class4 = true, st_phys = true,
-                      mt_phys = true, xist1_shift = true, max_position_step = true}
+                      mt_phys = true, xist1_shift = true, max_position_step = true, p65000 = true}
 local settings = {}
 local function parse_settings(s)
     settings = {}

@@ -12,7 +12,7 @@
 --                                                 profile_reason=, telegram_source=})
 --       EncoderConfig.from_settings; settings = a table of the Settings fields it reads (l_max,
 --       preset_deadline_ms, sol_threshold_ge, sol_monitor_rt, master_cycle_ratio, st_phys, mt_phys,
---       xist1_shift, max_position_step, compat, class4, iso; nil = unset). cfg is a plain table with
+--       xist1_shift, max_position_step, compat, class4, iso, p65000; nil = unset). cfg is a plain table with
 --       the EncoderConfig fields (cfg.profile, cfg.telegram, cfg.sources, ...); C.new_config(profile,
 --       telegram) gives the dataclass defaults. Properties are functions of cfg: C.std (= C.is_std),
 --       C.xist1_preset_affected, C.xist1_counter, C.solmon, C.modulus, C.n_sol, C.d_preset,
@@ -204,14 +204,15 @@ local function new_config(profile, telegram)
   return {profile = profile, telegram = telegram, compat = 1, class4 = 1, preset_control = nil, scaling = 0,
           direction = 0, mupr = nil, tmr = nil, st_phys = nil, mt_phys = nil, max_master_sol_failures = 1,
           velocity_unit = 0, shift = nil, iso = false, k = 1, l_max = 2, preset_deadline_ms = 10.0,
-          cycle_ns = nil, sol_threshold_ge = false, sol_monitor_rt = false, max_position_step = nil, sources = {}}
+          cycle_ns = nil, sol_threshold_ge = false, sol_monitor_rt = false, max_position_step = nil, p65000 = nil,
+          sources = {}}
 end
 C.new_config = new_config
 
 local SETTINGS_MAP = {{"l_max", "l_max"}, {"preset_deadline_ms", "preset_deadline_ms"},
   {"sol_threshold_ge", "sol_threshold_ge"}, {"sol_monitor_rt", "sol_monitor_rt"}, {"master_cycle_ratio", "k"},
   {"st_phys", "st_phys"}, {"mt_phys", "mt_phys"}, {"xist1_shift", "shift"}, {"max_position_step", "max_position_step"},
-  {"compat", "compat"}, {"class4", "class4"}}
+  {"compat", "compat"}, {"class4", "class4"}, {"p65000", "p65000"}}
 local NOT_INT = {sol_threshold_ge = true, sol_monitor_rt = true, preset_deadline_ms = true}
 local BF00_MAP = {{"compat", "compat"}, {"class4", "class4"}, {"preset_control", "preset_control"},
   {"scaling", "scaling"}, {"direction", "direction"}, {"code_sequence", "direction"}, {"mupr", "mupr"},
@@ -288,7 +289,9 @@ function C.new(cfg, info)
   self.lost_cycles = 0            -- cycles missing from the capture (not judged)
   self:reset_history()
   -- acyclic knowledge (behaviour.md §2.0: state carried from cycle to cycle)
-  self.p65000 = 0                 -- last written preset value, default 0 (000_37bf2397999f1108.txt:1787-1789)
+  -- last written preset value; until a write is seen, settings.p65000 (nil = unknown, _state.py)
+  self.p65000 = self.cfg.p65000
+  self.presets_unjudged = 0       -- presets acknowledged while P65000 was unknown (not judged)
   self.bf00_seen = false
   self.bf00_invalid = nil         -- why the last 0xBF00 was invalid (#67-69)
   self.bf00_valid_frame = nil
@@ -758,7 +761,7 @@ function Checker:cycle_std(sp, ac)
     local allowed = VALID and truthy(c.class4) and PKA == 0 and SERR == 0
     self.pre = {n = n, f = self.f, fc = self.fc, ts = self.ts, mode = HMODE, P = self.p65000, pos2 = ppos2, x1 = pX1,
                 allowed = allowed, moving = moving, done = false, v = v_before}
-    if allowed and (HMODE == 1 or self.p65000 ~= 0) then
+    if allowed and (HMODE == 1 or truthy(self.p65000)) then
       self.store = {n = n, f = self.f, ts = self.ts, zero = 0}
     end
   end
@@ -1209,6 +1212,10 @@ function Checker:check_preset_value(pre, pos2, X1, shift)
   local c = self.cfg
   if not pre.allowed then return end
   local P_, mode = pre.P, pre.mode
+  if P_ == nil then  -- no P65000 write seen and none given: the expected position is unknown
+    self.presets_unjudged = self.presets_unjudged + 1
+    return
+  end
   local tol = pre.v * (self.n - pre.n + 1)
   local m2 = self.R or U32
   local function near(a, b, m) return abs(delta(b, a, m)) <= tol end

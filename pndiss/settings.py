@@ -32,6 +32,9 @@ class Settings:
     mt_phys: int | None = None        # hardware revolutions; None = unknown
     xist1_shift: int | None = None    # P979 sub 3; None = P979 read, else inferred from XIST1/XIST2 [INFERENCE] §1.6
     max_position_step: int | None = None  # plausible |position change| per cycle; None = R/8 [INFERENCE] §4.2 #42
+    # preset value before the capture shows a P65000 write: None = unknown, preset results not judged. The
+    # factory value is 0, but a written one survives power-up once saved with P971 (000:1787-1789, 2078-2079)
+    p65000: int | None = None
     infer_telegrams: bool = True      # mid-session captures: find telegrams from the cyclic content (pndiss/infer.py)
     capture_gaps: bool = True         # tell capture loss from the cycle counter (pndiss/gaps.py); lost cycles are not judged
     fail_on: str | None = None        # 'info' | 'warning' | 'error': exit 1 at or above that severity

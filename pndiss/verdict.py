@@ -171,6 +171,11 @@ def not_checked(summary: dict) -> list[str]:
     if no_range:
         out.append(f"position range against the hardware: not checked for {_names(no_range)} (steps and "
                    "revolutions unknown): --set st_phys=N --set mt_phys=N")
+    unjudged = [e for e in encs if e.get("presets_unjudged")]
+    if unjudged:
+        n = sum(e["presets_unjudged"] for e in unjudged)
+        out.append(f"preset results: {n:,} preset(s) of {_names(unjudged)} not judged (P65000 unknown: no write in "
+                   "the capture, and a saved value survives power-up): --set p65000=N")
     gated = sum(e.get("gated_cycles", 0) for e in encs)
     if gated:
         out.append(f"{gated:,} cycles not judged (provider stopped, DataValid 0 or IOPS bad)")

@@ -11,7 +11,8 @@ from pndiss import telegrams as tg
 from pndiss.encoder import Checker, EncoderConfig
 from pndiss.settings import Settings
 
-BASE = dict(profile="lika", telegram=81, compat=1, class4=1, st_phys=8192, mt_phys=4096, l_max=2, shift=0)
+BASE = dict(profile="lika", telegram=81, compat=1, class4=1, st_phys=8192, mt_phys=4096, l_max=2, shift=0,
+            p65000=0)   # the tables state the preset value (the factory 0); tests/test_encoder_rules.py: unknown
 
 
 def make_cfg(**kw) -> EncoderConfig:

@@ -196,3 +196,22 @@ def test_controller_violation_names_setpoint_frame():
     chk.cycle(10, 0, sp, ac, sp_frame=9)
     ev = [e for e in chk.finish() if e["kind"] == "violation"]
     assert ev[0]["rule"] == "RESERVED-BIT-SET-STW2" and ev[0]["frame"] == 9 and ev[0]["side"] == "controller"
+
+
+def test_preset_value_unknown_is_not_judged():
+    """P65000 unknown (no write in the capture, none given: a saved value survives power-up): the
+    position after a preset is not judged and the preset is counted as such; a write seen, or the
+    value given as a setting, makes it judged again."""
+    from encoder_table import make_cfg, expand, parse
+    from pndiss.encoder import Checker
+    bad = [G, G, REQ, "0x1400 0x3000 | 0x1200 0x3000 5 5"]
+    write0 = {"kind": "param", "request_id": "change parameter", "ok": True, "request_ref": 1,
+              "params": [{"pnu": 65000, "subindex": 0, "values": [], "error": None, "written": {"values": [0]}}]}
+    assert "PRESET-VALUE-WRONG" not in rule_ids(bad, p65000=None)
+    assert "PRESET-VALUE-WRONG" in rule_ids([write0] + bad, p65000=None)
+    assert "PRESET-VALUE-WRONG" in rule_ids(bad, p65000=0)
+    chk = Checker(make_cfg(p65000=None))
+    for i, r in enumerate(expand(bad)):
+        chk.cycle(i, i * 1000, *parse(r, 81))
+    chk.finish()
+    assert chk.summary()["presets_unjudged"] == 1 and chk.summary()["p65000"] is None

@@ -64,7 +64,10 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         self.lost_cycles = 0           # cycles missing from the capture (not judged)
         self._reset_history()
         # acyclic knowledge (behaviour.md §2.0: state carried from cycle to cycle)
-        self.p65000 = 0                # last written preset value, default 0 (000_37bf2397999f1108.txt:1787-1789)
+        # last written preset value; until a write is seen, settings.p65000 (None = unknown: the factory 0 may have
+        # been replaced and saved with P971, 000_37bf2397999f1108.txt:1787-1789, 2078-2079)
+        self.p65000 = cfg.p65000
+        self.presets_unjudged = 0      # presets acknowledged while P65000 was unknown (their result not judged)
         self.bf00_seen = False
         self.bf00_invalid: str | None = None   # why the last 0xBF00 was invalid (#67-69)
         self.bf00_valid_frame: int | None = None
@@ -296,4 +299,5 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
     def summary(self) -> dict:
         return {"cycles": self.n, "gated_cycles": self.gated, "lost_cycles": self.lost_cycles, "settings": self.cfg.in_force(),
                 "violations": self.counts, "state_changes": self.state_changes, "timeline": self.timeline[:50],
-                "p65000": self.p65000, "bf00_seen": self.bf00_seen}
+                "p65000": self.p65000, "bf00_seen": self.bf00_seen,
+                "presets_unjudged": self.presets_unjudged}

@@ -44,6 +44,7 @@ class EncoderConfig:
     sol_threshold_ge: bool = False
     sol_monitor_rt: bool = False
     max_position_step: int | None = None
+    p65000: int | None = None         # P65000 before a write is seen; None = unknown
     sources: dict = field(default_factory=dict)
 
     # -- derived (cheap properties; the checker copies what it needs into locals) --------------
@@ -129,7 +130,7 @@ class EncoderConfig:
                                ("sol_threshold_ge", "sol_threshold_ge"), ("sol_monitor_rt", "sol_monitor_rt"),
                                ("master_cycle_ratio", "k"), ("st_phys", "st_phys"), ("mt_phys", "mt_phys"),
                                ("xist1_shift", "shift"), ("max_position_step", "max_position_step"),
-                               ("compat", "compat"), ("class4", "class4")):
+                               ("compat", "compat"), ("class4", "class4"), ("p65000", "p65000")):
                 v = getattr(s, name, None)
                 if v is None:
                     continue

@@ -29,6 +29,9 @@ class PresetRules:
         if not pre["allowed"]:
             return
         P_, mode = pre["P"], pre["mode"]
+        if P_ is None:   # no P65000 write seen and none given: the expected position is unknown
+            self.presets_unjudged += 1
+            return
         tol = pre["v"] * (self.n - pre["n"] + 1)
         m2 = self.R or U32
         near = (lambda a, b, m: abs(P.delta(b, a, m)) <= tol)

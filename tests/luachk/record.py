@@ -27,7 +27,7 @@ Checker = _state.Checker
 EncoderConfig = config.EncoderConfig
 CFG_FIELDS = [f.name for f in dataclasses.fields(EncoderConfig)]
 SETTINGS_FIELDS = ("l_max", "preset_deadline_ms", "sol_threshold_ge", "sol_monitor_rt", "master_cycle_ratio", "st_phys",
-                   "mt_phys", "xist1_shift", "max_position_step", "compat", "class4", "iso")
+                   "mt_phys", "xist1_shift", "max_position_step", "compat", "class4", "iso", "p65000")
 EXTERNAL_RULES = {"TELEGRAM-LENGTH-MISMATCH", "STARTUP-NO-PARAM-RECORD"}  # counted by cyclic.py, not the checker
 BIG = 1 << 53
 

@@ -46,6 +46,7 @@ def settings(rnd) -> Settings:
     s.mt_phys = rnd.choice((None, 4096, 16, 1))
     s.xist1_shift = rnd.choice((None, None, 0, 1, 3))
     s.max_position_step = rnd.choice((None, None, 100, 5000))
+    s.p65000 = rnd.choice((None, None, 0, 1000))
     return s
 
 
@@ -378,7 +379,7 @@ def run(rnd) -> Checker:
         elif r < 0.075 and p971:  # LIKA: P971 read back after the store request
             chk.on_record(_p971(frame, ts, "request parameter", rnd.choice((1, 1, 0))))
         else:
-            enc.p65000 = chk.p65000  # the device presets to what the controller wrote (P65000)
+            enc.p65000 = chk.p65000 or 0  # the device presets to what the controller wrote (P65000; unknown to the checker: 0)
             sp, ac = enc.step()
             sp_frame = frame - 1 if rnd.random() < 0.9 else None
             chk.cycle(frame, ts, sp, ac, sp_frame)
