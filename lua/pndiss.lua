@@ -743,6 +743,14 @@ local function infer_fail(st)
     st.samples = {}
 end
 
+-- nothing fits: sampled again from a frame number after a pause (infer.py _retry, RETRY_MAX_DOUBLINGS)
+local function infer_retry(st, fn)
+    local span = #st.frames > 0 and (fn - st.frames[1] + 1) or CI.samples
+    st.tries = st.tries + 1
+    st.retry_at = fn + 1 + math.floor(span * 2 ^ math.min(st.tries, CI.retry_max_doublings))
+    st.samples, st.frames = {}, {}
+end
+
 local function infer_try(st, fn)
     local partners = {}
     for _, p in ipairs(infer_list) do
@@ -764,8 +772,8 @@ local function infer_try(st, fn)
         end
     end
     if best == nil then
-        infer_fail(st)
-        for _, p in ipairs(partners) do infer_fail(p) end
+        infer_retry(st, fn)
+        for _, p in ipairs(partners) do infer_retry(p, fn) end
         return
     end
     local out_s, in_s = best.out, best["in"]
@@ -788,11 +796,11 @@ local function infer_offer(key, fid, src, dst, fn, tvb)
     local st = infer_streams[key]
     if st == nil then
         if #infer_list >= CI.max_streams then return end
-        st = {key = key, fid = fid, src = src, dst = dst, samples = {}, frames = {}, done = false}
+        st = {key = key, fid = fid, src = src, dst = dst, samples = {}, frames = {}, done = false, retry_at = 0, tries = 0}
         infer_streams[key] = st
         infer_list[#infer_list + 1] = st
     end
-    if st.done or #st.samples >= CI.samples then return end
+    if st.done or #st.samples >= CI.samples or fn < st.retry_at then return end
     st.samples[#st.samples + 1] = tvb:raw()
     st.frames[#st.frames + 1] = fn
     if #st.samples == CI.samples then infer_try(st, fn) end

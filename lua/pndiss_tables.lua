@@ -2489,6 +2489,7 @@ T.content_inference = {
     stw2_enc = 2942,
     zsw2_enc = 2416,
   },
+  retry_max_doublings = 6,
   samples = 48,
   sizes = {
     g1_stw = 2,

@@ -242,7 +242,7 @@ class Window:
             present = np.unique(self.sid[i:j]).tolist()
             if present and present[0] == -1:
                 present = present[1:]
-            cats = self._categories(present)
+            cats = self._categories(present, self.fn(i))
             j = self._stream_stop(i, j, cats)
             a, b = np.searchsorted(self.neutral, (i, j))
             neutral = self.neutral[a:b]
@@ -261,7 +261,7 @@ class Window:
                     self._resolve()   # the frame taught the fast path a stream: its later frames are no longer global
             i = j
 
-    def _categories(self, present) -> dict:
+    def _categories(self, present, fn: int) -> dict:
         """Per stream present: None when its frames must go one by one in capture order (not looked up yet,
         the maps changed, content inference still samples it), else ("ok", its _Frame or None: unmapped)
         -- decided on the tracker's state, which changes only at global frames."""
@@ -271,17 +271,25 @@ class Window:
         for k in present:
             key = self.ss[k].key
             fr = t.frames.get(key, _MISSING) if gen_ok else _MISSING
-            if fr is _MISSING or (fr is None and t.infer.wants(key)):
+            if fr is _MISSING or (fr is None and t.infer.wants(key, fn)):
                 out[k] = None
             else:
                 out[k] = ("ok", fr)
         return out
 
     def _stream_stop(self, i: int, j: int, cats: dict) -> int:
-        """The first frame in [i, j) that must be global: a stream of category None, or an unmapped stream's
-        periodic re-lookup when the session would now find its map."""
+        """The first frame in [i, j) that must be global: a stream of category None, an unmapped stream's
+        periodic re-lookup when the session would now find its map, or the frame from which content
+        inference samples an unmapped stream again (pndiss/infer.py)."""
         t = self.e.t
         for k, c in cats.items():
+            if c is not None and c[1] is None:
+                again = t.infer.resumes_at(self.ss[k].key)
+                if again is not None:
+                    p = self.pos[k]
+                    a = int(np.searchsorted(p, max(i, again - self.n - 1)))
+                    if a < len(p) and p[a] < j:
+                        j = int(p[a])
             if c is not None and (c[1] is not None or t.a.session.lookup(*self.ss[k].key) is None):
                 continue
             p = self.pos[k]

@@ -18,6 +18,13 @@ and set); all-zero IO data proves nothing. The best candidate becomes an AR map 
 "inferred from content" (the session's ``add_inferred``) with a confidence and the frames it was
 learnt from; streams nothing fits are listed for a ready-to-edit --map template (docs/map.md).
 Frames used for learning are counted, not judged.
+
+Nothing fitting is not final: a capture may start while the PLC is in STOP (IOPS bad, no sign of
+life) and the AR run later. A pair that fails is sampled again after a pause in frames of twice the
+span its samples took, doubling up to RETRY_MAX_DOUBLINGS times (a stream of an ordinary IO device
+costs a few samplings per capture). The pause is counted in frame numbers, so the engine (which
+hands a waiting stream over in bulk until then, pndiss/engine.py) and the frame loop sample the
+same frames.
 """
 from __future__ import annotations
 
@@ -27,6 +34,7 @@ from .encoder.config import next_ls
 SAMPLES = 48          # C_SDUs per stream before a decision
 MAX_STREAMS = 256     # streams sampled at once (bounded memory)
 SOURCE = "inferred from content"
+RETRY_MAX_DOUBLINGS = 6   # the pause after a failed sampling: span x 2, 4, ... 64 at the most
 
 _CI = tg.TABLE["content_inference"]
 IOPS_GOOD = _CI["iops_good"]
@@ -103,7 +111,7 @@ def lua_facts() -> dict:
     for t in candidates():
         cands.append({"telegram": t, "setpoint": _offsets(t, "setpoint"), "actual": _offsets(t, "actual"),
                       "len_setpoint": tg.length(t, "setpoint"), "len_actual": tg.length(t, "actual")})
-    return {"samples": SAMPLES, "max_streams": MAX_STREAMS, "source": SOURCE, "iops_good": IOPS_GOOD,
+    return {"samples": SAMPLES, "max_streams": MAX_STREAMS, "retry_max_doublings": RETRY_MAX_DOUBLINGS, "source": SOURCE, "iops_good": IOPS_GOOD,
             "reserved": {w: _reserved(w) for w in words}, "sizes": {w: tg.SIGNALS[w]["size"] for w in words},
             "sol": {d: _bit(d, "sign_of_life")[0] for d in tg.DIRECTIONS},
             "mirror": {d: {"signal": _bit(d, "mirror")[0], "bits": list(_bit(d, "mirror")[1])} for d in tg.DIRECTIONS},
@@ -112,13 +120,15 @@ def lua_facts() -> dict:
 
 
 class Stream:
-    __slots__ = ("key", "samples", "frames", "done")
+    __slots__ = ("key", "samples", "frames", "done", "retry_at", "tries")
 
     def __init__(self, key):
         self.key = key            # (frame_id, src, dst)
         self.samples: list[bytes] = []
         self.frames: list[int] = []
-        self.done = False
+        self.done = False         # decided for good: inferred, its Connect seen, or the capture ended
+        self.retry_at = 0         # after a failed sampling: the frame number from which it samples again
+        self.tries = 0
 
 
 class Inference:
@@ -137,7 +147,7 @@ class Inference:
             if not self.enabled or len(self.streams) >= MAX_STREAMS:
                 return
             st = self.streams[key] = Stream(key)
-        if st.done or len(st.samples) >= SAMPLES:
+        if st.done or len(st.samples) >= SAMPLES or fn < st.retry_at:
             return
         st.samples.append(bytes(csdu))
         st.frames.append(fn)
@@ -145,13 +155,19 @@ class Inference:
             self.ts = ts
             self._try(st, fn)
 
-    def wants(self, key: tuple) -> bool:
-        """Frames of this stream are still needed (the batch path must hand them over one by one)."""
+    def wants(self, key: tuple, fn: int) -> bool:
+        """Frames of this stream from frame ``fn`` on are needed now (the engine hands them over one by one)."""
         if not self.enabled:
             return False
         st = self.streams.get(key)
         return st is None and len(self.streams) < MAX_STREAMS or (st is not None and not st.done
-                                                                   and len(st.samples) < SAMPLES)
+                                                                   and len(st.samples) < SAMPLES
+                                                                   and fn >= st.retry_at)
+
+    def resumes_at(self, key: tuple) -> int | None:
+        """The frame number from which a stream waiting after a failed sampling is needed again."""
+        st = self.streams.get(key) if self.enabled else None
+        return st.retry_at if st is not None and not st.done and st.retry_at else None
 
     def _try(self, st: Stream, fn: int) -> None:
         partners = [p for p in self.streams.values() if p is not st and not p.done and len(p.samples) == SAMPLES
@@ -171,7 +187,7 @@ class Inference:
                     best = got
         if best is None:
             for s in [st] + partners:
-                self._fail(s)
+                self._retry(s, fn)
             return
         out_s, in_s = best["out"], best["in"]
         res = {"frame": fn, "ts_ns": self.ts, "controller_mac": out_s.key[1], "device_mac": out_s.key[2], "telegram": best["t"],
@@ -187,12 +203,23 @@ class Inference:
         self.results.append(res)
         sess.add_inferred(res)
 
+    def _retry(self, s: Stream, fn: int) -> None:
+        """Nothing fits these samples: listed (for the --map template) and sampled again later."""
+        self._list(s)
+        span = fn - s.frames[0] + 1 if s.frames else SAMPLES
+        s.tries += 1
+        s.retry_at = fn + 1 + (span << min(s.tries, RETRY_MAX_DOUBLINGS))
+        s.samples, s.frames = [], []
+
     def _fail(self, s: Stream) -> None:
         s.done = True
+        self._list(s)
+        s.samples = []
+
+    def _list(self, s: Stream) -> None:
         if s.samples and self.a.session.lookup(*s.key) is None:
             self.failed[s.key] = {"frame_id": s.key[0], "src": s.key[1], "dst": s.key[2],
                                   "c_sdu_len": len(s.samples[0]), "frames": [s.frames[0], s.frames[-1]]}
-        s.samples = []
 
     def finish(self) -> None:
         """End of capture: streams that never found a partner or never filled their samples are listed."""
