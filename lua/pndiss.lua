@@ -206,6 +206,7 @@ end
 -- Connect-derived maps: key "fid|src|dst" -> {direction, device, controller, station, ar, frame_id,
 -- cycle_ns, source, objects}
 local maps, map_cache
+local open_req         -- DCE/RPC "act|seq" -> frame of its request, until the response (retransmissions run once)
 local dcp_state        -- DcpTracker state (section 6); station = MAC -> last NameOfStation (stations.py)
 local usermap = {}     -- fid -> {direction, telegram, offset} (preference, not capture state)
 local profiles         -- device MAC -> profile (I&M0 / DCP)
@@ -337,10 +338,20 @@ local function gcd(a, b)
     return a
 end
 local GAP_UNIT_NS, GAP_HALF_WRAP_NS = 31250, 0x10000 * 31250 / 2
-local function gap_advance(key, cc, ts)
+local GAP_DUP_NS = 125000
+-- a mirror port's copy of the stream's previous frame: same counter and (DataStatus, C_SDU) within half a
+-- cycle (pndiss/gaps.py duplicate); returns the frame it copies
+local function gap_duplicate(key, cc, ts, last)
+    local st = gap_streams[key]
+    if st == nil or st.cc ~= cc or st.ts == nil then return nil end
+    local window = st.step > 0 and math.floor(st.step * GAP_UNIT_NS / 2) or GAP_DUP_NS
+    if math.abs(ts - st.ts) >= window or st.last ~= last then return nil end
+    return st.fn
+end
+local function gap_advance(key, cc, ts, last, fn)
     local st = gap_stream(key)
     local prev, pts = st.cc, st.ts
-    st.cc, st.ts = cc, ts
+    st.cc, st.ts, st.last, st.fn = cc, ts, last, fn
     if prev == nil then return 0 end
     local d = (cc - prev) % 0x10000
     if d ~= st.step and pts ~= nil and ts - pts >= GAP_HALF_WRAP_NS and st.uniform
@@ -1844,23 +1855,33 @@ local function heuristic(tvb, pinfo, tree)
         local src, dst = tostring(pinfo.dl_src), tostring(pinfo.dl_dst)
         local key = fi.value .. "|" .. src .. "|" .. dst
         local cc = X["pn_rt.cycle_counter"]()
-        local miss = cc and gap_advance(key, cc.value, ts_ns(pinfo)) or 0
+        local ds = X["pn_rt.ds"]()
+        local last = tostring(ds and ds.value) .. "|" .. tvb:raw()
+        local copy_of = cc and gap_duplicate(key, cc.value, ts_ns(pinfo), last)
+        if copy_of then
+            cyc_cache[pinfo.number] = {objs = {}, copy_of = copy_of}
+            return false
+        end
+        local miss = cc and gap_advance(key, cc.value, ts_ns(pinfo), last, pinfo.number) or 0
         local fr = lookup(fi.value, src, dst)
         if fr == nil then infer_offer(key, fi.value, src, dst, pinfo.number, tvb) end   -- mid-session capture
         if fr == nil or #fr.objs == 0 then return false end
         -- DataStatus: DataValid (bit 2) and ProviderState RUN (bit 4), wire.md §2.3
-        local ds = X["pn_rt.ds"]()
         local ok_ds = ds ~= nil and bit.band(ds.value, 0x14) == 0x14
         local ph = fr.fm.phase   -- before PrmEnd or after the AR's end: not judged (cyclic.py NOT_JUDGED_PHASES)
         if ph == "parameterisation" or ph == "released" or ph == "aborted" then ok_ds = false end
         if ph == "released" or ph == "aborted" then   -- gaps.restart: a later AR here is no capture loss
             local st = gap_streams[key]
-            if st ~= nil then st.cc, st.ts = nil, nil end
+            if st ~= nil then st.cc, st.ts, st.last = nil, nil, nil end
         end
         cached = on_cyclic(pinfo, tvb, fr, ok_ds, miss, key)
         cyc_cache[pinfo.number] = cached
     end
     if tree then
+        if cached.copy_of then
+            tree:add(pndiss, tvb(0, 0), "PROFINET encoder: copy of frame " .. cached.copy_of
+                     .. " (same cycle counter, status and data: a mirror port saw it twice), not a cycle")
+        end
         for _, c in ipairs(cached.objs) do add_object(tree, tvb, c) end
         if cached.malformed then
             tree:add(pndiss, tvb(0, 0), "PROFINET encoder: malformed"):add_proto_expert_info(E.malformed, cached.malformed)
@@ -1985,6 +2006,15 @@ local function first_pass(pinfo)
     local pt = X["dcerpc.pkt_type"]()
     local act, seq = X["dcerpc.dg_act_id"](), X["dcerpc.dg_seqnum"]()
     local key = act and seq and (tostring(act) .. "|" .. tostring(seq.value))
+    if pt and key then   -- a request again before its response: a retransmission or a copy, run once (session.py _cm)
+        if pt.value == 0 then
+            local first = open_req[key]
+            if first ~= nil and first ~= pinfo.number then return {} end
+            open_req[key] = pinfo.number
+        elseif pt.value == 2 then
+            open_req[key] = nil
+        end
+    end
     local ok, err = pcall(function()
         if op.value == 0 and pt and key then
             if pt.value == 0 then connect_request(key, pinfo) elseif pt.value == 2 then connect_response(key, pinfo) end
@@ -2035,6 +2065,7 @@ register_postdissector(pndiss)
 -- all per-capture state, new: Wireshark calls init before every (re)dissection of a file
 local function reset_state()
     maps, map_cache, misses = {}, {}, {}
+    open_req = {}
     map_generation, cache_generation = 0, 0
     profiles, facts, ar_devs, p922_of, im0_seen = {}, {}, {}, {}, {}
     ar_keys, ar_phase, ar_order = {}, {}, {}

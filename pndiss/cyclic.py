@@ -165,8 +165,12 @@ class CyclicTracker(AxisTracking):
             self.misses.clear()
         if self.stream_sink is not None:
             self.stream_sink(key, fn, ts, pdu, csdu_off - 2)
-        # capture loss: cycles this stream sent that the capture does not hold (pndiss/gaps.py)
-        miss = self.gaps.advance(key, fn, ts, (pdu[-4] << 8) | pdu[-3])
+        # a mirror port's copy of the previous frame is no cycle; capture loss: cycles this stream sent that
+        # the capture does not hold (pndiss/gaps.py)
+        cc, last = (pdu[-4] << 8) | pdu[-3], (pdu[-2], bytes(pdu[csdu_off:len(pdu) - 4]))
+        if self.gaps.duplicate(key, fn, ts, cc, last):
+            return
+        miss = self.gaps.advance(key, fn, ts, cc, last)
         fr = self.frames.get(key)
         if fr is None:  # not cached, or cached as unmapped (then _frame counts the miss)
             fr = self._frame(key, rt_ev)

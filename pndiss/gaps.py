@@ -8,6 +8,10 @@ stream is mapped, else it is learnt from the stream itself (the smallest advance
 whose counter does not advance in multiples of its step (a provider with a free-running counter)
 is marked non-uniform and judged without gap detection. The two directions of an AR have their own
 counters (RT: independent clocks), so each stream is followed on its own.
+
+The opposite of loss: a mirror port that sees a frame on two ports captures it twice. A copy has the
+same CycleCounter, DataStatus and C_SDU as the stream's previous captured frame and comes within half
+a cycle: the provider sent one frame, so the copy is no cycle (``duplicate``), only counted.
 """
 from __future__ import annotations
 
@@ -19,15 +23,17 @@ HALF_WRAP_NS = WRAP * UNIT_NS // 2
 LEARN = 4            # advances seen before a learnt step is trusted
 IRREGULAR_MAX = 3    # advances off the step before the stream counts as non-uniform
 MAX_EVENTS = 1000    # gaps kept for the summary/report (events carry all of them)
+DUP_NS = 125_000     # a copy's distance while the stream's step is unknown: half the shortest RT cycle (250 us)
 
 
 class Stream:
-    __slots__ = ("cc", "frame", "ts", "step", "known", "seen", "irregular", "uniform", "gaps", "missing")
+    __slots__ = ("cc", "frame", "ts", "last", "step", "known", "seen", "irregular", "uniform", "gaps", "missing")
 
     def __init__(self):
         self.cc = None
         self.frame = None
         self.ts = None
+        self.last = None      # (DataStatus, C_SDU) of the last captured frame (what a copy repeats)
         self.step = 0         # counter units per cycle; 0 = not known yet
         self.known = False    # step from the Connect (not learnt)
         self.seen = 0         # advances of exactly one step since the step last changed
@@ -48,6 +54,8 @@ class GapTracker:
         self.count = 0
         self.missing = 0
         self.prev = None      # the stream's previous captured frame, set by advance()
+        self.duplicates = 0   # copies of frames (``duplicate``)
+        self.first_duplicate = None   # (frame, the frame it copies)
 
     def step_from(self, key, step: int | None) -> None:
         """The stream's cycle step from its IOCR (SendClockFactor x ReductionRatio), when the Connect says it."""
@@ -62,17 +70,31 @@ class GapTracker:
         between them is not capture loss."""
         st = self.streams.get(key)
         if st is not None:
-            st.cc = st.frame = st.ts = None
+            st.cc = st.frame = st.ts = st.last = None
 
-    def advance(self, key, fn: int, ts: int, cc: int) -> int:
+    def duplicate(self, key, fn: int, ts: int, cc: int, last: tuple) -> bool:
+        """Frame ``fn`` is a copy of the stream's previous captured frame: the same counter and ``last``
+        (DataStatus, C_SDU) within half a cycle (DUP_NS while the step is unknown). Counted here."""
+        st = self.streams.get(key)
+        if st is None or st.cc != cc or st.ts is None:
+            return False
+        if abs(ts - st.ts) >= (st.step * UNIT_NS // 2 if st.step else DUP_NS) or st.last != last:
+            return False
+        self.duplicates += 1
+        if self.first_duplicate is None:
+            self.first_duplicate = (fn, st.frame)
+        return True
+
+    def advance(self, key, fn: int, ts: int, cc: int, last: tuple | None = None) -> int:
         """Cycles missing between the stream's previous captured frame (then in ``self.prev``) and this one:
-        0 when none, or when it cannot be told (step not confirmed yet, counter not uniform)."""
+        0 when none, or when it cannot be told (step not confirmed yet, counter not uniform). ``last``:
+        the frame's (DataStatus, C_SDU), which a copy of it would repeat."""
         st = self.streams.get(key)
         if st is None:
             st = self.streams[key] = Stream()
         prev, pts = st.cc, st.ts
         self.prev = st.frame
-        st.cc, st.frame, st.ts = cc, fn, ts
+        st.cc, st.frame, st.ts, st.last = cc, fn, ts, last
         if prev is None or not self.enabled:
             return 0
         d = (cc - prev) % WRAP
@@ -146,4 +168,5 @@ class GapTracker:
                                 "step_source": "connect" if st.known else "learnt",
                                 "uniform": st.uniform})
         return {"count": self.count, "cycles_missing": self.missing, "streams": streams,
-                "checked": self.enabled, "gaps": self.kept()}
+                "checked": self.enabled, "gaps": self.kept(), "duplicates": self.duplicates,
+                "first_duplicate": list(self.first_duplicate) if self.first_duplicate else None}

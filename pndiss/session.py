@@ -38,7 +38,7 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
         self.profiles: dict[str, tuple[str, str]] = lim.table(s.max_stations, "profiles")
         self.im0: dict[str, dict] = lim.table(s.max_stations, "profiles")   # device MAC -> I&M0 decoded
         self.telegram_p922: dict[tuple, int] = lim.table(s.max_stations, "profiles")  # (device mac, api, slot, subslot) -> P922
-        self.counts = {"rpc": 0, "rpc_fragments": 0, "ip_fragments": 0, "records": 0, "params": 0,
+        self.counts = {"rpc": 0, "rpc_fragments": 0, "rpc_retransmissions": 0, "ip_fragments": 0, "records": 0, "params": 0,
                        "connects": 0, "connect_refused": 0, "releases": 0}
         self.pairer = param_pairer()
         self.usermap = None
@@ -58,6 +58,11 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
         request = "args_max" in pdu
         if request:
             call = self.calls.get(key)
+            if call is not None and call["frame"] != fn and call["pdu"] is not None:
+                # the same activity and sequence number again before the response: DCE/RPC over UDP resends a
+                # request until it is answered, and a mirror port may capture it twice; the call runs once
+                self.counts["rpc_retransmissions"] += 1
+                return
             if call is not None and call["frame"] == fn or (call is not None and call["pdu"] is None):
                 call["pdu"] = pdu
             if op == 3:

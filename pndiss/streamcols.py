@@ -78,6 +78,8 @@ class Cols:
         st.cc = int(self.cc[b - 1])
         st.frame = int(self.fn[b - 1])
         st.ts = int(self.ts[b - 1])
+        r = b - 1   # the last row as cyclic.py keeps it: (DataStatus, C_SDU)
+        st.last = (int(self.w.u8[int(self.d[r]) + int(self.w.cap[self.p[r]]) - 2]), bytes(self.csdu(r)))
         if gaps.enabled:
             st.seen += b - a
             if st.seen >= LEARN:

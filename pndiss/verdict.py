@@ -119,6 +119,11 @@ def one_line(summary: dict, log: ViolationLog, with_name: bool = True) -> str:
     return f"{name}: {headline(log)} in {summary['frames']:,} frames"
 
 
+# rules whose verdict depends on the V3.1 / V4.1 mode (0xBF00 byte 0 bit 5, behaviour.md R-CTRL-3)
+MODE_RULES = frozenset({"CMD-WITHOUT-CONTROL", "CMD-EXECUTED-WITHOUT-CONTROL", "CTRLREQ-MISMATCH",
+                        "CTRLREQ-SET-IN-COMPAT"})
+
+
 def trust(summary: dict) -> list[str]:
     """Signals on how far the capture can be trusted: gaps, unmapped streams, malformed frames."""
     out = []
@@ -131,6 +136,11 @@ def trust(summary: dict) -> list[str]:
         extra = f", {lost:,} cycles lost" if isinstance(lost, int) else ""
         out.append(f"capture gaps: {n:,} (frames the capture missed, seen in the cycle counter{extra}); "
                    "rules over those cycles are not judged")
+    if gaps.get("duplicates"):
+        fd = gaps.get("first_duplicate") or [None, None]
+        out.append(f"duplicate frames: {gaps['duplicates']:,} cyclic frames are copies of the frame before them "
+                   f"(same cycle counter, status and data within half a cycle; first: frame {fd[0]} of frame {fd[1]}): "
+                   "a mirror port seeing them twice; counted once as a cycle")
     if cyc.get("frames_unmapped"):
         out.append(f"unmapped streams: {cyc['frames_unmapped']:,} cyclic frames of no AR the capture shows "
                    "(no Connect in the capture, nothing inferred from the content): give them with --map or "
@@ -142,6 +152,11 @@ def trust(summary: dict) -> list[str]:
         tsrc = _source(e, "telegram", e.get("telegram_source"))
         if "length" in str(tsrc) or "settings" in str(tsrc) or "default" in str(tsrc):
             out.append(f"assumed: {who} telegram {e.get('telegram')} ({tsrc})")
+        csrc = _source(e, "compat", None)
+        hit = sorted(r for r in (e.get("violations") or {}) if r in MODE_RULES)
+        if hit and "default" in str(csrc):
+            out.append(f"assumed: {who} V4.1 mode (no 0xBF00 in the capture) for {', '.join(hit)}; "
+                       "--set compat=0 if it runs in V3.1 compatibility mode (SIMATIC technology objects)")
         psrc = _source(e, "profile", e.get("profile_reason"))
         if "not a known" in str(psrc) or "default" in str(psrc):
             out.append(f"assumed: {who} profile {e.get('profile')} ({psrc})")

@@ -368,3 +368,18 @@ def test_exit_3_only_for_internal_errors(monkeypatch, capsys):
     monkeypatch.setattr(an, "run", boom)
     assert cli.main(["analyze", T81]) == 3
     assert "internal error" in capsys.readouterr().err
+
+
+def test_trust_names_an_assumed_v41_mode_and_unjudged_presets():
+    """Rules that depend on the V3.1/V4.1 mode fired while the mode is only the profile's default (no
+    0xBF00 seen): the Trust section says so and how to change it; presets whose P65000 was never seen
+    are listed as not judged."""
+    from pndiss import verdict
+    e = {"station": "enc", "slot": 1, "subslot": 2, "violations": {"CMD-WITHOUT-CONTROL": {"events": 1}},
+         "settings": {"compat": {"value": 1, "source": "lika default (telegrams.json profile_defaults)"}},
+         "presets_unjudged": 2}
+    s = {"cyclic": {"encoders": [e]}, "accounting": {}}
+    assert any("V4.1 mode" in t and "--set compat=0" in t for t in verdict.trust(s))
+    assert any("2 preset(s)" in t and "--set p65000=N" in t for t in verdict.not_checked(s))
+    e["settings"]["compat"]["source"] = "captured 0xBF00"
+    assert not any("V4.1 mode" in t for t in verdict.trust(s))

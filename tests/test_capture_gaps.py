@@ -217,3 +217,63 @@ def test_pause_longer_than_the_counter_wraps():
         assert g.advance(key, i, i * 1_000_000, (32 * i) % 65536) == 0
     i = 10 + 2500
     assert g.advance(key, 10, i * 1_000_000, (32 * i) % 65536) == 2500   # cycles 10..2509 missing
+
+
+# -- a mirror port's copies: every cyclic frame captured twice, 5 us apart -------------------------
+
+@pytest.fixture(scope="module")
+def doubled(tmp_path_factory):
+    """A preset session with a fault (so handshake deadlines matter), each frame followed by its copy.
+    Returns (path, the original's violations [(rule, frame)] renumbered, number of cyclic copies)."""
+    from pndiss.capture import open_capture
+    from pndiss.sim.pcapng import Writer
+    tmp = str(tmp_path_factory.mktemp("dup"))
+    src = capedit.simulate(os.path.join(tmp, "full.pcapng"), "--scenario", "preset", "--cycles", "300",
+                           "--inject", "PRESET-ACK-MISSING")
+    cyc = {f for fns in capedit.cyclic_streams(src).values() for f in fns}
+    ren, n = {}, 0
+    dst = os.path.join(tmp, "doubled.pcapng")
+    with open(dst, "wb") as f:
+        w = Writer(f)
+        for fn, ts, _lt, d in open_capture(src):
+            ren[fn] = w.write(ts, bytes(d))
+            w.write(ts + 5000, bytes(d))   # every frame: DCP, LLDP, RPC (a retransmission to DCE/RPC) and cyclic
+            n += fn in cyc
+    evs = []
+    analyze_file(src, Settings(fast_path=False), sink=lambda e: evs.append(e) if e["kind"] == "violation" else None)
+    want = [(e["rule"], ren[e["frame"]]) for e in evs]
+    assert want and "PRESET-ACK-MISSING" in {r for r, _f in want}
+    return dst, want, n
+
+
+def test_copies_of_frames_are_no_cycles(doubled):
+    """Without this the copies halved every deadline (10-11 false errors in the audit's capture)."""
+    path, want, n = doubled
+    evs = []
+    a = analyze_file(path, Settings(fast_path=False), sink=lambda e: evs.append(e) if e["kind"] == "violation" else None)
+    assert [(e["rule"], e["frame"]) for e in evs] == want
+    s = a.summary()
+    assert s["cyclic"]["capture_gaps"]["duplicates"] == n and s["cyclic"]["capture_gaps"]["count"] == 0
+    ref, fast = analyze_file(path, Settings(fast_path=False)).summary(), analyze_file(path).summary()
+    ref.pop("settings"), fast.pop("settings")
+    assert json.dumps(ref, sort_keys=True, default=str) == json.dumps(fast, sort_keys=True, default=str)
+
+
+def test_a_repeated_frame_a_cycle_later_is_a_cycle():
+    """Same counter and data a whole cycle later: the provider sent it again (a frozen device), not a copy."""
+    g = GapTracker()
+    key, last = (1, "a", "b"), (0x35, b"\x00" * 40)
+    g.step_from(key, 32)
+    g.advance(key, 1, 0, 100, last)
+    assert g.duplicate(key, 2, 5_000, 100, last)
+    assert not g.duplicate(key, 3, 5_000, 100, (0x35, b"\x01" + b"\x00" * 39))   # other data
+    assert not g.duplicate(key, 4, 5_000, 132, last)                              # the next counter
+    assert not g.duplicate(key, 5, 1_000_000, 100, last)                          # a cycle (1 ms) later
+    assert g.summary()["duplicates"] == 1 and g.summary()["first_duplicate"] == [2, 1]
+
+
+@pytest.mark.skipif(shutil.which("tshark") is None, reason="tshark not installed")
+def test_lua_plugin_same_on_copies(doubled):
+    from test_lua_plugin import rule_rows
+    path, want, _n = doubled
+    assert sorted((fn, r) for fn, r, _d in rule_rows(path)) == sorted((f, r) for r, f in want)
