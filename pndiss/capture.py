@@ -79,6 +79,11 @@ class ReadInfo:
             return ""
         return self._known or self._h.hexdigest()
 
+    def feed(self, data) -> None:
+        """The input's next bytes, in order (hashed unless the caller gave the digest)."""
+        if self._h is not None:
+            self._h.update(data)
+
     def clamp(self, fn: int, ts: int) -> int:
         self.ts_clamped += 1
         if self.ts_clamped_first is None:
@@ -110,8 +115,7 @@ class _Buffer:
         """Hash the part of ``data`` (read at file offset ``start``) not hashed yet."""
         end = start + len(data)
         if end > self.hashed:
-            if self.info._h is not None:
-                self.info._h.update(memoryview(data)[self.hashed - start:])
+            self.info.feed(memoryview(data)[self.hashed - start:])
             self.hashed = end
 
     def need(self, n: int) -> bool:

@@ -20,8 +20,9 @@ import numpy as np
 
 from . import colrows
 from .coltext import INT, Pool, Val, thin
-from .mcap_export import RT_CONST, TG_CONST, McapExporter
-from .mcap_export import dumps as _dumps
+from .mcap_export import McapExporter
+from .mcap_schemas import dumps as _dumps
+from .mcap_topics import RT_CONST, TG_CONST
 
 SEQ_MASK = 0xFFFFFFFF
 

@@ -14,7 +14,8 @@ from mcap.reader import make_reader
 
 from pndiss.cli import main as cli_main
 from pndiss.foxglove_layout import build
-from pndiss.mcap_export import VIOLATIONS_TOPIC, McapExporter
+from pndiss.mcap_export import McapExporter
+from pndiss.mcap_topics import VIOLATIONS_TOPIC
 from pndiss.settings import Settings
 from test_mcap import DEV, _event, read_back, rt, tg
 

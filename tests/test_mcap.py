@@ -296,7 +296,7 @@ def test_synthetic_topics_and_log(tmp_path):
 
 
 def test_declared_schemas_foxglove_readable():
-    from pndiss.mcap_export import SCHEMAS
+    from pndiss.mcap_schemas import SCHEMAS
     for name, sch in SCHEMAS.items():
         assert foxglove_problems(sch, name) == []
     assert foxglove_problems({"type": "object", "properties": {"a": {"type": ["string", "null"]}}})  # the checker bites

@@ -76,7 +76,7 @@ def run(args) -> int:
         raise error
     if args.layout:
         from ..foxglove_layout import write as write_layout
-        from ..mcap_export import VIOLATIONS_TOPIC
+        from ..mcap_topics import VIOLATIONS_TOPIC
         try:
             write_layout(args.layout, exp.telegram_channels, VIOLATIONS_TOPIC)
         except OSError as e:
