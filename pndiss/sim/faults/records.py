@@ -12,7 +12,7 @@ class TelegramLengthMismatch(Injection):
     side = "encoder"
 
     def setup(self, sess, sc, params):
-        from ..session import Station
+        from ..stations import Station
         sess.stations = [Station(i, sess.cfg, sess.rng, extra_in=3) for i in range(sess.cfg.encoders)]
         sc.connect_tags = {self.tag}
 
