@@ -15,7 +15,7 @@ from typing import Callable
 from . import iodata, limits
 from . import stations as st
 from .activity import Activity
-from .proto import alarm, dcp, lldp, ptcp, rt, rtfrag
+from .proto import alarm, dcp, dcp_rules, lldp, ptcp, rt, rtfrag
 from .proto.common import Malformed, mac
 from .proto.eth import decode_link
 from .settings import Settings
@@ -60,7 +60,7 @@ class Analyzer:
         self.activity = Activity()
         self.violations = ViolationLog()
         # its per-name / per-IP / per-MAC claims: bounded like the stations
-        self.dcp_tracker = dcp.DcpTracker(lambda: self.limits.table(cap, "dcp_claims"))
+        self.dcp_tracker = dcp_rules.DcpTracker(lambda: self.limits.table(cap, "dcp_claims"))
         self.session = SessionTracker(self)
         self.cyclic = CyclicTracker(self)
         self.rt_frags = rtfrag.Reassembler()  # FRAG_PDUs (FrameID 0xFF80-0xFF8F)

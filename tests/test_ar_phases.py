@@ -106,7 +106,8 @@ def test_ar_phases_in_events_and_summary(tmp_path):
 # ---- restart: a second AR is judged with its own 0xBF00 -----------------------------------------------------
 def _restart_capture(path, *, second_good_before_prmend=True):
     from pndiss.sim.scenarios import SCENARIOS
-    from pndiss.sim.session import Config, SimSession
+    from pndiss.sim.config import Config
+    from pndiss.sim.session import SimSession
 
     def frames(seed, mupr, tmr, **kw):
         cfg = Config(scenario="startup", seed=seed, cycles=300, mupr=mupr, tmr=tmr, **kw)

@@ -1,5 +1,6 @@
-"""PN-DCP decoder (pndiss.proto.dcp): synthetic frames checked against tshark 4.0, field
-round-trips, NameOfStation rules, DcpTracker, and property tests (dict or Malformed, nothing else)."""
+"""PN-DCP decoder (pndiss.proto.dcp, dcp_blocks, dcp_rules): synthetic frames checked against
+tshark 4.0, field round-trips, NameOfStation rules, DcpTracker, and property tests (dict or
+Malformed, nothing else)."""
 from __future__ import annotations
 
 import os
@@ -10,7 +11,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as hs
 
 from pndiss.analyzer import Analyzer
-from pndiss.proto import dcp
+from pndiss.proto import dcp, dcp_rules, dcp_tables
 from pndiss.proto.common import Malformed
 from tsharkdiff import PUBLIC, compare, load_maps, need_tshark
 
@@ -173,12 +174,12 @@ def test_set_request_control_blocks():
     kinds = [(b["option"], b["suboption"]) for b in d["blocks"]]
     assert kinds == [(5, 1), (2, 2), (1, 2), (5, 3), (5, 5), (5, 6), (5, 2)]
     assert d["blocks"][1]["block_qualifier"] == 1 and d["blocks"][3]["signal"] == "Flash once"
-    assert d["blocks"][5]["reset"] == dcp.RESET_QUALIFIER[8]
+    assert d["blocks"][5]["reset"] == dcp_tables.RESET_QUALIFIER[8]
     assert d["station_info"] == {"name": "encoder-7", "ip": "10.0.0.2", "netmask": "255.0.0.0", "gateway": "0.0.0.0"}
     m = dec(SYNTH["set_misc"])
     assert m["blocks"][4].get("erroneous") is True
     r = dec(SYNTH["set_rsp"])
-    assert [b["block_error_text"] for b in r["blocks"]] == [dcp.BLOCK_ERRORS[0], dcp.BLOCK_ERRORS[6], dcp.BLOCK_ERRORS[0]]
+    assert [b["block_error_text"] for b in r["blocks"]] == [dcp_tables.BLOCK_ERRORS[0], dcp_tables.BLOCK_ERRORS[6], dcp_tables.BLOCK_ERRORS[0]]
     assert "station_info" not in r
 
 
@@ -225,7 +226,7 @@ def test_data_length_bounds_blocks_and_pad_is_ignored():
 # -- NameOfStation rules (spec/network.md §2.1) ----------------------------------------------
 @pytest.mark.parametrize("name", ["encoder-1", "line1.enc-2", "a", "X208-BORD", "a" * 63 + "." + "b" * 63, ""])
 def test_valid_names(name):
-    assert dcp.name_problems(name) == []
+    assert dcp_rules.name_problems(name) == []
 
 
 @pytest.mark.parametrize("name,word", [
@@ -234,7 +235,7 @@ def test_valid_names(name):
     ("line.-x", "'-'"), ("port-001", "port name"), ("192.168.0.1", "IPv4"), ("enc\u00e4", "characters"),
 ])
 def test_invalid_names(name, word):
-    probs = dcp.name_problems(name)
+    probs = dcp_rules.name_problems(name)
     assert probs and any(word in p for p in probs), probs
 
 
@@ -248,7 +249,7 @@ def test_set_with_bad_name_is_a_violation_event_the_analyzer_stamps():
     a.feed(7, 123, 1, bad)
     viol = [e for e in got if e["kind"] == "violation"]
     assert len(viol) == 1 and viol[0]["frame"] == 7 and viol[0]["ts_ns"] == 123
-    assert viol[0]["side"] == "controller" and viol[0]["severity"] == dcp.rules.RULES["DCP-NAME-INVALID"]["severity"]
+    assert viol[0]["side"] == "controller" and viol[0]["severity"] == dcp_rules.rules.RULES["DCP-NAME-INVALID"]["severity"]
 
 
 def test_identify_response_with_bad_name_is_flagged_not_violated():
@@ -277,7 +278,7 @@ def _set(dst: bytes, name: str | None = None, ip: str | None = None) -> bytes:
 
 def _run(frames):
     """Feed frames through the decoder and a DcpTracker as the analyzer would."""
-    t = dcp.DcpTracker()
+    t = dcp_rules.DcpTracker()
     out = []
     for i, fr in enumerate(frames, 1):
         ev = dec(fr)
@@ -378,4 +379,4 @@ def test_tracker_never_crashes(fr, muts):
     except Malformed:
         return
     ev.update(frame=1, ts_ns=1)
-    assert isinstance(dcp.DcpTracker().on_dcp(ev, "00:00:00:00:00:01", "00:00:00:00:00:02"), list)
+    assert isinstance(dcp_rules.DcpTracker().on_dcp(ev, "00:00:00:00:00:01", "00:00:00:00:00:02"), list)

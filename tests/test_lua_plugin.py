@@ -478,7 +478,7 @@ def test_heuristic_on_pn_io_list():
     assert {"pndiss.rule", "pndiss.param.pnu", "pndiss.bf00.compat", "pndiss.xist2_error.code"} <= names
 
 
-# ---- DCP rules: the plugin's port of proto/dcp.py against the Python core on generated frames ---------
+# ---- DCP rules: the plugin's port of proto/dcp.py + dcp_rules.py against the Python core on generated frames
 try:
     from hypothesis import HealthCheck, given, settings as hsettings, strategies as st
 except ImportError:  # pragma: no cover

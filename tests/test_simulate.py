@@ -20,7 +20,7 @@ from pndiss.sim import frames as F
 from pndiss.sim import pcapng
 from pndiss.sim.model import PROFILE_TELEGRAMS, Shaft, sol_next
 from pndiss.sim.scenarios import INJECTIONS, NOT_INJECTABLE, SCENARIOS
-from pndiss.sim.session import Config, send_clock
+from pndiss.sim.config import send_clock
 
 HAVE_TSHARK = shutil.which("tshark") is not None
 # tshark expert severities: warning 0x00600000, error 0x00800000

@@ -91,7 +91,7 @@ def run(args) -> int:
     from ..sim.fastpath import FAST_THRESHOLD, write_fast
     from ..sim.model import PROFILE_TELEGRAMS
     from ..sim.scenarios import INJECTIONS, NOT_INJECTABLE, write_capture
-    from ..sim.session import Config, send_clock, station_clock
+    from ..sim.config import Config, send_clock, station_clock
 
     if args.telegram not in PROFILE_TELEGRAMS[args.profile]:
         raise UsageError(f"--telegram {args.telegram} is not available with --profile {args.profile} "

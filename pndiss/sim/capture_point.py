@@ -84,7 +84,7 @@ def mid_session_truth(sess, t0: int) -> dict:
     """What an analyzer should infer from content alone: per station the telegram, where it sits in
     each cyclic frame (offsets from the first C_SDU byte) and its length."""
     from .. import telegrams as T
-    from .session import CTRL_MAC
+    from .stations import CTRL_MAC
     cfg = sess.cfg
     streams = []
     for st in sess.stations:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import os
 
 from .scenarios import INJECTIONS
-from .session import Config
+from .config import Config
 
 SEED = 1
 FAULT_CYCLES = 300

@@ -19,8 +19,10 @@ from array import array
 
 from .. import telegrams as T
 from . import pcapng
-from .session import (CTRL_MAC, DATA_STATUS, IOXS_GOOD, SLOT_ENC, SUB_TEL, Config, SimSession,
-                      cyclic_header)
+from .config import Config
+from .cyclic import DATA_STATUS, IOXS_GOOD, cyclic_header
+from .session import SimSession
+from .stations import CTRL_MAC, SLOT_ENC, SUB_TEL
 
 FAST_THRESHOLD = 100_000   # cycles; below this the normal (model-driven) path is used
 STEPS = 8                  # position steps per cycle (8192 steps/rev at 1 ms: ~58.6 rpm)

@@ -11,8 +11,10 @@ import struct
 import uuid
 
 from . import frames as F
-from .session import (CTRL_MAC, DAP_MODULE, DAP_SUBSLOTS, DATA_STATUS, IOXS_BAD, IOXS_GOOD, cyclic_header,
-                      mac, station_clock)
+from .config import station_clock
+from .cyclic import DATA_STATUS, IOXS_BAD, IOXS_GOOD, cyclic_header
+from .stations import CTRL_MAC, DAP_MODULE, DAP_SUBSLOTS, mac
+from .truth import ar_truth
 
 IDENT = dict(vendor_id=0x0299, device_id=0x0002, vendor_text="PNDISS SIM IO DEVICE", order_id="PNDISS-SIM-IO")
 SLOT_DI, SLOT_DO = 1, 2
@@ -116,7 +118,7 @@ def run_cycles(sess, st, with_good: bool = True) -> None:
 
 def truth(sess, st) -> dict:
     return {"name": st.name, "mac": st.mac, "ip": st.ip, "vendor_id": IDENT["vendor_id"],
-            "device_id": IDENT["device_id"], "ar_uuid": str(st.ar_uuid), "ars": sess.ar_truth(st),
+            "device_id": IDENT["device_id"], "ar_uuid": str(st.ar_uuid), "ars": ar_truth(sess, st),
             "modules": [{"slot": SLOT_DI, "subslot": 1, "module_ident": DI_MODULE, "submodule_ident": DI_SUBMODULE,
                          "input_length": 1},
                         {"slot": SLOT_DO, "subslot": 1, "module_ident": DO_MODULE, "submodule_ident": DO_SUBMODULE,

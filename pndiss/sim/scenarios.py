@@ -11,7 +11,8 @@ import os
 
 from ..rules import RULES
 from . import pcapng
-from .session import Config, SimSession, SUB_MAP
+from .config import Config
+from .session import SimSession
 
 STANDSTILL = ((0.0, 0.0, 0.0),)
 

@@ -4,83 +4,25 @@
 ``scenarios.write_capture`` turns it into a pcapng + ``.expected.json``. Nothing here reads the
 wall clock: timestamps are EPOCH_NS + seed seconds + scheduled offsets, UUIDs come from a seeded
 RNG, so the same arguments give the same bytes.
+
+This module holds the session's clock and its acyclic traffic (LLDP, DCP, RPC: Connect, records,
+parameters, alarms); config.py the options, stations.py who is on the wire, startup.py the AR
+start-up, cyclic.py the data exchange, truth.py the sidecar.
 """
 from __future__ import annotations
 
 import random
-import struct
 import uuid
-from dataclasses import dataclass, field
 
-from .. import telegrams as T
 from . import frames as F
-from . import capture_point, recdata, startup
-from .model import Encoder, Plc, Shaft, PROFILE_TELEGRAMS
+from . import capture_point, cyclic, recdata, startup, truth
+from .config import Config, station_clock
+from .model import PROFILE_TELEGRAMS
+from .stations import (API_DAP, API_ENC, CTRL_DEVICE, CTRL_IP, CTRL_MAC, CTRL_NAME, CTRL_PORT_MAC, CTRL_VENDOR,
+                       DAP_MODULE, DAP_SUBSLOTS, MAP_SUBMODULE, PROFILES, SLOT_ENC, SUB_MAP, SUB_TEL, Station,
+                       module_ident, submodule_ident)
 
 EPOCH_NS = 1_767_225_600 * 10**9   # 2026-01-01T00:00:00Z, the simulator's fixed epoch
-API_DAP = 0
-API_ENC = 0x3D00                    # encoder object API (records.md §6, PS/PSM 002_d69f444daf0f8af2.txt:490-493)
-SLOT_ENC = 1
-SUB_MAP = 1                         # MAP/PAP at slot 1 subslot 1: records 0xBF00, 0xB02E (records.md §6)
-SUB_TEL = 2                         # telegram submodule at slot 1 subslot 2 (000_37bf2397999f1108.txt:2756)
-DAP_SUBSLOTS = (0x0001, 0x8000, 0x8001, 0x8002)   # DAP, interface, port 1, port 2
-
-# Identification per profile. Only Lika's vendor ID 0x0239 is in the manuals (network.md §1.11);
-# the other IDs, device IDs and all module/submodule idents are [sim choice] (network.md §1.8: none
-# of the manuals gives them). vendor_text: network.md §1.11 "device type" candidates.
-PROFILES = {
-    "lika": dict(vendor_id=0x0239, device_id=0x0001, vendor_text="LIKA ROTACOD",
-                 order_id="XAC7716/16384PT", bf00_index=0xBF00),
-    "scancon": dict(vendor_id=0x0249, device_id=0x0001, vendor_text="SCANCON SAG",
-                    order_id="SAG-EIXXB-1213-0000", bf00_index=0xBF00),
-    "hohner": dict(vendor_id=0x0259, device_id=0x0001, vendor_text="ExM58 PN Encoder",
-                   order_id="ExM58x-xxxPNxxxx1213", bf00_index=0xBF00),
-    "psm": dict(vendor_id=0x0269, device_id=0x0001, vendor_text="PSM Encoder Standard",
-                order_id="PSM-ENC-PN", bf00_index=0xFFFF),     # PS/PSM record 0xFFFF (records.md §5.1)
-    "generic": dict(vendor_id=0x0279, device_id=0x0001, vendor_text="PNDISS SIM ENCODER",
-                    order_id="PNDISS-SIM-ENC", bf00_index=0xBF00),
-}
-DAP_MODULE = 0x00000001            # [sim choice]
-MAP_SUBMODULE = 0x0000FFFF         # SCANCON's MAP submodule ident 0xFFFF, low confidence (network.md §1.8)
-
-
-def module_ident(telegram: int) -> int:
-    return 0x00000100 + telegram   # [sim choice]: encoder module per telegram
-
-
-def submodule_ident(telegram: int) -> int:
-    return telegram                # [sim choice]: telegram submodule ident = telegram number
-
-
-@dataclass
-class Config:
-    scenario: str = "startup"
-    profile: str = "generic"
-    telegram: int = 81
-    cycle_ms: float = 1.0
-    cycles: int = 2000
-    encoders: int = 1
-    injects: list = field(default_factory=list)   # [(rule_id, cycle or None)]
-    seed: int = 1
-    mupr: int = 8192
-    tmr: int = 8192 * 4096
-    compat: int = 1
-    class4: int = 1
-    velocity_unit: int = 0
-    startup: str = "realistic"        # "realistic" (plant-like, sim/startup.py) or "tidy" (cyclic after PrmEnd)
-    records: str = "multiplewrite"    # start-up records: one 0xE040 MultipleWrite or "plain" writes
-    good_before_prmend: bool = False  # device GOOD from its first frame, records a few cycles later
-    restart: int | None = None        # cycle at which encoder 1's AR is released and set up again
-    restart_scaling: dict = field(default_factory=dict)   # 0xBF00 values of the second AR (mupr, tmr, direction, ...)
-    restart_gap_ms: float = 200.0     # silence between Release and the new Connect
-    restart_mode: str = "release"     # how the first AR ends: "release" (IODReleaseReq) or "abort" (ERR-RTA)
-    capture_loss: float = 0.0         # share of cyclic frames the capture point drops (seeded)
-    start_mid_session: int | None = None   # the capture starts at this data-exchange cycle
-    cycle_list: list | None = None    # one cycle time (ms) per encoder; None: cycle_ms for all
-    drift_ppm: float = 50.0           # each clock (controller, every device) runs off by up to +-this
-    jitter_us: float = 20.0           # send-time jitter of each cyclic frame, +-us (at most a quarter cycle)
-    irt: bool = False                 # isochronous RT_CLASS_3 (frame IDs 0x0100..), no drift or jitter
-    io_devices: int = 0               # ordinary IO devices (DI/DO module) on the same wire
 
 
 class Frame:
@@ -88,75 +30,6 @@ class Frame:
 
     def __init__(self, ts, order, data, what, tags=()):
         self.ts, self.order, self.data, self.what, self.tags = ts, order, data, what, set(tags)
-
-
-def mac(n: int, dev: int) -> str:
-    """Locally administered MACs: 02:00:00:00:<dev>:<n> (dev 0 = controller)."""
-    return f"02:00:00:00:{dev:02x}:{n:02x}"
-
-
-class Station:
-    """Addresses and AR data of one encoder."""
-
-    def __init__(self, i: int, cfg: Config, rng: random.Random, extra_in: int = 0):
-        self.i = i
-        self.mac = mac(1, i + 1)
-        self.port_macs = (mac(2, i + 1), mac(3, i + 1))
-        self.name = f"encoder-{i + 1}"
-        self.ip = f"192.168.0.{10 + i}"
-        self.ar_uuid = uuid.UUID(int=rng.getrandbits(128), version=4)
-        self.session_key = 1
-        # RT_CLASS_1 frame IDs 0x8000.. ; RT_CLASS_3 (IRT) 0x0100.. (wire.md §2.2)
-        self.in_fid = (0x0100 if cfg.irt else 0x8000) + 2 * i
-        self.out_fid = self.in_fid + 1
-        self.scf, self.rr = station_clock(cfg, i)
-        self.cycle_ns = self.scf * self.rr * 31_250
-        self.step = (self.scf * self.rr) & 0xFFFF   # cycle counter unit 31.25 us (wire.md §2.3)
-        # the same run time for every station, counted in its own cycles
-        self.cycles = max(1, round(cfg.cycles * (cfg.cycle_list[0] if cfg.cycle_list else cfg.cycle_ms)
-                                   * 1_000_000 / self.cycle_ns))
-        self.ppb = self.phase = 0
-        self.rpc_port = 0xC000 + i           # controller's RPC port for this AR
-        self.dev_port = 0xC100 + i           # device's port for its own requests (ApplicationReady)
-        sp, ac = T.length(cfg.telegram, "setpoint"), T.length(cfg.telegram, "actual") + extra_in
-        self.out_len, self.in_len = sp, ac
-        # Input CR: lone IOPS for DAP submodules and MAP, then the telegram data + IOPS, then the
-        # IOCS of the telegram's output (wire.md §2.6); output CR: data + IOPS, then IOCS for all.
-        n = len(DAP_SUBSLOTS)
-        self.in_objs = [(API_DAP, 0, ss, o) for o, ss in enumerate(DAP_SUBSLOTS)] + \
-            [(API_ENC, SLOT_ENC, SUB_MAP, n), (API_ENC, SLOT_ENC, SUB_TEL, n + 1)]
-        self.in_data_off = n + 1
-        self.in_iocs = [(API_ENC, SLOT_ENC, SUB_TEL, n + 2 + ac)]
-        self.in_csdu = max(40, n + 3 + ac)
-        self.out_data_off = 0
-        self.out_objs = [(API_ENC, SLOT_ENC, SUB_TEL, 0)]
-        self.out_iocs = [(API_DAP, 0, ss, sp + 1 + o) for o, ss in enumerate(DAP_SUBSLOTS)] + \
-            [(API_ENC, SLOT_ENC, SUB_MAP, sp + 1 + n), (API_ENC, SLOT_ENC, SUB_TEL, sp + 2 + n)]
-        self.out_csdu = max(40, sp + 3 + n)
-        self.first_in = self.first_out = self.good_from = 0   # first cycles on the wire (startup.py)
-
-
-CTRL_MAC = mac(1, 0)
-CTRL_PORT_MAC = mac(2, 0)
-CTRL_IP = "192.168.0.1"
-CTRL_NAME = "plc"
-CTRL_VENDOR, CTRL_DEVICE = 0x0289, 0x0001   # [sim choice]
-
-
-def cyclic_header(src: str, dst: str, frame_id: int) -> bytes:
-    """Ethernet + 802.1Q (PCP 6, VID 0) + FrameID: the fixed head of every cyclic frame (wire.md §1)."""
-    return (bytes.fromhex(dst.replace(":", "")) + bytes.fromhex(src.replace(":", ""))
-            + struct.pack(">HHHH", 0x8100, F.PCP_RT << 13, F.ETH_PNRT, frame_id))
-
-
-# APDU status (wire.md §2.3): DataStatus 0x35 = primary, valid, run, station ok; transfer status 0
-DATA_STATUS = 0x35
-IOXS_GOOD = 0x80
-IOXS_BAD = 0x00    # bad, detected by subslot (wire.md §2.5)
-
-
-# start-up run: still, ramp to 60 rpm, constant, ramp down, still (fractions of the run)
-DEFAULT_SHAFT = ((0.0, 0.0, 0.0), (0.1, 0.0, 60.0), (0.35, 60.0, 60.0), (0.6, 60.0, 0.0), (0.85, 0.0, 0.0))
 
 
 class SimSession:
@@ -363,7 +236,7 @@ class SimSession:
         # --- Connect, records, PrmEnd, ApplicationReady per station
         t = 10 + 10 * n + 5
         if cfg.startup == "tidy":
-            self.startup_tidy(params, t)
+            startup.tidy(self, params, t)
         else:
             startup.realistic(self, params, t)
         for st in self.all_stations():
@@ -395,9 +268,9 @@ class SimSession:
                 inj.access(self, st, self.cyc_ts(inj.k), dev)
         # --- cyclic (the fast path writes it itself), LLDP again every 5 s (802.1AB msgTxInterval)
         if self.with_cyclic:
-            self.run_cyclic(params, encs)
+            cyclic.run(self, params, encs)
         else:   # the fast path writes cycles 0.. itself; the start-up cycles come from here
-            self.run_startup_cycles()
+            cyclic.run_startup_cycles(self)
         from .iodevice import run_cycles
         for st in self.io_stations:
             run_cycles(self, st, with_good=self.with_cyclic)
@@ -415,31 +288,7 @@ class SimSession:
             sc.finish(self)
         self.frames.sort(key=lambda f: (f.ts, f.order))
         self.frames, self.capture_extra = capture_point.apply(self, self.frames)
-        return self.frames, self.truth()
-
-    def startup_tidy(self, params, t: float) -> None:
-        """The old tidy start-up: Connect, 0xBF00, PrmEnd per station; cyclic data from cycle 0 after
-        the last PrmEnd, GOOD from the first frame; ApplicationReady once the IO data run."""
-        sc = self.scenario
-        if self.io_stations:
-            raise ValueError("IO devices need the realistic start-up (not --startup tidy)")
-        for st in self.stations:
-            self.connect(self.ms(t), st)
-            if not (sc and sc.skip_bf00):
-                bf = recdata.bf00(self.cfg.profile, **params) if not (sc and sc.bf00_bytes) else sc.bf00_bytes
-                self.write_record(self.ms(t + 3), st, self.ident["bf00_index"], bf, what="bf00",
-                                  tags=sc.bf00_tags if sc else ())
-                self.facts["records"].append({"station": st.name, "op": "write", "index": self.ident["bf00_index"],
-                                              "length": len(bf)})
-            self.rpc_call(self.ms(t + 6), st, 4, [F.control_req(st.ar_uuid, st.session_key, prm_end=True)],
-                          [F.control_res(st.ar_uuid, st.session_key, block_type=0x8110)], what="prm_end")
-            t += 10
-        self.cyc_start_ns = self.ms(t)
-        for st in self.stations:
-            self.rpc_call(self.cyc_ts(5 + 2 * st.i), st, 4,
-                          [F.control_req(st.ar_uuid, st.session_key, app_ready=True)],
-                          [F.control_res(st.ar_uuid, st.session_key, block_type=0x8112)],
-                          from_device=True, what="app_ready")
+        return self.frames, truth.truth(self)
 
     def lldp_round(self, t_ms):
         self.add(self.ms(t_ms), F.lldp_frame(CTRL_PORT_MAC, chassis=CTRL_NAME, port_id=f"port-001.{CTRL_NAME}",
@@ -535,237 +384,3 @@ class SimSession:
         self.facts["alarms"].append({"station": st.name, "alarm_type": atype, "appears": appears,
                                      "channel_error_type": channel_error})
 
-    # ------------------------------------------------------------------ cyclic
-    def run_startup_cycles(self) -> None:
-        """Start-up cycles (k < 0) with IOxS BAD, zero data (realistic start-up, not GOOD before PrmEnd)."""
-        if self.cfg.good_before_prmend or self.cfg.startup == "tidy":
-            return
-        for st in self.stations:
-            step = st.step
-            o_t, i_t = frame_templates(st, IOXS_BAD, startup.DATA_STATUS_STOP, DATA_STATUS)
-            for k in range(min(st.first_in, st.first_out), 0):
-                if k >= st.first_out:
-                    o = bytearray(o_t)
-                    struct.pack_into(">H", o, len(o) - 4, (st.cc0[0] + k * step) & 0xFFFF)
-                    self.add(self.out_ts(st, k), bytes(o), "cyclic.out.startup", {st.ars[0]["tag"]})
-                if k >= st.first_in:
-                    i = bytearray(i_t)
-                    struct.pack_into(">H", i, len(i) - 4, (st.cc0[1] + k * step) & 0xFFFF)
-                    self.add(self.in_ts(st, k), bytes(i), "cyclic.in.startup", {st.ars[0]["tag"]})
-
-    def run_cyclic(self, params, devs):
-        cfg, sc = self.cfg, self.scenario
-        cyc_s = self.cycle_ns / 1e9
-        # shaft segments are given in fractions of the run (so short and long runs look alike)
-        frac = sc.shaft if sc is not None and sc.shaft else DEFAULT_SHAFT
-        run_s = cfg.cycles * cyc_s
-        shaft_segs = tuple((f * run_s, r0, r1) for f, r0, r1 in frac)
-        out_l, in_l = T.layout(cfg.telegram, "setpoint"), T.layout(cfg.telegram, "actual")
-        self.run_startup_cycles()
-        per = []
-        for st in self.stations:
-            enc = Encoder(cfg.profile, cfg.telegram, params=params, shaft=Shaft(shaft_segs), cycle_s=st.cycle_ns / 1e9)
-            plc = Plc(cfg.telegram, sol_start=st.sol0)
-            out_t, in_t = frame_templates(st, IOXS_GOOD, DATA_STATUS, DATA_STATUS)
-            if sc is not None and sc.reject_bf00:
-                # a conforming device refuses a bad 0xBF00: parameterisation error 0x1002 in G1_XIST2
-                # and a 0x9011 channel diagnosis (cyclic.md §9; 000_37bf2397999f1108.txt:2605-2639)
-                enc.error_code = 0x1002
-                self.alarm(self.cyc_ts(2) + 300_000, st, appears=True, channel_error=0x9011,
-                           tags=sc.bf00_tags)
-            per.append([st, enc, plc, out_t, in_t, st.cc0, st.ars[0]["tag"]])
-        last_in = {st.i: None for st in self.stations}
-        # GOOD before PrmEnd: the model runs from the first start-up frame (hooks from cycle 0)
-        k0 = min([0] + [min(st.good_from, st.first_in, st.first_out) for st in self.stations
-                        if st.good_from < 0])
-        for k in range(k0, max(st.cycles for st in self.stations)):
-            for row in per:
-                st, enc, plc, out_t, in_t, cc0, ar_tag = row
-                if k >= st.cycles:
-                    continue
-                step = st.step
-                rs = getattr(st, "restart", None)
-                if rs is not None and k >= rs["end"]:
-                    # Release, silence, the second AR's start-up, then its data exchange (a new model)
-                    if k < rs["first"] or (k < rs["good_from"] and not self.restart_cycle(st, k, rs)):
-                        continue
-                    if k == rs["good_from"]:
-                        enc = row[1] = Encoder(cfg.profile, cfg.telegram, params=rs["params"],
-                                               shaft=Shaft(shaft_segs), cycle_s=st.cycle_ns / 1e9)
-                        plc = row[2] = Plc(cfg.telegram, sol_start=rs["sol0"])
-                        ar_tag = row[6] = rs["tag"]
-                        last_in[st.i] = None
-                tags_o, tags_i = {ar_tag}, {ar_tag}
-                if rs is not None and k == rs["good_from"] and "fault_tag" in rs:
-                    tags_i.add(rs["fault_tag"])
-                hooks = sc is not None and k >= 0
-                if hooks:
-                    sc.before_cycle(self, k, st, plc, enc, last_in[st.i])
-                out = plc.step(k, last_in[st.i])
-                if hooks:
-                    sc.after_plc(self, k, st, out, tags_o)
-                actual = enc.step(k, out)
-                if hooks:
-                    sc.after_enc(self, k, st, actual, tags_i)
-                last_in[st.i] = actual
-                ob = out_l.encode(out)
-                ib = in_l.encode(actual)
-                o = bytearray(out_t)
-                i = bytearray(in_t)
-                o[20 + st.out_data_off:20 + st.out_data_off + len(ob)] = ob
-                i[20 + st.in_data_off:20 + st.in_data_off + len(ib)] = ib
-                struct.pack_into(">H", o, len(o) - 4, (cc0[0] + k * step) & 0xFFFF)
-                struct.pack_into(">H", i, len(i) - 4, (cc0[1] + k * step) & 0xFFFF)
-                if hooks:
-                    sc.patch(self, k, st, o, i, tags_o, tags_i)
-                    if k == 0 and st.i == 0:
-                        tags_o |= set(sc.first_cyclic_tags)
-                if k >= st.first_out and (rs is None or k < rs["end"] or k >= rs["first_out"]):
-                    self.add(self.out_ts(st, k), bytes(o), "cyclic.out", tags_o)
-                if k >= st.first_in and (rs is None or k < rs["end"] or k >= rs["first_in"]):
-                    self.add(self.in_ts(st, k), bytes(i), "cyclic.in", tags_i)
-
-    def restart_cycle(self, st, k, rs) -> bool:
-        """A start-up cycle of the second AR: BAD frames (False), or GOOD already (True, model runs)."""
-        if self.cfg.good_before_prmend:
-            return True
-        step = st.step
-        o_t, i_t = rs.setdefault("bad", frame_templates(st, IOXS_BAD, startup.DATA_STATUS_STOP, DATA_STATUS))
-        if k >= rs["first_out"]:
-            o = bytearray(o_t)
-            struct.pack_into(">H", o, len(o) - 4, (st.cc0[0] + k * step) & 0xFFFF)
-            self.add(self.out_ts(st, k), bytes(o), "cyclic.out.startup", {rs["tag"]})
-        if k >= rs["first_in"]:
-            i = bytearray(i_t)
-            struct.pack_into(">H", i, len(i) - 4, (st.cc0[1] + k * step) & 0xFFFF)
-            self.add(self.in_ts(st, k), bytes(i), "cyclic.in.startup", {rs["tag"]})
-        return False
-
-    # ------------------------------------------------------------------ ground truth
-    def ar_truth(self, st) -> list:
-        """Each AR of a station: UUID, session key, its 0xBF00 values, cycles and cyclic frames."""
-        out = []
-        for ar in st.ars:
-            tagged = [n for n, f in enumerate(self.frames, 1) if ar["tag"] in f.tags]
-            d = {k: v for k, v in ar.items() if k != "tag"}
-            d["params"] = {k: v for k, v in ar["params"].items()
-                           if k in ("mupr", "tmr", "direction", "velocity_unit", "class4", "compat")}
-            d["first_frame"] = tagged[0] if tagged else None
-            d["last_frame"] = tagged[-1] if tagged else None
-            out.append(d)
-        return out
-
-    def truth(self) -> dict:
-        from . import iodevice
-        cfg = self.cfg
-        num = {id(f): n for n, f in enumerate(self.frames, 1)}
-        faults = []
-        for inj in self.injected:
-            tagged = [n for n, f in enumerate(self.frames, 1) if inj["tag"] in f.tags]
-            d = {k: v for k, v in inj.items() if k != "tag"}
-            d["first_frame"] = tagged[0] if tagged else None
-            d["last_frame"] = tagged[-1] if tagged else None
-            faults.append(d)
-        del num
-        stations = []
-        for st in self.stations:
-            def objs(lst, data_len):
-                return [{"api": a, "slot": s, "subslot": ss, "offset": o,
-                         "length": data_len if (s, ss) == (SLOT_ENC, SUB_TEL) else 0} for a, s, ss, o in lst]
-
-            def iocs(lst):
-                return [{"api": a, "slot": s, "subslot": ss, "offset": o} for a, s, ss, o in lst]
-            stations.append({
-                "name": st.name, "mac": st.mac, "ip": st.ip, "profile": cfg.profile,
-                "vendor_id": self.ident["vendor_id"], "device_id": self.ident["device_id"],
-                "ar_uuid": st.ars[0]["ar_uuid"], "telegram": cfg.telegram, "ars": self.ar_truth(st),
-                "telegram_slot": SLOT_ENC, "telegram_subslot": SUB_TEL,
-                "module_ident": module_ident(cfg.telegram), "submodule_ident": submodule_ident(cfg.telegram),
-                "iocrs": [
-                    {"direction": "input", "frame_id": st.in_fid, "src": st.mac, "dst": CTRL_MAC,
-                     "data_length": st.in_csdu, "send_clock_factor": st.scf, "reduction_ratio": st.rr,
-                     "objects": objs(st.in_objs, st.in_len), "iocs": iocs(st.in_iocs)},
-                    {"direction": "output", "frame_id": st.out_fid, "src": CTRL_MAC, "dst": st.mac,
-                     "data_length": st.out_csdu, "send_clock_factor": st.scf, "reduction_ratio": st.rr,
-                     "objects": objs(st.out_objs, st.out_len), "iocs": iocs(st.out_iocs)},
-                ],
-            })
-        whats = {}
-        for f in self.frames:
-            whats[f.what] = whats.get(f.what, 0) + 1
-        return {
-            "generator": "pndiss simulate",
-            "config": {"scenario": cfg.scenario, "profile": cfg.profile, "telegram": cfg.telegram,
-                       "cycle_ms": cfg.cycle_ms, "cycles": cfg.cycles, "encoders": cfg.encoders,
-                       "seed": cfg.seed, "inject": [f"{r}@{c}" if c is not None else r for r, c in cfg.injects],
-                       "startup": cfg.startup, "records": cfg.records, "good_before_prmend": cfg.good_before_prmend,
-                       **({"restart": cfg.restart, "restart_scaling": cfg.restart_scaling,
-                           "restart_mode": cfg.restart_mode}
-                          if cfg.restart is not None else {}),
-                       **({"capture_loss": cfg.capture_loss} if cfg.capture_loss else {}),
-                       "drift_ppm": cfg.drift_ppm if not cfg.irt else 0, "jitter_us": cfg.jitter_us if not cfg.irt else 0,
-                       **({"cycle_list": cfg.cycle_list} if cfg.cycle_list else {}),
-                       **({"irt": True} if cfg.irt else {}), **({"io_devices": cfg.io_devices} if cfg.io_devices else {}),
-                       **({"start_mid_session": cfg.start_mid_session} if cfg.start_mid_session is not None
-                          else {})},
-            "frames": len(self.frames),
-            "frame_kinds": dict(sorted(whats.items())),
-            "controller": {"name": CTRL_NAME, "mac": CTRL_MAC, "ip": CTRL_IP},
-            "stations": stations,
-            "records": self.facts["records"],
-            "params": self.facts["params"],
-            "alarms": self.facts["alarms"],
-            "faults": faults,
-            "clean": not faults,
-            **getattr(self, "capture_extra", {"capture_gaps": []}),
-            **({"io_devices": [iodevice.truth(self, st) for st in self.io_stations]} if self.io_stations else {}),
-        }
-
-
-def frame_templates(st: Station, ioxs: int, ds_out: int, ds_in: int) -> tuple[bytes, bytes]:
-    """(output, input) cyclic frames of a station with zero data, every IOPS/IOCS = ioxs, the
-    DataStatus bytes given and cycle counter 0 (wire.md §2.3-2.6)."""
-    out_t = bytearray(cyclic_header(CTRL_MAC, st.mac, st.out_fid) + bytes(st.out_csdu) + bytes(4))
-    in_t = bytearray(cyclic_header(st.mac, CTRL_MAC, st.in_fid) + bytes(st.in_csdu) + bytes(4))
-    h = 20  # dst, src, 802.1Q, type, FrameID
-    for _a, _s, _ss, o in st.out_objs:
-        out_t[h + o + st.out_len] = ioxs
-    for _a, _s, _ss, o in st.out_iocs:
-        out_t[h + o] = ioxs
-    for _a, s, ss, o in st.in_objs:
-        in_t[h + o + (st.in_len if (s, ss) == (SLOT_ENC, SUB_TEL) else 0)] = ioxs
-    for _a, _s, _ss, o in st.in_iocs:
-        in_t[h + o] = ioxs
-    out_t[-2], in_t[-2] = ds_out, ds_in
-    return bytes(out_t), bytes(in_t)
-
-
-def station_clock(cfg: Config, i: int) -> tuple[int, int]:
-    """(SCF, RR) of encoder i: one send clock for the controller (that of the shortest cycle, or the
-    cycle's own below 1 ms), the reduction ratio gives each encoder its cycle time."""
-    cycles = cfg.cycle_list or [cfg.cycle_ms]
-    mine = cycles[i] if i < len(cycles) else cycles[0]
-    scf = send_clock(min(cycles))[0]
-    send_clock(mine)                        # refuses a cycle time that is not SCF x RR
-    rr = int(round(mine * 32 / scf))
-    if rr * scf != mine * 32 or rr & (rr - 1) or rr > 512:
-        raise ValueError(f"cycle time {mine} ms is not a power-of-two multiple of the send clock "
-                         f"{scf * 31.25:g} us")
-    return scf, rr
-
-
-def send_clock(cycle_ms: float) -> tuple[int, int]:
-    """(SendClockFactor, ReductionRatio) for a cycle time: SCF x RR x 31.25 us (network.md §1.3).
-    Send clock 1 ms (SCF 32) with RR = cycle/1 ms for slower cycles; SCF < 32 below 1 ms."""
-    units = cycle_ms * 32
-    if units != int(units) or units < 8:
-        raise ValueError(f"cycle time {cycle_ms} ms is not a multiple of 31.25 us x 8 (min 0.25 ms)")
-    units = int(units)
-    if units <= 32:
-        if units & (units - 1):
-            raise ValueError(f"cycle time {cycle_ms} ms: below 1 ms the send clock must be 0.25, 0.5 or 1 ms")
-        return units, 1
-    rr = units // 32
-    if units % 32 or rr & (rr - 1) or rr > 512:
-        raise ValueError(f"cycle time {cycle_ms} ms: must be 1 ms x a power of two up to 512")
-    return 32, rr

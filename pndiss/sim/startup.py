@@ -10,6 +10,9 @@ What the wire shows, per station (facts: an ET200S start-up from an S7 controlle
 ``good_before_prmend``: the device runs GOOD data (and the controller its outputs) from the first
 frame, and the record write comes a few cycles after the Connect response, before PrmEnd.
 
+``tidy`` is the simulator's old start-up (``--startup tidy``): Connect, 0xBF00, PrmEnd per station,
+cyclic data only after the last PrmEnd and GOOD from its first frame.
+
 Cycle numbers: cycle 0 is the first cycle of data exchange; start-up cycles are negative, so the
 scenarios and injections (which count from 0) are the same in every start-up mode.
 """
@@ -28,7 +31,7 @@ DATA_STATUS_STOP = 0x25   # primary, valid, ProviderState STOP, station ok (wire
 def records(sess, st, params, fresh=False) -> list:
     """[(api, slot, subslot, index, data, tags)] the controller writes before PrmEnd (``fresh``: as a
     conforming controller would, without the scenario's record faults)."""
-    from .session import API_ENC, SLOT_ENC, SUB_MAP
+    from .stations import API_ENC, SLOT_ENC, SUB_MAP
     sc = None if fresh else sess.scenario
     if hasattr(st, "connect_blocks"):     # an IO device: no parameter records
         return []
@@ -83,6 +86,31 @@ def realistic(sess, params, t_connect_ms: float) -> None:
         st.first_in, st.first_out = schedule(sess, st, recs, t_c, t_rec - t_c, t_prm - t_c, t_app - t_c,
                                              station0_tags=True)
         st.good_from = min(st.first_in, st.first_out) if gbp and not hasattr(st, "connect_blocks") else 0
+
+
+def tidy(sess, params, t: float) -> None:
+    """The old tidy start-up: Connect, 0xBF00, PrmEnd per station; cyclic data from cycle 0 after
+    the last PrmEnd, GOOD from the first frame; ApplicationReady once the IO data run."""
+    sc = sess.scenario
+    if sess.io_stations:
+        raise ValueError("IO devices need the realistic start-up (not --startup tidy)")
+    for st in sess.stations:
+        sess.connect(sess.ms(t), st)
+        if not (sc and sc.skip_bf00):
+            bf = recdata.bf00(sess.cfg.profile, **params) if not (sc and sc.bf00_bytes) else sc.bf00_bytes
+            sess.write_record(sess.ms(t + 3), st, sess.ident["bf00_index"], bf, what="bf00",
+                              tags=sc.bf00_tags if sc else ())
+            sess.facts["records"].append({"station": st.name, "op": "write", "index": sess.ident["bf00_index"],
+                                          "length": len(bf)})
+        sess.rpc_call(sess.ms(t + 6), st, 4, [F.control_req(st.ar_uuid, st.session_key, prm_end=True)],
+                      [F.control_res(st.ar_uuid, st.session_key, block_type=0x8110)], what="prm_end")
+        t += 10
+    sess.cyc_start_ns = sess.ms(t)
+    for st in sess.stations:
+        sess.rpc_call(sess.cyc_ts(5 + 2 * st.i), st, 4,
+                      [F.control_req(st.ar_uuid, st.session_key, app_ready=True)],
+                      [F.control_res(st.ar_uuid, st.session_key, block_type=0x8112)],
+                      from_device=True, what="app_ready")
 
 
 def schedule(sess, st, recs, t_c, d_rec, d_prm, d_app, station0_tags=False) -> tuple[int, int]:
@@ -169,5 +197,5 @@ def restart(sess, st, params) -> None:
 
 
 def _ctrl_mac() -> str:
-    from .session import CTRL_MAC
+    from .stations import CTRL_MAC
     return CTRL_MAC
