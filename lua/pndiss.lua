@@ -1195,7 +1195,7 @@ local function record_items(pinfo, recs)
 end
 
 -- 6. DCP ------------------------------------------------------------------------------------------
--- pndiss/proto/dcp.py: the blocks of a DCP PDU (read from the bytes, so a PDU the Python decoder
+-- pndiss/proto/dcp.py (+ dcp_blocks.py, dcp_rules.py): the blocks of a DCP PDU (read from the bytes, so a PDU the Python decoder
 -- calls malformed gives no event here either), NameOfStation rules (name_problems) and DcpTracker
 -- (which MAC holds which name / IP). A violation is noted on the frame being dissected.
 local note_violation   -- section 7
@@ -1203,12 +1203,12 @@ local note_violation   -- section 7
 local GET, SET, IDENTIFY, HELLO = 3, 4, 5, 6
 local DCP_SERVICE_TYPES = {[0] = true, [1] = true, [5] = true}
 local DCP_PREFIXED = {[2] = true, [3] = true, [6] = true, [7] = true}
--- smallest value (after BlockInfo/BlockQualifier) each value decoder accepts (dcp.py _fixed)
+-- smallest value (after BlockInfo/BlockQualifier) each value decoder accepts (dcp_blocks.py _fixed)
 local DCP_MIN = {["1|1"] = 6, ["1|2"] = 12, ["1|3"] = 28, ["2|3"] = 4, ["2|4"] = 2, ["2|7"] = 2, ["2|8"] = 4,
                  ["2|10"] = 2, ["3|61"] = 2, ["3|255"] = 3, ["5|1"] = 2, ["5|2"] = 2, ["5|3"] = 4, ["5|4"] = 3,
                  ["5|5"] = 2, ["5|6"] = 2, ["7|1"] = 16, ["7|2"] = 2, ["7|3"] = 16, ["7|4"] = 16, ["7|5"] = 6}
 
--- dcp._string: tshark's ENC_ASCII view (ends at a NUL; each non-ASCII byte becomes U+FFFD)
+-- dcp_blocks._string: tshark's ENC_ASCII view (ends at a NUL; each non-ASCII byte becomes U+FFFD)
 local function dcp_string(t, o, n)
     local s = n > 0 and t(o, n):raw() or ""
     s = s:match("^[^%z]*")
@@ -1269,7 +1269,7 @@ local function dcp_decode(t, off)
     return d
 end
 
--- dcp.name_problems: does the NameOfStation break the rules? (an empty name is a reset)
+-- dcp_rules.name_problems: does the NameOfStation break the rules? (an empty name is a reset)
 local function name_bad(name)
     if name == "" then return false end
     if #name > 127 or name:find("[^A-Za-z0-9%.%-]") then return true end

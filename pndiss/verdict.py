@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from collections import Counter
 
+from .rules import RULES
+
 MAX_ROWS = 2000  # (rule, side, station) rows kept; more are counted, not listed
 SEV_ORDER = {"error": 2, "warning": 1, "info": 0}
 
@@ -119,9 +121,8 @@ def one_line(summary: dict, log: ViolationLog, with_name: bool = True) -> str:
     return f"{name}: {headline(log)} in {summary['frames']:,} frames"
 
 
-# rules whose verdict depends on the V3.1 / V4.1 mode (0xBF00 byte 0 bit 5, behaviour.md R-CTRL-3)
-MODE_RULES = frozenset({"CMD-WITHOUT-CONTROL", "CMD-EXECUTED-WITHOUT-CONTROL", "CTRLREQ-MISMATCH",
-                        "CTRLREQ-SET-IN-COMPAT"})
+# rules whose verdict depends on the V3.1 / V4.1 mode (0xBF00 byte 0 bit 5): their catalogue condition names it
+MODE_RULES = frozenset(i for i, r in RULES.items() if "compat" in r["condition"])
 
 
 def trust(summary: dict) -> list[str]:
