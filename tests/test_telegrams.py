@@ -127,10 +127,10 @@ def test_table_file_is_plain_json():
 CTRL, DEV = "00:0e:cf:00:00:01", "00:0e:cf:00:00:02"
 
 
-def _frame(dst, src, frame_id, csdu, ds=0x35):
+def _frame(dst, src, frame_id, csdu, ds=0x35, cc=0):
     mac = lambda m: bytes.fromhex(m.replace(":", ""))  # noqa: E731
     csdu = csdu + b"\0" * max(0, 40 - len(csdu))  # PN-RT pads the C_SDU itself, APDU status stays last
-    body = struct.pack(">H", frame_id) + csdu + struct.pack(">HBB", 0, ds, 0)
+    body = struct.pack(">H", frame_id) + csdu + struct.pack(">HBB", cc & 0xFFFF, ds, 0)
     return mac(dst) + mac(src) + b"\x88\x92" + body
 
 
@@ -150,9 +150,10 @@ def _analyze(cycles, maps, sink=True):
     for sp, ac, ok in cycles:
         iops = b"\x80" if ok else b"\x00"
         fn += 1
-        a.feed(fn, fn * 1000, 1, _frame(DEV, CTRL, 0x8001, sp + iops + b"\x80"))
+        # the counter advances every cycle (a frame with its predecessor's counter and bytes is a mirror's copy)
+        a.feed(fn, fn * 1000, 1, _frame(DEV, CTRL, 0x8001, sp + iops + b"\x80", cc=32 * fn))
         fn += 1
-        a.feed(fn, fn * 1000, 1, _frame(CTRL, DEV, 0x8000, ac + iops + b"\x80"))
+        a.feed(fn, fn * 1000, 1, _frame(CTRL, DEV, 0x8000, ac + iops + b"\x80", cc=32 * fn))
     a.finish()
     return a, events
 
