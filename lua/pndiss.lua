@@ -756,6 +756,7 @@ end
 
 -- nothing fits: sampled again from a frame number after a pause (infer.py _retry, RETRY_MAX_DOUBLINGS)
 local function infer_retry(st, fn)
+    if st.tries >= CI.retry_max_doublings then infer_fail(st); return end
     local span = #st.frames > 0 and (fn - st.frames[1] + 1) or CI.samples
     st.tries = st.tries + 1
     st.retry_at = fn + 1 + math.floor(span * 2 ^ math.min(st.tries, CI.retry_max_doublings))

@@ -167,7 +167,8 @@ class Inference:
     def resumes_at(self, key: tuple) -> int | None:
         """The frame number from which a stream waiting after a failed sampling is needed again."""
         st = self.streams.get(key) if self.enabled else None
-        return st.retry_at if st is not None and not st.done and st.retry_at else None
+        # only while it waits (no samples yet): a stream with its samples, waiting for its partner, needs no frame
+        return st.retry_at if st is not None and not st.done and st.retry_at and not st.samples else None
 
     def _try(self, st: Stream, fn: int) -> None:
         partners = [p for p in self.streams.values() if p is not st and not p.done and len(p.samples) == SAMPLES
@@ -206,6 +207,9 @@ class Inference:
     def _retry(self, s: Stream, fn: int) -> None:
         """Nothing fits these samples: listed (for the --map template) and sampled again later."""
         self._list(s)
+        if s.tries >= RETRY_MAX_DOUBLINGS:   # an ordinary IO device's streams: a few samplings, then never again
+            s.done, s.samples = True, []
+            return
         span = fn - s.frames[0] + 1 if s.frames else SAMPLES
         s.tries += 1
         s.retry_at = fn + 1 + (span << min(s.tries, RETRY_MAX_DOUBLINGS))
