@@ -21,8 +21,8 @@ Frames used for learning are counted, not judged.
 
 Nothing fitting is not final: a capture may start while the PLC is in STOP (IOPS bad, no sign of
 life) and the AR run later. A pair that fails is sampled again after a pause in frames of twice the
-span its samples took, doubling up to RETRY_MAX_DOUBLINGS times (a stream of an ordinary IO device
-costs a few samplings per capture). The pause is counted in frame numbers, so the engine (which
+span its samples took, doubling, RETRY_MAX_DOUBLINGS times at most (then never again: a stream of an
+ordinary IO device costs a few samplings per capture). The pause is counted in frame numbers, so the engine (which
 hands a waiting stream over in bulk until then, pndiss/engine.py) and the frame loop sample the
 same frames.
 """
