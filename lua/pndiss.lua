@@ -280,6 +280,9 @@ local function profile_for(mac)
         local src = f.im0 or f.dcp
         profiles[mac] = {src and select_profile(src[1], src[2]) or "generic",
                          f.im0 and "I&M0" or (f.dcp and "DCP") or "no identity seen"}
+        if profiles[mac][1] == "generic" and f.ffff then   -- only PS/PSM keeps its parameters at 0xFFFF
+            profiles[mac] = {"psm", "record 0xFFFF written in frame " .. f.ffff .. ": PS/PSM's encoder parameter record"}
+        end
     end
     return profiles[mac][1], profiles[mac][2]
 end
@@ -1148,6 +1151,10 @@ local function record_items(pinfo, recs)
         local controller = r.op == "write" and src or dst
         local known = ar_devs[r.ar]   -- session._rec_event: the AR names device and controller
         if known then device, controller = known[1], known[2] end
+        local f = facts[device] or {}
+        if r.index == 0xFFFF and r.op == "write" and f.ffff == nil then
+            facts[device], f.ffff, profiles[device] = f, fn, nil   -- PS/PSM evidence (profile_for)
+        end
         local profile = profile_for(device)
         local it = {rec = r, index_name = index_name(r.index)}
         local t, len = r.tvb, r.len
@@ -1228,7 +1235,7 @@ local function dcp_decode(t, off)
     local start = off + 10
     local e = start + dlen
     if e > len then return nil end
-    local d = {sid = sid, stype = stype, blocks = {}}
+    local d = {sid = sid, stype = stype, xid = t(off + 2, 4):uint(), blocks = {}}
     if sid < GET or sid > HELLO or not DCP_SERVICE_TYPES[stype] then return d end
     local response = stype ~= 0
     if sid == GET and not response then
@@ -1287,17 +1294,55 @@ local function name_bad(name)
 end
 
 -- DcpTracker
--- dcp_state (declared with the maps, section 3): {name_at, ip_at, mac_name, mac_ip, reported, station}
+-- dcp_state (declared with the maps, section 3): {name_at, ip_at, mac_name, mac_ip, reported, station,
+-- identifies}
 local function dcp_release(at, by_mac, mac)
     local old = by_mac[mac]
     by_mac[mac] = nil
     if old ~= nil and at[old] and at[old][1] == mac then at[old] = nil end
 end
 
-local function dcp_claim(what, value, mac, assign, fn)
+-- DcpTracker._gone: an Identify after the holder's claim (for all, or for its name / IP), other than the
+-- one a response answers, that the holder left unanswered: a replaced device, its name / IP is free
+local function dcp_gone(mac, seen, xid)
+    local S_ = dcp_state
+    for _, idf in ipairs(S_.identifies) do
+        if idf.frame > seen and idf.xid ~= xid and not idf.answered[mac]
+                and (idf.all or (idf.name ~= nil and idf.name == S_.mac_name[mac])
+                     or (idf.ip ~= nil and idf.ip == S_.mac_ip[mac])) then
+            return true
+        end
+    end
+    return false
+end
+
+local function dcp_identify(d, src, fn)
+    local S_ = dcp_state
+    if d.stype == 0 then
+        local idf = {xid = d.xid, frame = fn, answered = {}}
+        for _, b in ipairs(d.blocks) do
+            if b.opt == 0xFF and b.sub == 0xFF then idf.all = true
+            elseif b.name ~= nil then idf.name = b.name
+            elseif b.opt == 1 and b.sub == 2 and b.ip ~= nil then idf.ip = b.ip end
+        end
+        S_.identifies[#S_.identifies + 1] = idf
+        if #S_.identifies > 16 then table.remove(S_.identifies, 1) end
+    else
+        for _, idf in ipairs(S_.identifies) do
+            if idf.xid == d.xid then idf.answered[src] = true end
+        end
+    end
+end
+
+local function dcp_claim(what, value, mac, assign, fn, xid)
     local S_ = dcp_state
     local at, by_mac = S_[what .. "_at"], S_["mac_" .. what]
     local holder = at[value]
+    if holder ~= nil and holder[1] ~= mac and by_mac[holder[1]] == value and dcp_gone(holder[1], holder[2], xid) then
+        dcp_release(S_.name_at, S_.mac_name, holder[1])   -- a replaced device: its name and IP are free
+        dcp_release(S_.ip_at, S_.mac_ip, holder[1])
+        holder = nil
+    end
     if holder ~= nil and holder[1] ~= mac and by_mac[holder[1]] == value then
         local rule = what == "name" and "DCP-NAME-DUPLICATE" or "IP-ASSIGN-OCCUPIED"
         local a, b = mac, holder[1]
@@ -1324,6 +1369,8 @@ local function on_dcp(pinfo)
     if d == nil then return end
     local fn = pinfo.number
     local response = d.stype ~= 0
+    if d.sid == IDENTIFY then dcp_identify(d, tostring(pinfo.dl_src), fn) end
+    local xid = d.sid == IDENTIFY and d.xid or nil
     local st_name, st_ip
     local facts_ok = (response and d.stype == 1 and (d.sid == IDENTIFY or d.sid == GET))
         or (not response and (d.sid == HELLO or d.sid == SET))
@@ -1342,12 +1389,12 @@ local function on_dcp(pinfo)
     local S_ = dcp_state
     if st_name ~= nil then S_.station[target] = st_name end
     if st_name ~= nil and st_name ~= "" then
-        dcp_claim("name", st_name, target, assign, fn)
+        dcp_claim("name", st_name, target, assign, fn, xid)
     elseif st_name == "" then
         dcp_release(S_.name_at, S_.mac_name, target)
     end
     if st_ip ~= nil and st_ip ~= "0.0.0.0" then
-        dcp_claim("ip", st_ip, target, assign, fn)
+        dcp_claim("ip", st_ip, target, assign, fn, xid)
     elseif st_ip == "0.0.0.0" then
         dcp_release(S_.ip_at, S_.mac_ip, target)
     end
@@ -1362,6 +1409,8 @@ local axes             -- axis key -> axis (cyclic.py _Axis)
 local axis_list        -- axes in creation order (Python's dict order)
 local dev_records      -- device -> record/param events, replayed into a new axis (cap 256)
 local bf00_last        -- device -> {ar, decoded} of the latest 0xBF00/0xFFFF write
+local bf00_resp        -- AR UUID -> frame of a successful 0xBF00/0xFFFF write response (its request may be lost)
+local answered         -- DCE/RPC "act|seq" -> frame of its response (copies of either run once)
 local prev_bf00        -- device -> decoded 0xBF00 of an earlier connection (#31)
 local viol             -- frame -> list of {rule, decided} (decided: frame whose dissection decided it; 0 = finish)
 local viol_seen        -- "frame|rule" -> that entry
@@ -1399,19 +1448,30 @@ local function note(evs, decided)
 end
 
 -- cyclic.py _refine_profile: telegrams 86-89/100/101 exist only in PS/PSM: a 'generic' device using
--- one is PS/PSM (a length guess proves it only when no other telegram fits); PS/PSM keeps its
+-- one is PS/PSM (a length guess proves it only when no other telegram fits), and so is one the session
+-- saw written at record 0xFFFF (profile_for); PS/PSM keeps its
 -- parameters at 0xFFFF, so the device's 0xFFFF records are given to the checker again
 local function refine_profile(ax, fn)
     local t = ax.telegram
     local chk = ax.checker
+    local guess_fits_other = false   -- a length guess proves the vendor only when no other telegram fits
     if tostring(ax.source):find("length", 1, true) then
         local fits = telegrams_for_length(chk.io_len.actual, chk.io_len.setpoint)
-        if #fits ~= 1 or fits[1] ~= t then return end
+        guess_fits_other = #fits ~= 1 or fits[1] ~= t
     end
+    if ax.profile ~= "generic" then return end
     local d = T.telegrams[t]
-    if ax.profile == "generic" and d and #d.profiles == 1 and d.profiles[1] == "psm" then
+    local reason
+    if d and #d.profiles == 1 and d.profiles[1] == "psm" and not guess_fits_other then
+        reason = "telegram " .. t .. " exists only in PS/PSM (cyclic.md §2); " .. tostring(ax.reason)
+    else
+        local p, why = profile_for(ax.info.device_mac)   -- the session learnt it later (a 0xFFFF write)
+        if p ~= "psm" then return end
+        reason = why
+    end
+    do
         ax.profile = "psm"
-        ax.reason = "telegram " .. t .. " exists only in PS/PSM (cyclic.md §2); " .. tostring(ax.reason)
+        ax.reason = reason
         chk.cfg.profile = "psm"
         chk.cfg.sources.profile = ax.reason
         chk:apply_cfg()
@@ -1475,7 +1535,11 @@ function on_record(ev, fn)
         if (ax.info.device_mac or "") == dev and (ev.ar_uuid == nil or ax.fm.ar == nil or ev.ar_uuid == ax.fm.ar) then
             -- an axis of a restarted AR seen before its own 0xBF00 (#31)
             if ax.checker.prev_bf00 == nil then ax.checker.prev_bf00 = prev_bf00[dev] end
-            note(ax.checker:on_record(ev), fn)
+            if ax.profile == "generic" and ev.index == 0xFFFF and ev.profile == "psm" then
+                refine_profile(ax, fn)   -- replays the device's 0xFFFF records, this one included
+            else
+                note(ax.checker:on_record(ev), fn)
+            end
         end
     end
 end
@@ -1521,7 +1585,7 @@ end
 -- (an ambiguous length guess is not judged: cyclic.py _unsure)
 local function startup(ax, fn)
     if ax.fm.source == "connect" and is_std(ax.checker.cfg.telegram) and not ax.checker.bf00_seen
-            and not ambiguous(ax, {source = ax.source}) then
+            and not bf00_resp[ax.fm.ar or ""] and not ambiguous(ax, {source = ax.source}) then
         note_violation(fn, "STARTUP-NO-PARAM-RECORD", fn, false,
             "PrmEnd without a write of 0xBF00" .. (ax.profile == "psm" and " / 0xFFFF" or "")
             .. " since the Connect of this AR")
@@ -1846,6 +1910,11 @@ local cyclic_frame     -- number of the frame the heuristic saw last: the postdi
 local blind            -- a frame had no fields on the first pass (tshark -2 without -Y or -R)
 
 local function heuristic(tvb, pinfo, tree)
+    -- pn_io may offer other frames too (a DCP Identify after an AR was seen): those are the postdissector's
+    local fid = X["pn_rt.frame_id"]()
+    if fid ~= nil and not ((fid.value >= 0x0100 and fid.value < 0x1000) or (fid.value >= 0x8000 and fid.value < 0xFC00)) then
+        return false   -- not cyclic data (rt.py _RANGES)
+    end
     cyclic_frame = pinfo.number
     if pinfo.visited and not finished then finish_all() end
     local cached = cyc_cache[pinfo.number]
@@ -1987,6 +2056,31 @@ local function show_records(tree, tvb, items)
     end
 end
 
+-- session_records._unseen_writes: a successful write response of the user parameter record proves the
+-- write #66 asks for even when the capture lost its request; one of 0xFFFF names PS/PSM (profile_for)
+local function write_responses(pinfo)
+    local arus = all("pn_io.ar_uuid")
+    for _, b in ipairs(blocks()) do
+        if b.type == 0x8008 and b.e - b.s >= 64 then
+            local t, hs = b.tvb, b.s + 8   -- after block header and SeqNumber
+            local index = t(hs + 26, 2):uint()
+            if (index == 0xBF00 or index == 0xFFFF) and t(hs + 36, 4):uint() == 0 then   -- PNIOStatus OK
+                local au = inside(arus, b)[1]
+                local ar = au and tostring(au) or tostring(t(hs, 16):bytes())
+                bf00_resp[ar] = bf00_resp[ar] or pinfo.number
+                local dev = (ar_devs[ar] or {})[1] or tostring(pinfo.dl_src)
+                local f = facts[dev] or {}
+                if index == 0xFFFF and f.ffff == nil then
+                    facts[dev], f.ffff, profiles[dev] = f, pinfo.number, nil
+                    for _, ax in ipairs(axis_list) do
+                        if (ax.info.device_mac or "") == dev then refine_profile(ax, pinfo.number) end
+                    end
+                end
+            end
+        end
+    end
+end
+
 -- first pass of a non-cyclic frame: DCP identity and rules, Connects, records
 local function first_pass(pinfo)
     local op = X["pn_io.opnum"]()
@@ -2007,13 +2101,16 @@ local function first_pass(pinfo)
     local pt = X["dcerpc.pkt_type"]()
     local act, seq = X["dcerpc.dg_act_id"](), X["dcerpc.dg_seqnum"]()
     local key = act and seq and (tostring(act) .. "|" .. tostring(seq.value))
-    if pt and key then   -- a request again before its response: a retransmission or a copy, run once (session.py _cm)
+    if pt and key then   -- a request or response again: a retransmission or a copy, run once (session.py _cm)
+        local done = answered[key]
+        if done ~= nil and done ~= pinfo.number then return {} end
         if pt.value == 0 then
             local first = open_req[key]
             if first ~= nil and first ~= pinfo.number then return {} end
             open_req[key] = pinfo.number
         elseif pt.value == 2 then
             open_req[key] = nil
+            answered[key] = pinfo.number
         end
     end
     local ok, err = pcall(function()
@@ -2022,6 +2119,7 @@ local function first_pass(pinfo)
         end
         if pt then control(op.value, pt.value, pinfo.number) end
         items = record_items(pinfo, records_of_frame())
+        if pt and pt.value == 2 and op.value == 3 then write_responses(pinfo) end
     end)
     if not ok then items = {{error = tostring(err)}} end
     -- I&M0 read response: vendor ID + order ID name the profile (session.profile_for)
@@ -2072,10 +2170,11 @@ local function reset_state()
     ar_keys, ar_phase, ar_order = {}, {}, {}
     pending_connects, pairer, superseded = {}, {}, {}
     axes, axis_list, dev_records, bf00_last, prev_bf00 = {}, {}, {}, {}, {}
+    bf00_resp, answered = {}, {}
     gap_streams = {}
     infer_streams, infer_list = {}, {}
     viol, viol_seen, late, finished = {}, {}, {}, false
-    dcp_state = {name_at = {}, ip_at = {}, mac_name = {}, mac_ip = {}, reported = {}, station = {}}
+    dcp_state = {name_at = {}, ip_at = {}, mac_name = {}, mac_ip = {}, reported = {}, station = {}, identifies = {}}
     cyc_cache, rec_cache, cyclic_frame, blind = {}, {}, nil, false
 end
 function pndiss.init() reset_state() end

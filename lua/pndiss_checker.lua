@@ -130,6 +130,19 @@ local function expected_after_preset(mode, P, pos_before, R)
   return mod(mod(pos_before, m) + mod(P, m), m)   -- (pos_before + P) % m without a large sum
 end
 
+-- position.fits_binary_range: an unscaled encoder of unknown range wraps at 2^k, k >= MIN_RANGE_BITS
+-- bits and above every position seen ([INFERENCE] binary single-/multi-turn counts)
+local MIN_RANGE_BITS = 12
+local function fits_binary_range(actual, exp, a, b, tol)
+  local top, lo = math.max(a, b), 0
+  while top >= 1 do top = math.floor(top / 2); lo = lo + 1 end
+  for k = math.max(MIN_RANGE_BITS, lo), 31 do
+    local m = 2 ^ k
+    if math.abs(delta(mod(exp, m), actual, m)) <= tol then return true end
+  end
+  return false
+end
+
 local function preset_860(PV, R)
   if R then return math.min(PV, R - 1) end
   return PV
@@ -1223,7 +1236,8 @@ function Checker:check_preset_value(pre, pos2, X1, shift)
   local x2_ok = nil
   if pos2 ~= nil and (mode == 0 or pre.pos2 ~= nil) then
     local exp2 = expected_after_preset(mode, P_, pre.pos2 or 0, self.R)
-    x2_ok = near(pos2, exp2, m2)
+    -- the range unknown (no scaling, no st_phys/mt_phys): the result may have wrapped at it
+    x2_ok = near(pos2, exp2, m2) or (self.R == nil and fits_binary_range(pos2, exp2, pre.pos2 or 0, pos2, tol))
     pre.after = pos2
     if not x2_ok then
       -- #27: position after the preset (000_37bf2397999f1108.txt:1799-1807, 1818-1829)
@@ -1253,7 +1267,8 @@ function Checker:check_preset_value(pre, pos2, X1, shift)
       -- #29: preset control enabled, XIST1 must follow (000_37bf2397999f1108.txt:2245-2249)
       self:emit("PRESET-XIST1-NOT-AFFECTED-WHEN-ENABLED", self.f, self.ts,
                 fmt("G1_XIST2 took the preset but G1_XIST1 stayed %d; expected %d", X1, lshift(mod(exp1, U32), sh)))
-    elseif not near(rshift(X1, sh), exp1, m1) or band(X1, lshift(1, sh) - 1) ~= 0 then
+    elseif not ((near(rshift(X1, sh), exp1, m1) and band(X1, lshift(1, sh) - 1) == 0)
+                or self:x1_other_reading(rshift(X1, sh), exp1, base, pos2, x2_ok, tol)) then
       self:emit("PRESET-VALUE-WRONG", self.f, self.ts,
                 fmt("%s preset P65000=%s: G1_XIST1=0x%08X in the first frame with G1_ZSW.12, expected 0x%08X", words,
                     tostring(P_), X1, lshift(mod(exp1, U32), sh)))
@@ -1263,6 +1278,15 @@ function Checker:check_preset_value(pre, pos2, X1, shift)
     self:emit("PRESET-XIST1-AFFECTED-WHEN-DISABLED", self.f, self.ts,
               fmt("G1_XIST1 changed %d -> %d at the preset although G1_XIST1 preset control is disabled", x1_before, X1))
   end
+end
+
+-- presets._x1_other_reading: a 32-bit counter may start again from the new absolute position (G1_XIST2's);
+-- a position of unknown range may have wrapped at it
+function Checker:x1_other_reading(x1, exp1, base, pos2, x2_ok, tol)
+  if C.xist1_counter(self.cfg) then
+    return x2_ok == true and pos2 ~= nil and math.abs(delta(pos2, x1, U32)) <= tol
+  end
+  return self.R == nil and fits_binary_range(x1, exp1, base, x1, tol)
 end
 
 -- ------------------------------------------------------------------------------ continuity and velocity (§4.2, #42, #44)

@@ -63,7 +63,8 @@ class ReadInfo:
     FIFO is read once and a big file not twice), whether it was read to its end, and how many time
     stamps were out of the range every sink can show (clamped to [0, TS_MAX] ns)."""
 
-    __slots__ = ("_h", "_known", "complete", "ts_clamped", "ts_clamped_first")
+    __slots__ = ("_h", "_known", "complete", "ts_clamped", "ts_clamped_first", "last_ts", "ts_back", "ts_back_max",
+                 "ts_back_first")
 
     def __init__(self, known_sha256: str | None = None):
         # a digest the caller took already (pndiss fleet hashes every input to plan): not taken twice
@@ -72,6 +73,12 @@ class ReadInfo:
         self.complete = False
         self.ts_clamped = 0
         self.ts_clamped_first = None
+        # frames earlier than the frame before them (the drivers and the engine keep last_ts): several
+        # interfaces or files merged without sorting pair setpoints with the wrong actual values
+        self.last_ts = 0
+        self.ts_back = 0
+        self.ts_back_max = 0
+        self.ts_back_first = None
 
     def sha256(self) -> str:
         """The digest of the whole input, or '' when it was not read to its end."""
@@ -90,8 +97,17 @@ class ReadInfo:
             self.ts_clamped_first = fn
         return 0 if ts < 0 else TS_MAX
 
+    def backwards(self, fn: int, n: int, most: int) -> None:
+        """``n`` frames from frame ``fn`` on went back in time, by at most ``most`` ns."""
+        self.ts_back += n
+        self.ts_back_max = max(self.ts_back_max, most)
+        if self.ts_back_first is None or fn < self.ts_back_first:
+            self.ts_back_first = fn
+
     def as_dict(self) -> dict:
-        return {"timestamps_clamped": self.ts_clamped, "timestamps_clamped_first_frame": self.ts_clamped_first}
+        return {"timestamps_clamped": self.ts_clamped, "timestamps_clamped_first_frame": self.ts_clamped_first,
+                "timestamps_backwards": self.ts_back, "timestamps_backwards_max_ns": self.ts_back_max,
+                "timestamps_backwards_first_frame": self.ts_back_first}
 
 
 class _Buffer:

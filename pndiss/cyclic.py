@@ -94,6 +94,8 @@ class CyclicTracker(AxisTracking):
         self.records: dict = lim.table(cap, "profiles")  # device -> [record/param events] (replayed into new axes)
         self.bf00: dict = lim.table(cap, "profiles")     # device MAC -> (ar_uuid, decoded 0xBF00) of the latest write
         self.prev_bf00: dict = lim.table(cap, "profiles")  # device MAC -> decoded 0xBF00 of an earlier connection (#31)
+        # (device MAC, AR UUID) -> response frame of a 0xBF00 write whose request the capture lost
+        self.bf00_unseen: dict = lim.table(cap, "profiles")
         self.byte_order = "little" if self.s.byte_order == "little" else "big"
         # With a sink: called as telegram_sink(obj, frame, frame_id, fn, ts, iops, judged) instead of building
         # a ``telegram`` event dict per frame (the MCAP exporter formats its message from obj.sig itself).
@@ -358,6 +360,9 @@ class CyclicTracker(AxisTracking):
             s = chk.summary()
             encs.append({**ax.info, "telegram": ax.telegram, "telegram_source": ax.source, "profile": ax.profile,
                          "profile_reason": ax.reason, **s})
+            unseen = self.bf00_unseen_for(ax)
+            if unseen is not None and not s.get("bf00_seen"):
+                encs[-1]["bf00_request_lost"] = unseen
         before = self.unmapped_before_ar()
         return {"frames_mapped": self.mapped, "frames_unmapped": self.unmapped - before,
                 "frames_before_ar": before, "frames_no_telegram": self.no_telegram, "cycles_gated": self.gated,

@@ -111,24 +111,35 @@ class AxisTracking:
         return len(cands) > 1 and ax.telegram not in tg.STANDARD
 
     def _refine_profile(self, ax) -> None:
-        """Telegrams 86-89/100/101 exist only in PS/PSM (cyclic.md §2): a 'generic' device using one is PS/PSM."""
+        """A 'generic' device is PS/PSM when it uses a telegram only PS/PSM has (86-89/100/101, cyclic.md §2)
+        or when the session learnt so later (a write of record 0xFFFF, session_records.profile_for)."""
+        if ax.profile != "generic":
+            return
         t = ax.telegram
-        if "length" in str(ax.source) and tg.telegrams_for_length(ax.checker.io_len.get("actual"),
-                                                                  ax.checker.io_len.get("setpoint")) != [t]:
-            return  # a length guess proves the vendor only when no other telegram fits
-        if ax.profile == "generic" and t in tg.TELEGRAMS and tg.TELEGRAMS[t]["profiles"] == ["psm"]:
-            ax.profile, ax.reason = "psm", f"telegram {t} exists only in PS/PSM (cyclic.md §2); {ax.reason}"
-            for fr in self.frames.values():  # bits were cached with the old profile
-                for ob in (fr.objs if fr else ()):
-                    if ob.key == ax.key:
-                        ob.bits = None
-            if ax.checker is not None:
-                ax.checker.cfg.profile = "psm"
-                ax.checker.cfg.sources["profile"] = ax.reason
-                ax.checker.reconfigure()
-                for ev in self.records.get(ax.info["device_mac"], ()):  # PS/PSM keeps its parameters at 0xFFFF
-                    if ev.get("kind") == "record" and ev.get("index") == 0xFFFF:
-                        self._out(ax.checker.on_record(ev))
+        reason = None
+        if t in tg.TELEGRAMS and tg.TELEGRAMS[t]["profiles"] == ["psm"] and not (
+                "length" in str(ax.source) and tg.telegrams_for_length(ax.checker.io_len.get("actual"),
+                                                                       ax.checker.io_len.get("setpoint")) != [t]):
+            # a length guess proves the vendor only when no other telegram fits
+            reason = f"telegram {t} exists only in PS/PSM (cyclic.md §2); {ax.reason}"
+        else:
+            prof = getattr(self.a.session, "profile_for", None)
+            got = prof(ax.info["device_mac"]) if prof else None
+            if got is None or got[0] != "psm":
+                return
+            reason = got[1]
+        ax.profile, ax.reason = "psm", reason
+        for fr in self.frames.values():  # bits were cached with the old profile
+            for ob in (fr.objs if fr else ()):
+                if ob.key == ax.key:
+                    ob.bits = None
+        if ax.checker is not None:
+            ax.checker.cfg.profile = "psm"
+            ax.checker.cfg.sources["profile"] = ax.reason
+            ax.checker.reconfigure()
+            for ev in self.records.get(ax.info["device_mac"], ()):  # PS/PSM keeps its parameters at 0xFFFF
+                if ev.get("kind") == "record" and ev.get("index") == 0xFFFF:
+                    self._out(ax.checker.on_record(ev))
 
     # -- AR phases (SessionTracker.set_phase, session_ar.py) --------------------------------------------
     def on_phase(self, ar: dict, phase: str, fn: int, ts: int) -> None:
@@ -179,6 +190,8 @@ class AxisTracking:
         chk = ax.checker
         if ax.fm is None or ax.fm.source != "connect" or not chk.cfg.std or chk.bf00_seen or self._unsure(ax):
             return
+        if self.bf00_unseen_for(ax) is not None:
+            return  # its request was lost, its response shows the write (verdict.trust says so)
         ev = rules.violation("STARTUP-NO-PARAM-RECORD", fn, ts,
                              "PrmEnd without a write of 0xBF00" + (" / 0xFFFF" if ax.profile == "psm" else "")
                              + " since the Connect of this AR", **ax.info)
@@ -192,6 +205,21 @@ class AxisTracking:
         return self._guess_fits_several(ax, ax.source)
 
     # -- records -----------------------------------------------------------------------------------
+    def on_write_result(self, ev: dict) -> None:
+        """A write response whose request the capture lost (session_records._unseen_writes): a successful
+        one of the user parameter record proves the start-up write #66 asks for; its values stay unknown."""
+        if ev.get("ok") and ev.get("index") in BF00_INDEXES:
+            self.bf00_unseen[(ev.get("device_mac"), ev.get("ar_uuid"))] = ev["frame"]
+            for ax in list(self.axes.values()):  # a 0xFFFF response may have named the device PS/PSM
+                if ax.info["device_mac"] == ev.get("device_mac") and ax.profile == "generic":
+                    self._refine_profile(ax)
+
+    def bf00_unseen_for(self, ax: Axis):
+        """The response frame of a 0xBF00 write of this axis's AR whose request was lost, or None."""
+        if not self.bf00_unseen or ax.fm is None:
+            return None
+        return self.bf00_unseen.get((ax.info["device_mac"], ax.fm.ar_uuid))
+
     def on_record(self, ev: dict) -> None:
         """``record`` / ``param`` events from the session tracker, in capture order."""
         dev = ev.get("device_mac")
@@ -208,6 +236,9 @@ class AxisTracking:
                                                   or ev.get("ar_uuid") == ax.fm.ar_uuid):
                 if ax.checker.prev_bf00 is None:  # an axis of a restarted AR seen before its own 0xBF00 (#31)
                     ax.checker.prev_bf00 = self.prev_bf00.get(dev)
+                if ax.profile == "generic" and ev.get("index") == 0xFFFF and ev.get("profile") == "psm":
+                    self._refine_profile(ax)  # replays the device's 0xFFFF records, this one included
+                    continue
                 self._out(ax.checker.on_record(ev))
 
 

@@ -108,12 +108,19 @@ class Engine:
             # thousands of prefixes no stream has yet (a flood of random MACs, not a plant): learning them
             # window by window would cost O(frames) per new stream; the frame-by-frame path takes them
             return len(data)
+        ro = self.a.reader   # time order, as fast.run keeps it frame by frame
+        back = np.empty_like(ts)
+        back[0] = ro.last_ts - ts[0]
+        np.subtract(ts[:-1], ts[1:], out=back[1:])
+        if back.max() > 0:
+            hit = np.flatnonzero(back > 0)
+            ro.backwards(n + int(hit[0]) + 1, len(hit), int(back.max()))
         w.run()
         m = len(data)
         if self.col is not None:
             self.col.flush(n + m)
         self.last_fn = n + m
-        self.last_ts = int(ts[-1])
+        self.last_ts = ro.last_ts = int(ts[-1])
         if self.progress is not None and (self.last_fn >> 12) != (n >> 12):
             self.progress(self.last_fn & ~0xFFF)
         return stop, n + m

@@ -81,7 +81,7 @@ class GapTracker:
         if abs(ts - st.ts) >= (st.step * UNIT_NS // 2 if st.step else DUP_NS) or st.last != last:
             return False
         self.duplicates += 1
-        if self.first_duplicate is None:
+        if self.first_duplicate is None or fn < self.first_duplicate[0]:  # the engine visits streams in bulk
             self.first_duplicate = (fn, st.frame)
         return True
 

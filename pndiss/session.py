@@ -30,6 +30,7 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
         self.ars: dict[str, dict] = lim.table(s.max_ars, "ars", self._forget_ar)
         self.ar_list: list[dict] = []             # every Connect outcome, in order (report/summary)
         self.orphans: OrderedDict = OrderedDict()  # (act, seq) -> Connect response seen before its request
+        self.answered: OrderedDict = OrderedDict()  # (act, seq) -> frame of its response (copies run once)
         self.maps: dict[tuple, armap.FrameMap] = {}
         self.rt_ports = {PORT_RT_UDP}
         self.ip_datagrams: dict[tuple, bool] = {}  # IP fragment key -> PNIO? (bounded with ipr)
@@ -37,6 +38,7 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
         self.pending_writes: dict[tuple, list] = {}  # (act, seq) -> record events awaiting results
         self.profiles: dict[str, tuple[str, str]] = lim.table(s.max_stations, "profiles")
         self.im0: dict[str, dict] = lim.table(s.max_stations, "profiles")   # device MAC -> I&M0 decoded
+        self.ffff_writes: dict[str, int] = lim.table(s.max_stations, "profiles")  # device MAC -> frame of a 0xFFFF write
         self.telegram_p922: dict[tuple, int] = lim.table(s.max_stations, "profiles")  # (device mac, api, slot, subslot) -> P922
         self.counts = {"rpc": 0, "rpc_fragments": 0, "rpc_retransmissions": 0, "ip_fragments": 0, "records": 0, "params": 0,
                        "connects": 0, "connect_refused": 0, "releases": 0}
@@ -57,6 +59,10 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
         op = pdu["opnum"]
         request = "args_max" in pdu
         if request:
+            if key in self.answered:  # a copy of a request answered already (its response came first)
+                self.counts["rpc_retransmissions"] += 1
+                self.calls.pop(key, None)
+                return
             call = self.calls.get(key)
             if call is not None and call["frame"] != fn and call["pdu"] is not None:
                 # the same activity and sequence number again before the response: DCE/RPC over UDP resends a
@@ -76,6 +82,13 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
                 self._connect(rfn, rts, pdu, rpdu, call, rsrc, rdst)
             return
         call = self.calls.pop(key, None)
+        if call is None and key in self.answered:
+            # the response again (a mirror port's copy, or the server resending it): its effects run once
+            self.counts["rpc_retransmissions"] += 1
+            return
+        self.answered[key] = fn
+        if len(self.answered) > MAX_CALLS:
+            self.answered.popitem(last=False)
         req = call["pdu"] if call is not None and call["opnum"] == op else None
         if op == 0 and req is not None:
             self._connect(fn, ts, req, pdu, call, src, dst)
@@ -86,7 +99,7 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
         elif op == 1:
             self._release(fn, ts, pdu)
         elif op == 3:
-            self._write_results(fn, ts, pdu, key)
+            self._write_results(fn, ts, pdu, key, src)
         elif op in (2, 5):
             self._reads(fn, ts, pdu, req, call, src, dst)
 

@@ -38,6 +38,9 @@ class RecordLayer:
         ar = self._ar_of(hb["ar_uuid"])
         if ar is not None:
             device, controller = ar["device_mac"], ar["controller_mac"]
+        if device and hb["index"] == 0xFFFF and op == "write" and device not in self.ffff_writes:
+            self.ffff_writes[device] = fn   # PS/PSM evidence (profile_for): decided again with it
+            self.profiles.pop(device, None)
         profile = self.profile_for(device)[0] if device else "generic"
         ev = {"frame": fn, "ts_ns": ts, "kind": "record", "op": op, "index": hb["index"],
               "index_name": _records.index_name(hb["index"]) if _records else f"0x{hb['index']:04X}",
@@ -77,11 +80,14 @@ class RecordLayer:
             if len(self.pending_writes) > MAX_CALLS:
                 self.pending_writes.pop(next(iter(self.pending_writes)))
 
-    def _write_results(self, fn, ts, pdu, key) -> None:
+    def _write_results(self, fn, ts, pdu, key, src) -> None:
         evs = self.pending_writes.pop(key, [])
         results = [b for b in pnio_cm.records(pdu) if b["block_type"] == 0x8008]
         if len(results) > 1:  # multiple write: the outer 0xE040 header, then one per inner write
             results = [b for b in results if b["index"] != 0xE040]
+        if not evs:
+            self._unseen_writes(fn, ts, results, src)
+            return
         for ev in evs:
             res = next((r for r in results if r["index"] == ev["index"] and r["slot_nr"] == ev["slot"]
                         and r["subslot_nr"] == ev["subslot"] and not r.get("_used")), None)
@@ -124,6 +130,22 @@ class RecordLayer:
                              else f"0x{hb['index']:04X}", "api": hb["api"], "slot": hb["slot_nr"],
                              "subslot": hb["subslot_nr"], "device_mac": src, "request_frame": call["frame"],
                              "ok": False, "status": pdu["status"]})
+
+    def _unseen_writes(self, fn, ts, results, src) -> None:
+        """Write responses whose request the capture lost: the response still proves the write (a user
+        parameter record written before PrmEnd, #66); its data is unknown."""
+        for r in results:
+            ar = self._ar_of(r["ar_uuid"])
+            ev = {"frame": fn, "ts_ns": ts, "kind": "record_result", "op": "write", "index": r["index"],
+                  "index_name": _records.index_name(r["index"]) if _records else f"0x{r['index']:04X}",
+                  "api": r["api"], "slot": r["slot_nr"], "subslot": r["subslot_nr"],
+                  "device_mac": ar["device_mac"] if ar is not None else src, "request_frame": None,
+                  "ar_uuid": r["ar_uuid"], "ok": r["status"]["ok"], "status": r["status"]}
+            self.a.emit(ev)
+            if r["index"] == 0xFFFF and r["status"]["ok"] and ev["device_mac"] not in self.ffff_writes:
+                self.ffff_writes[ev["device_mac"]] = fn   # PS/PSM evidence (profile_for)
+                self.profiles.pop(ev["device_mac"], None)
+            self.a.cyclic.on_write_result(ev)
 
     def _param(self, fn, ts, hb, rec, dec) -> None:
         key = self._param_key(hb, rec["device_mac"], rec["controller_mac"])
@@ -201,5 +223,10 @@ class RecordLayer:
         else:
             got = _records.select_profile(st.get("vendor_id"), st.get("device_id"), st.get("type_of_station"),
                                           source="DCP")
+        if got[0] == "generic" and device_mac in self.ffff_writes:
+            # only PS/PSM keeps its encoder parameters at index 0xFFFF, and its manual gives no vendor ID
+            # (records.md §1, network.md §1.11): a device written there is PS/PSM whatever its IDs
+            got = ("psm", f"record 0xFFFF written in frame {self.ffff_writes[device_mac]}: PS/PSM's encoder "
+                          f"parameter record (002_d69f444daf0f8af2.txt:982-1020); {got[1]}")
         self.profiles[device_mac] = got
         return got

@@ -13,6 +13,8 @@ from .rules import RULES
 
 MAX_ROWS = 2000  # (rule, side, station) rows kept; more are counted, not listed
 SEV_ORDER = {"error": 2, "warning": 1, "info": 0}
+# time going back by more than this is a merge out of order, not two interfaces' clocks a few µs apart
+BACKWARDS_NS = 1_000_000
 
 
 class ViolationLog:
@@ -142,6 +144,13 @@ def trust(summary: dict) -> list[str]:
         out.append(f"duplicate frames: {gaps['duplicates']:,} cyclic frames are copies of the frame before them "
                    f"(same cycle counter, status and data within half a cycle; first: frame {fd[0]} of frame {fd[1]}): "
                    "a mirror port seeing them twice; counted once as a cycle")
+    inp = summary.get("input") or {}
+    if (inp.get("timestamps_backwards_max_ns") or 0) >= BACKWARDS_NS:
+        out.append(f"frames out of time order: time goes back {inp['timestamps_backwards']:,} time(s), by up to "
+                   f"{inp['timestamps_backwards_max_ns'] / 1e6:,.3f} ms (first at frame "
+                   f"{inp['timestamps_backwards_first_frame']}): interfaces or files merged without sorting? Frames "
+                   "are judged in file order, so setpoints may pair with the wrong actual values; sort it with "
+                   "`reordercap IN OUT` (Wireshark) and analyse that")
     if cyc.get("frames_unmapped"):
         out.append(f"unmapped streams: {cyc['frames_unmapped']:,} cyclic frames of no AR the capture shows "
                    "(no Connect in the capture, nothing inferred from the content): give them with --map or "
@@ -158,6 +167,10 @@ def trust(summary: dict) -> list[str]:
         if hit and "default" in str(csrc):
             out.append(f"assumed: {who} V4.1 mode (no 0xBF00 in the capture) for {', '.join(hit)}; "
                        "--set compat=0 if it runs in V3.1 compatibility mode (SIMATIC technology objects)")
+        if e.get("bf00_request_lost") is not None:
+            out.append(f"assumed: {who} parameters: 0xBF00 was written (response in frame {e['bf00_request_lost']}) "
+                       "but the capture lost its request, so the values are unknown; judged with the profile "
+                       "defaults (--set compat=, class4=, ... to give them)")
         psrc = _source(e, "profile", e.get("profile_reason"))
         if "not a known" in str(psrc) or "default" in str(psrc):
             out.append(f"assumed: {who} profile {e.get('profile')} ({psrc})")

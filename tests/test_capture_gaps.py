@@ -259,6 +259,21 @@ def test_copies_of_frames_are_no_cycles(doubled):
     assert json.dumps(ref, sort_keys=True, default=str) == json.dumps(fast, sort_keys=True, default=str)
 
 
+def test_copies_of_rpc_responses_run_once(doubled):
+    """A copy of a read response gave its record and parameter events twice; a copy of a write response
+    looked like a write whose request the capture lost."""
+    path = doubled[0]
+    kinds = ("record", "record_result", "param", "ar", "ar_phase")
+
+    def count(p):
+        c = collections.Counter()
+        analyze_file(p, Settings(fast_path=False), sink=lambda e: c.update([e["kind"]]) if e["kind"] in kinds else None)
+        return c
+    orig = count(os.path.join(os.path.dirname(path), "full.pcapng"))
+    assert orig["param"] and orig["record_result"]
+    assert count(path) == orig
+
+
 def test_a_repeated_frame_a_cycle_later_is_a_cycle():
     """Same counter and data a whole cycle later: the provider sent it again (a frozen device), not a copy."""
     g = GapTracker()
@@ -277,3 +292,37 @@ def test_lua_plugin_same_on_copies(doubled):
     from test_lua_plugin import rule_rows
     path, want, _n = doubled
     assert sorted((fn, r) for fn, r, _d in rule_rows(path)) == sorted((f, r) for r, f in want)
+
+
+# -- a merge out of time order: each interface's frames written as one block ----------------------
+
+def test_frames_out_of_time_order_are_reported(tmp_path):
+    """Frames of two taps merged without sorting (all controller frames, then all device frames):
+    every setpoint pairs with the wrong actual value, so the Trust section says so (both paths count
+    the same), and tiny steps back (two interfaces' clocks) are counted but not worth a line."""
+    from pndiss.capture import open_capture
+    from pndiss.sim.pcapng import Writer
+    from pndiss.verdict import trust
+    src = capedit.simulate(str(tmp_path / "s.pcapng"), "--scenario", "preset", "--cycles", "300")
+    frames = [(ts, bytes(d)) for _fn, ts, _lt, d in open_capture(src)]
+    ctrl = next(d[6:12] for _ts, d in frames if d[12:14] == b"\x88\x92" and d[14:16] == b"\xfe\xfe")
+    unsorted = [f for f in frames if f[1][6:12] == ctrl] + [f for f in frames if f[1][6:12] != ctrl]
+    nudged = list(frames)
+    nudged[100], nudged[101] = (nudged[101][0] + 2000, nudged[100][1]), (nudged[101][0], nudged[101][1])
+    out = {}
+    for name, fr in (("unsorted", unsorted), ("nudged", nudged), ("sorted", frames)):
+        path = str(tmp_path / f"{name}.pcapng")
+        with open(path, "wb") as f:
+            w = Writer(f)
+            for ts, d in fr:
+                w.write(ts, d)
+        got = [analyze_file(path, Settings(fast_path=fp)).summary() for fp in (True, False)]
+        assert got[0]["input"] == got[1]["input"]
+        out[name] = (got[0]["input"], trust(got[0]))
+    inp, lines = out["unsorted"]
+    assert inp["timestamps_backwards"] == 1 and inp["timestamps_backwards_max_ns"] > 100_000_000
+    assert any("frames out of time order" in t and "reordercap" in t for t in lines)
+    inp, lines = out["nudged"]
+    assert inp["timestamps_backwards"] == 1 and inp["timestamps_backwards_max_ns"] < 1_000_000
+    assert not any("out of time order" in t for t in lines)
+    assert out["sorted"][0]["timestamps_backwards"] == 0

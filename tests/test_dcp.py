@@ -267,6 +267,16 @@ def _ident_rsp(name: str, ip: str, src: bytes) -> bytes:
                  dst=CTRL, src=src)
 
 
+def _ident_req(xid: int, name: str | None = None) -> bytes:
+    return frame(0xFEFE, pdu(5, 0, xid, [blk(0xFF, 0xFF, b"") if name is None else blk(2, 2, name.encode())], 1))
+
+
+def _ident_rsp_x(xid: int, name: str, ip: str, src: bytes) -> bytes:
+    return frame(0xFEFF, pdu(5, 1, xid, [blk(2, 2, BI + name.encode()),
+                                         blk(1, 2, b"\0\1" + ip4(ip) + ip4("255.255.255.0") + ip4("0.0.0.0"))]),
+                 dst=CTRL, src=src)
+
+
 def _set(dst: bytes, name: str | None = None, ip: str | None = None) -> bytes:
     bl = []
     if name is not None:
@@ -314,6 +324,28 @@ def test_ip_assign_occupied():
     # DEV moved to another address first
     assert _run([_ident_rsp("a", "10.0.0.5", DEV), _set(DEV, ip="10.0.0.9"), _set(DEV2, ip="10.0.0.5")]) == []
     assert _run([_ident_rsp("a", "10.0.0.5", DEV), _ident_rsp("a", "0.0.0.0", DEV), _set(DEV2, ip="10.0.0.5")]) == []
+
+
+def test_replaced_device_gives_its_name_and_ip_to_the_new_one():
+    """The controller's Identify goes unanswered by the failed device; the replacement answers with no name
+    and gets the old name and IP (000_37bf2397999f1108.txt:1052-1069): no duplicate, no occupied IP."""
+    old = _ident_rsp_x(1, "enc-1", "10.0.0.5", DEV)
+    for req in (_ident_req(2), _ident_req(2, "enc-1")):
+        assert _run([old, req, _ident_rsp_x(2, "", "0.0.0.0", DEV2),
+                     _set(DEV2, name="enc-1"), _set(DEV2, ip="10.0.0.5")]) == []
+    # the old device answers the Identify: it is alive, both rules fire
+    v = _run([old, _ident_req(2), _ident_rsp_x(2, "enc-1", "10.0.0.5", DEV), _ident_rsp_x(2, "", "0.0.0.0", DEV2),
+              _set(DEV2, name="enc-1"), _set(DEV2, ip="10.0.0.5")])
+    assert [x["rule"] for x in v] == ["DCP-NAME-DUPLICATE", "IP-ASSIGN-OCCUPIED"]
+    # an Identify for another name says nothing about the holder
+    v = _run([old, _ident_req(2, "enc-2"), _set(DEV2, name="enc-1")])
+    assert [x["rule"] for x in v] == ["DCP-NAME-DUPLICATE"]
+    # the Identify a response answers is still open: two devices answering it with one name are a duplicate
+    v = _run([old, _ident_req(2), _ident_rsp_x(2, "enc-1", "10.0.0.6", DEV2), _ident_rsp_x(2, "enc-1", "10.0.0.5", DEV)])
+    assert [x["rule"] for x in v] == ["DCP-NAME-DUPLICATE"]
+    # the old device comes back after its name was given away: a duplicate again
+    v = _run([old, _ident_req(2), _set(DEV2, name="enc-1"), _ident_rsp_x(3, "enc-1", "10.0.0.5", DEV)])
+    assert [x["rule"] for x in v] == ["DCP-NAME-DUPLICATE"]
 
 
 # -- property tests: a dict or Malformed, nothing else ----------------------------------------

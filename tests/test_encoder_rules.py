@@ -215,3 +215,33 @@ def test_preset_value_unknown_is_not_judged():
         chk.cycle(i, i * 1000, *parse(r, 81))
     chk.finish()
     assert chk.summary()["presets_unjudged"] == 1 and chk.summary()["p65000"] is None
+
+
+def _rel(x1_before, x2_before, x1_after, x2_after):
+    """A relative preset (G1_STW 0x3800) from the given positions to the given result."""
+    g = f"0x1400 0x2000 | 0x1200 0x2000 {x1_before} {x2_before}"
+    req = f"0x1400 0x3800 | 0x1200 0x2000 {x1_before} {x2_before}"
+    done = f"0x1400 0x3800 | 0x1200 0x3000 {x1_after} {x2_after}"
+    return [g, g, req, done, f"0x1400 0x2000 | 0x1200 0x2000 {x1_after} {x2_after}"]
+
+
+WRAP_CASES = [
+    # (settings, rows, PRESET-VALUE-WRONG expected): an unscaled encoder of unknown range (no st_phys/mt_phys)
+    # wraps a relative preset at its binary hardware range, here 2^25 (position.fits_binary_range)
+    (dict(st_phys=None, mt_phys=None, p65000=33553432), _rel(33553432, 33553432, 33552432, 33552432), False),
+    (dict(st_phys=None, mt_phys=None, p65000=33553432), _rel(33553432, 33553432, 5000, 5000), True),
+    # the range known: the same result is the preset modulo R
+    (dict(p65000=33553432), _rel(33553432, 33553432, 33552432, 33552432), False),
+    # below 2^12 no encoder wraps: a small result that fits a tiny modulus is still wrong
+    (dict(st_phys=None, mt_phys=None, p65000=100), _rel(50, 50, 22, 22), True),
+    # a 32-bit counter G1_XIST1 (SCANCON profile 4.1): counter + P, or the counter started again from the new
+    # absolute position (cyclic.md §7, the manual leaves it open); anything else is wrong
+    (dict(profile="scancon", class4=1, p65000=2000), _rel(40000000, 33553432, 40002000, 1000), False),
+    (dict(profile="scancon", class4=1, p65000=2000), _rel(40000000, 33553432, 1000, 1000), False),
+    (dict(profile="scancon", class4=1, p65000=2000), _rel(40000000, 33553432, 777, 1000), True),
+]
+
+
+@pytest.mark.parametrize("kw,rows,wrong", WRAP_CASES)
+def test_relative_preset_wrap_readings(kw, rows, wrong):
+    assert ("PRESET-VALUE-WRONG" in rule_ids(rows, **kw)) == wrong

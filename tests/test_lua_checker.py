@@ -126,6 +126,19 @@ def test_hand_made_session():
     assert "PRESET-XIST1-NOT-AFFECTED-WHEN-ENABLED" in res["lua_rules"]
 
 
+def test_preset_wrap_readings_same():
+    """The per-rule rows of relative presets across the range end and of a counter G1_XIST1
+    (test_encoder_rules.WRAP_CASES) judge the same in the port."""
+    import encoder_table
+    from test_encoder_rules import WRAP_CASES
+    with Recorder() as rec:
+        got = [("PRESET-VALUE-WRONG" in encoder_table.rule_ids(rows, **kw)) == wrong for kw, rows, wrong in WRAP_CASES]
+    assert all(got)
+    res = replay(rec)
+    _check(res, "preset wrap rows")
+    assert "PRESET-VALUE-WRONG" in res["lua_rules"]
+
+
 def test_open_events_announce_runs():
     """A run's open event names the same first frame as its final event (checked by the driver
     for every replay); here: an open event is really produced when a run starts."""

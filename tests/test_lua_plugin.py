@@ -489,31 +489,45 @@ _MACS = [bytes([2, 0, 0, 0, 9, i]) for i in range(4)]
 _CTRL = bytes([2, 0, 0, 0, 0, 1])
 
 
-def _dcp_frame(dst, src, frame_id, service, stype, blocks):
+def _dcp_frame(dst, src, frame_id, service, stype, blocks, xid=0x1234):
     body = b""
     for opt, sub, value in blocks:
         body += bytes([opt, sub]) + struct.pack(">H", len(value)) + value + (b"\0" if len(value) % 2 else b"")
-    pdu = struct.pack(">HBBIHH", frame_id, service, stype, 0x1234, 0, len(body)) + body
+    pdu = struct.pack(">HBBIHH", frame_id, service, stype, xid, 0, len(body)) + body
     fr = dst + src + b"\x88\x92" + pdu
     return fr + bytes(max(0, 60 - len(fr)))
 
 
-def _dcp_op(op):
-    """One DCP frame: a Set request (name or IP, from the controller) or an Identify response (a device
-    telling its name and IP). Set blocks carry a BlockQualifier, Identify response blocks a BlockInfo."""
+def _dcp_op(op, xid=0x1234):
+    """One DCP frame: a Set request (name or IP, from the controller), an Identify request (for all, by
+    name or by IP: a device that leaves it unanswered is gone) or an Identify response (a device telling
+    its name and IP). Set blocks carry a BlockQualifier, Identify response blocks a BlockInfo."""
     kind, mac, name, ip = op
     ipb = bytes(ip) + bytes([255, 255, 255, 0]) + bytes(4)
     if kind == "set_name":
         return _dcp_frame(_MACS[mac], _CTRL, 0xFEFD, 4, 0, [(2, 2, b"\0\1" + name)])
     if kind == "set_ip":
         return _dcp_frame(_MACS[mac], _CTRL, 0xFEFD, 4, 0, [(1, 2, b"\0\1" + ipb)])
-    return _dcp_frame(_CTRL, _MACS[mac], 0xFEFF, 5, 1, [(2, 2, b"\0\0" + name), (1, 2, b"\0\1" + ipb)])
+    if kind == "ident_req":
+        flt = [(0xFF, 0xFF, b""), (2, 2, name), (1, 2, bytes(ip))][mac % 3]
+        return _dcp_frame(bytes.fromhex("010ecf000000"), _CTRL, 0xFEFE, 5, 0, [flt], xid)
+    return _dcp_frame(_CTRL, _MACS[mac], 0xFEFF, 5, 1, [(2, 2, b"\0\0" + name), (1, 2, b"\0\1" + ipb)], xid)
+
+
+def _dcp_frames(ops):
+    """The frames of ops; a response answers the latest Identify request (xid)."""
+    out, xid = [], 0x1234
+    for i, op in enumerate(ops):
+        if op[0] == "ident_req":
+            xid = 0x2000 + i
+        out.append(_dcp_op(op, xid))
+    return out
 
 
 _NAMES = st.one_of(st.sampled_from([b"encoder-1", b"encoder-2", b"plc", b"", b"port-001", b"port-001-00002",
                                     b"10.0.0.1", b"-bad", b"a..b", b"Enc_1!", b"x" * 64, b"\xe4nc"]),
                    st.binary(max_size=12))
-_OPS = st.lists(st.tuples(st.sampled_from(["set_name", "set_ip", "identify"]), st.integers(0, 3), _NAMES,
+_OPS = st.lists(st.tuples(st.sampled_from(["set_name", "set_ip", "identify", "ident_req"]), st.integers(0, 3), _NAMES,
                           st.sampled_from([(10, 0, 0, 1), (10, 0, 0, 2), (0, 0, 0, 0)])), min_size=5, max_size=80)
 
 if given is not None:
@@ -524,7 +538,7 @@ if given is not None:
         Identify responses (names valid, invalid, shared; IPs shared and released): the plugin reports
         the frames the Python core does, in both tshark modes (these are decided on their own frame)."""
         path = str(tmp_path_factory.mktemp("dcp") / "dcp.pcap")
-        _write_pcap(path, [_dcp_op(op) for op in ops])
+        _write_pcap(path, _dcp_frames(ops))
         evs = []
         analyze_file(path, Settings(), sink=evs.append)
         want = {(e["frame"], e["rule"]) for e in evs if e["kind"] == "violation" and e["rule"] in DCP_RULES}

@@ -41,6 +41,23 @@ def expected_after_preset(mode: int, P: int, pos_before: int, R: int | None) -> 
     return P % m if mode == 0 else (pos_before + P) % m
 
 
+# [INFERENCE] The manuals' encoders count in binary: single-turn 13/14/16 bits, multi-turn 12-16 bits
+# (network.md §1.11: "25 Bit", "27 Bit", ...; XAC77 16384 x 16384). Without scaling, and without
+# --set st_phys/mt_phys, the output wraps at 2^k for an unknown k of at least this many bits.
+MIN_RANGE_BITS = 12
+
+
+def fits_binary_range(actual: int, exp: int, seen: tuple, tol: int) -> bool:
+    """Does ``actual`` equal ``exp`` (+- tol) modulo 2^k for some hardware range 2^k above every position
+    in ``seen``? (A relative preset across the unknown range end of an unscaled encoder.)"""
+    lo = max(MIN_RANGE_BITS, max(seen).bit_length())
+    for k in range(lo, 32):
+        m = 1 << k
+        if abs(delta(exp % m, actual, m)) <= tol:
+            return True
+    return False
+
+
 def preset_860(PV: int, R: int | None) -> int:
     """Telegram 860 preset: absolute, clamped to R - 1 (SCANCON 001_9461bb7bc8c2767b.txt:931, §4.3)."""
     return min(PV, R - 1) if R else PV

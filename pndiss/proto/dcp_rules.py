@@ -4,9 +4,10 @@
 from __future__ import annotations
 
 import re
+from collections import deque
 
 from .. import rules
-from .dcp_tables import HELLO, SET
+from .dcp_tables import HELLO, IDENTIFY, SET
 
 
 MAX_NAME = 127   # Lika manual (000_37bf2397999f1108.txt:956-968); IEC allows 240 octets [AMBIGUOUS]
@@ -86,6 +87,11 @@ class DcpTracker:
     DCP-NAME-DUPLICATE when a Set gives a name that another MAC holds, or two MACs report the
     same name; IP-ASSIGN-OCCUPIED when a Set assigns an IP that another MAC holds.
     Each (rule, value, MAC pair) is reported once.
+
+    A holder that left an Identify unanswered (one for all devices, or for that name / IP, sent after
+    the holder last claimed the value) is gone: the value passes to the new MAC without a violation.
+    That is how a failed device is replaced: the controller's Identify finds only the new device, which
+    then gets the old one's name and IP (000_37bf2397999f1108.txt:1052-1069).
     """
 
     def __init__(self, table=dict):
@@ -95,8 +101,12 @@ class DcpTracker:
         self.mac_name: dict[str, str] = table()
         self.mac_ip: dict[str, str] = table()
         self.reported: set = set()
+        # the latest Identify requests: [xid, frame, filter {"all"/"name"/"ip": value}, MACs that answered]
+        self.identifies: deque = deque(maxlen=16)
 
     def on_dcp(self, ev: dict, src: str, dst: str) -> list[dict]:
+        if ev.get("service_id") == IDENTIFY:
+            self._identify(ev, src)
         st = ev.get("station_info")
         if not st:
             return []
@@ -105,16 +115,43 @@ class DcpTracker:
         fn, ts = ev.get("frame", 0), ev.get("ts_ns", 0)
         out = []
         name = st.get("name")
+        xid = ev.get("xid") if ev.get("service_id") == IDENTIFY else None
         if name:
-            out += self._claim("name", name, target, assign, fn, ts)
+            out += self._claim("name", name, target, assign, fn, ts, xid)
         elif name == "":
             self._release(self.name_at, self.mac_name, target)  # name reset: the name is free
         ip = st.get("ip")
         if ip and ip != "0.0.0.0":
-            out += self._claim("ip", ip, target, assign, fn, ts)
+            out += self._claim("ip", ip, target, assign, fn, ts, xid)
         elif ip == "0.0.0.0":
             self._release(self.ip_at, self.mac_ip, target)
         return out
+
+    def _identify(self, ev: dict, src: str) -> None:
+        if ev.get("service_type") == 0:
+            flt = {}
+            for b in ev.get("blocks", ()):
+                if b.get("option") == 0xFF and b.get("suboption") == 0xFF:
+                    flt["all"] = True
+                elif "nameofstation" in b:
+                    flt["name"] = b["nameofstation"]
+                elif b.get("option") == 1 and b.get("suboption") == 2 and b.get("ip"):
+                    flt["ip"] = b["ip"]
+            self.identifies.append([ev.get("xid"), ev.get("frame", 0), flt, set()])
+        else:
+            for idf in self.identifies:
+                if idf[0] == ev.get("xid"):
+                    idf[3].add(src)
+
+    def _gone(self, mac_: str, seen: int, xid) -> bool:
+        """Did an Identify after frame ``seen`` that the holder ``mac_`` had to answer (for all, for its name
+        or its IP) go unanswered? (The Identify a response answers is still open: not judged with it.)"""
+        for idf_xid, frame, flt, answered in self.identifies:
+            if frame > seen and idf_xid != xid and mac_ not in answered and (
+                    flt.get("all") or flt.get("name", False) == self.mac_name.get(mac_)
+                    or flt.get("ip", False) == self.mac_ip.get(mac_)):
+                return True
+        return False
 
     @staticmethod
     def _release(at: dict, by_mac: dict, mac_: str) -> None:
@@ -122,10 +159,15 @@ class DcpTracker:
         if old is not None and at.get(old, ("",))[0] == mac_:
             del at[old]
 
-    def _claim(self, what: str, value: str, mac_: str, assign: bool, fn: int, ts: int) -> list[dict]:
+    def _claim(self, what: str, value: str, mac_: str, assign: bool, fn: int, ts: int, xid=None) -> list[dict]:
         at, by_mac = (self.name_at, self.mac_name) if what == "name" else (self.ip_at, self.mac_ip)
         out = []
         holder = at.get(value)
+        if holder is not None and holder[0] != mac_ and by_mac.get(holder[0]) == value \
+                and self._gone(holder[0], holder[1], xid):
+            self._release(self.name_at, self.mac_name, holder[0])  # a replaced device: its name and IP are free
+            self._release(self.ip_at, self.mac_ip, holder[0])
+            holder = None
         if holder is not None and holder[0] != mac_ and by_mac.get(holder[0]) == value:
             other, seen = holder
             if what == "name":
