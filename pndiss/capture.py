@@ -16,11 +16,12 @@ frame, so callers can report the frames read so far.
 """
 from __future__ import annotations
 
-import hashlib
 import os
 import stat
 import struct
 from typing import BinaryIO, Iterator
+
+from .readinfo import TS_MAX, ReadInfo  # noqa: F401  (ReadInfo: what the reader learns besides frames)
 
 LINKTYPE_ETHERNET = 1
 LINKTYPE_LINUX_SLL = 113
@@ -28,7 +29,6 @@ LINKTYPE_LINUX_SLL2 = 276
 
 MAX_RECORD = 0x4000000  # 64 MiB: larger captured lengths mean a corrupt file
 MAX_PACKET = 262144     # tshark 4.0 refuses a pcapng packet block capturing more (WTAP_MAX_PACKET_SIZE_STANDARD)
-TS_MAX = (1 << 63) - 1  # time stamps are clamped to [0, TS_MAX] ns: every sink (MCAP u64, datetime) shows them
 LINKTYPE_NONE = -1      # a frame that is no packet (pcapng custom / journal block): tshark numbers it too
 
 # pcapng block types, tshark 4.0 minimum total lengths (wiretap/pcapng.c) and whether the block is a frame
@@ -56,58 +56,6 @@ class CaptureError(Exception):
     def __init__(self, message: str, frames: int = 0):
         super().__init__(message)
         self.frames = frames
-
-
-class ReadInfo:
-    """What the reader learnt besides the frames: the input's SHA-256 (hashed while streaming, so a
-    FIFO is read once and a big file not twice), whether it was read to its end, and how many time
-    stamps were out of the range every sink can show (clamped to [0, TS_MAX] ns)."""
-
-    __slots__ = ("_h", "_known", "complete", "ts_clamped", "ts_clamped_first", "last_ts", "ts_back", "ts_back_max",
-                 "ts_back_first")
-
-    def __init__(self, known_sha256: str | None = None):
-        # a digest the caller took already (pndiss fleet hashes every input to plan): not taken twice
-        self._known = known_sha256
-        self._h = None if known_sha256 else hashlib.sha256()
-        self.complete = False
-        self.ts_clamped = 0
-        self.ts_clamped_first = None
-        # frames earlier than the frame before them (the drivers and the engine keep last_ts): several
-        # interfaces or files merged without sorting pair setpoints with the wrong actual values
-        self.last_ts = 0
-        self.ts_back = 0
-        self.ts_back_max = 0
-        self.ts_back_first = None
-
-    def sha256(self) -> str:
-        """The digest of the whole input, or '' when it was not read to its end."""
-        if not self.complete:
-            return ""
-        return self._known or self._h.hexdigest()
-
-    def feed(self, data) -> None:
-        """The input's next bytes, in order (hashed unless the caller gave the digest)."""
-        if self._h is not None:
-            self._h.update(data)
-
-    def clamp(self, fn: int, ts: int) -> int:
-        self.ts_clamped += 1
-        if self.ts_clamped_first is None:
-            self.ts_clamped_first = fn
-        return 0 if ts < 0 else TS_MAX
-
-    def backwards(self, fn: int, n: int, most: int) -> None:
-        """``n`` frames from frame ``fn`` on went back in time, by at most ``most`` ns."""
-        self.ts_back += n
-        self.ts_back_max = max(self.ts_back_max, most)
-        if self.ts_back_first is None or fn < self.ts_back_first:
-            self.ts_back_first = fn
-
-    def as_dict(self) -> dict:
-        return {"timestamps_clamped": self.ts_clamped, "timestamps_clamped_first_frame": self.ts_clamped_first,
-                "timestamps_backwards": self.ts_back, "timestamps_backwards_max_ns": self.ts_back_max,
-                "timestamps_backwards_first_frame": self.ts_back_first}
 
 
 class _Buffer:

@@ -98,7 +98,7 @@ def test_inputs_dirs_globs_files_and_content_hash(inputs, tmp_path):
         assert content_hash(path) == info.sha256() != ""
     assert find_captures([str(tmp_path)]) == [str(gz)]   # .gz captures are found in directories
     # a digest the plan took already is not taken again: the reader reports it (read to the end) ...
-    import pndiss.capture as capture_mod
+    import pndiss.readinfo as capture_mod
 
     class NoHash:
         def __init__(self, *a):
