@@ -540,6 +540,7 @@ local function connect_request(key, pinfo)
     pending_connects[key] = req
 end
 
+local on_reconnect     -- CyclicTracker.on_reconnect (section 7): an AR UUID connected again
 local function connect_response(key, pinfo)
     local req = pending_connects[key]
     pending_connects[key] = nil
@@ -569,6 +570,7 @@ local function connect_response(key, pinfo)
     local station = dcp_state.station[device]
     if station == nil or station == "" then station = server_name end  -- session._connect: dev_station
     local keys = {}
+    local again = req.ar ~= nil and ar_phase[req.ar] ~= nil   -- session_ar: controllers may reuse an AR UUID
     if req.ar then
         if ar_phase[req.ar] == nil then ar_order[#ar_order + 1] = req.ar end
         ar_keys[req.ar], ar_phase[req.ar] = keys, "parameterisation"
@@ -602,6 +604,7 @@ local function connect_response(key, pinfo)
             keys[#keys + 1] = {fid, s, d, fm}
         end
     end
+    if again then on_reconnect(req.ar, device, keys, pinfo.number) end
 end
 
 -- mid-session captures: pndiss/infer.py, step for step. The first SAMPLES C_SDUs of each cyclic stream
@@ -1521,6 +1524,28 @@ local function new_axis(o, fr, fn)
 end
 
 -- CyclicTracker.on_record: record/param events in capture order
+-- cyclic_axes.on_reconnect: the AR's axes go on with the new frame maps, each checker starts a new
+-- connection (Checker.new_connection); the ended connection's 0xBF00 is the previous one (#31)
+function on_reconnect(ar, dev, keys, fn)
+    local old = bf00_last[dev]
+    if old ~= nil and old.ar == ar then
+        prev_bf00[dev] = old.decoded
+        bf00_last[dev] = nil
+    end
+    bf00_resp[ar] = nil
+    for _, ax in ipairs(axis_list) do
+        if ax.fm ~= nil and ax.fm.ar == ar then
+            local pick
+            for _, k in ipairs(keys) do
+                if pick == nil and k[4].direction == ax.fm.direction then pick = k[4] end
+            end
+            ax.fm = pick or (keys[1] and keys[1][4]) or ax.fm
+            ax.sp, ax.sp_before, ax.pend = nil, nil, nil
+            note(ax.checker:new_connection(prev_bf00[dev]), fn)
+        end
+    end
+end
+
 function on_record(ev, fn)
     local dev = ev.device_mac or ""
     if ev.kind == "record" and (ev.index == 0xBF00 or ev.index == 0xFFFF) and ev.op == "write" then

@@ -1778,13 +1778,7 @@ function Checker:on_record(ev)
   return self.out or EMPTY
 end
 
-function Checker:finish()
-  self.out = nil
-  local pre = self.pre
-  if pre ~= nil and not pre.done and pre.allowed and self.n - pre.n >= self.L then
-    self:emit("PRESET-ACK-MISSING", pre.f, pre.ts,
-              fmt("no G1_ZSW.12 in the %d cycles after the preset request (capture ended)", self.n - pre.n), self.f)
-  end
+local function end_connection(self)
   if self.params_changed and not self.preset_done and self.first_frame ~= nil then
     -- #31: new dir/MUPR/TMR need a new preset (000_37bf2397999f1108.txt:2237-2240)
     self:emit("PRESET-WITHOUT-NEW-PARAMS", self.first_frame, 0,
@@ -1796,7 +1790,33 @@ function Checker:finish()
     self:emit("P971-NOT-CONFIRMED", pp[1], pp[3], fmt("P971 still reads 1 in all %d reads after the store request", pp[2]))
     self.p971_pending = nil
   end
+end
+
+function Checker:finish()
+  self.out = nil
+  local pre = self.pre
+  if pre ~= nil and not pre.done and pre.allowed and self.n - pre.n >= self.L then
+    self:emit("PRESET-ACK-MISSING", pre.f, pre.ts,
+              fmt("no G1_ZSW.12 in the %d cycles after the preset request (capture ended)", self.n - pre.n), self.f)
+  end
+  end_connection(self)
   flush_all(self)
+  return self.out or EMPTY
+end
+
+-- _state.new_connection: the same AR connected again; the ending connection is judged as at the end of a
+-- capture (#31, #90), the next starts with what a new checker knows; counts, timeline and P65000 go on
+function Checker:new_connection(prev_bf00)
+  self.out = nil
+  end_connection(self)
+  flush_all(self)
+  self:reset_history()
+  self.bf00_seen = false
+  self.bf00_invalid, self.bf00_valid_frame, self.bf00_due = nil, nil, nil
+  self.params_changed, self.preset_done = false, false
+  self.first_frame = nil
+  self.prev_bf00 = prev_bf00
+  self.last_req_ref = nil
   return self.out or EMPTY
 end
 

@@ -204,6 +204,24 @@ class AxisTracking:
         """A telegram only guessed from lengths that fit several is not judged (cyclic.md §14): nor is #66."""
         return self._guess_fits_several(ax, ax.source)
 
+    def on_reconnect(self, ar: dict, fn: int, ts: int) -> None:
+        """An AR UUID connected again (session_ar: controllers may reuse it): its axes go on with the new frame
+        maps, and each checker starts a new connection (Checker.new_connection)."""
+        uid, dev = ar["ar_uuid"], ar["device_mac"]
+        old = self.bf00.get(dev)
+        if old is not None and old[0] == uid:
+            self.prev_bf00[dev] = old[1]     # what the next 0xBF00 is compared with (#31)
+            del self.bf00[dev]
+        self.bf00_unseen.pop((dev, uid), None)
+        maps = [fm for _key, fm in self.a.session.frame_keys(ar)]
+        for ax in self.axes.values():
+            if ax.key[0] != uid:
+                continue
+            same = [fm for fm in maps if ax.fm is not None and fm.direction == ax.fm.direction]
+            ax.fm = (same or maps or [ax.fm])[0]
+            ax.sp = ax.sp_before = ax.pend = None
+            self._out(ax.checker.new_connection(self.prev_bf00.get(dev)))
+
     # -- records -----------------------------------------------------------------------------------
     def on_write_result(self, ev: dict) -> None:
         """A write response whose request the capture lost (session_records._unseen_writes): a successful

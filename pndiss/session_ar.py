@@ -165,6 +165,7 @@ class ArLayer:
         for fm in frame_maps:
             fm.phase = ar["phase"]
         rec = dict(ar, maps=frame_maps, map_keys=map_keys, phases=list(ar["phases"]))
+        again = ok and ar_uuid in self.ars and self.ars[ar_uuid]["ok"]
         if ok or ar_uuid not in self.ars:  # a refused retry does not hide the AR that is up
             self.ars[ar_uuid] = rec   # bounded: the oldest AR goes, with its frame maps (_forget_ar)
         for cr in rb.get(0x0102, []):  # RT_CLASS_UDP: follow the UDP port the AR names
@@ -178,6 +179,8 @@ class ArLayer:
             self.a.stations.update(device, name=dev_station)
         self.map_generation += 1
         self.a.emit(ar)
+        if again:   # the AR UUID of an earlier connection (controllers may reuse it): a new connection
+            self.a.cyclic.on_reconnect(rec, fn, ts)
 
     def _forget_ar(self, _uuid, old: dict) -> None:
         """An AR evicted from the bounded table: drop its frame maps (those no newer AR replaced)."""

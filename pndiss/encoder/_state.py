@@ -287,13 +287,33 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         if pre is not None and not pre["done"] and pre["allowed"] and self.n - pre["n"] >= self.L:
             self._emit("PRESET-ACK-MISSING", pre["f"], pre["ts"],
                        f"no G1_ZSW.12 in the {self.n - pre['n']} cycles after the preset request (capture ended)", last=self.f)
+        self._end_connection()
+        self._flush_all()
+        return self.out
+
+    def _end_connection(self) -> None:
         if self.params_changed and not self.preset_done and self.first_frame is not None:
             # 31: new dir/MUPR/TMR need a new preset (000_37bf2397999f1108.txt:2237-2240)
             self._emit("PRESET-WITHOUT-NEW-PARAMS", self.first_frame, 0,
                        "0xBF00 changed code sequence/MUPR/TMR against the previous connection and no preset followed")
         from .acyclic import finish as acyclic_finish
         acyclic_finish(self)
+
+    def new_connection(self, prev_bf00: dict | None) -> list[dict]:
+        """The same AR connected again (a controller may reuse its AR UUID, so the axis goes on): the ending
+        connection is judged as at the end of a capture (#31, #90) and the next one starts with what a new
+        checker knows (#66 asks for its own 0xBF00, #78 for new request references); counts, the timeline
+        and P65000 go on. ``prev_bf00``: the 0xBF00 of the connection that ended (#31)."""
+        self.out = []
+        self._end_connection()
         self._flush_all()
+        self._reset_history()
+        self.bf00_seen = False
+        self.bf00_invalid = self.bf00_valid_frame = self.bf00_due = None
+        self.params_changed = self.preset_done = False
+        self.first_frame = None
+        self.prev_bf00 = prev_bf00
+        self.last_req_ref = None
         return self.out
 
     def summary(self) -> dict:

@@ -1,0 +1,90 @@
+"""A controller that connects again with the AR UUID of its earlier connection. The axis goes on, but
+each connection is judged on its own: the second needs its own 0xBF00 before PrmEnd (#66), its parameter
+requests may start their references again (#78), and its 0xBF00 is compared with the first's (#31)."""
+from __future__ import annotations
+
+import os
+import shutil
+import uuid
+
+import pytest
+
+import capedit
+from pndiss.analyzer import analyze_file
+from pndiss.capture import open_capture
+from pndiss.settings import Settings
+from pndiss.sim.pcapng import Writer
+
+
+def _events(path, fast=False, kinds=("violation", "ar", "record")):
+    evs = []
+    analyze_file(path, Settings(fast_path=fast), sink=lambda e: evs.append(e) if e["kind"] in kinds else None)
+    return evs
+
+
+@pytest.fixture(scope="module")
+def caps(tmp_path_factory):
+    """The simulated restart (two AR UUIDs); the same with the second connection's UUID replaced by the
+    first's; and that with the second connection's 0xBF00 write (request and response) dropped."""
+    tmp = str(tmp_path_factory.mktemp("reuse"))
+    src = capedit.simulate(os.path.join(tmp, "two.pcapng"), "--scenario", "preset", "--cycles", "600",
+                           "--restart", "300", "--records", "plain")
+    evs = _events(src, kinds=("ar", "record", "record_result"))
+    first, second = [uuid.UUID(e["ar_uuid"]).bytes for e in evs if e["kind"] == "ar"]
+    bf00 = [e for e in evs if e["kind"] == "record" and e["index"] == 0xBF00]
+    assert len(bf00) == 2
+    frames = [(ts, bytes(d).replace(second, first)) for _fn, ts, _lt, d in open_capture(src)]
+    res = [e["frame"] for e in evs if e["kind"] == "record_result" and e.get("request_frame") == bf00[1]["frame"]]
+    drop = {bf00[1]["frame"], *res}   # the write request and its response (a lost request alone proves nothing lost)
+    assert len(drop) == 2
+    out = {"two": src}
+    for name, keep in (("same", lambda i: True), ("same-no-bf00", lambda i: i not in drop)):
+        out[name] = os.path.join(tmp, name + ".pcapng")
+        with open(out[name], "wb") as f:
+            w = Writer(f)
+            for i, (ts, d) in enumerate(frames, 1):
+                if keep(i):
+                    w.write(ts, d)
+    return out
+
+
+def _rules(path, fast=False):
+    return [(e["rule"], e["frame"]) for e in _events(path, fast, ("violation",))]
+
+
+def test_reused_uuid_judged_like_two_connections(caps):
+    assert first_ar_twice(caps["same"])
+    assert _rules(caps["same"]) == _rules(caps["two"]) == []
+    assert _rules(caps["same"], fast=True) == []
+
+
+def test_second_connection_needs_its_own_bf00(caps):
+    for fast in (False, True):
+        got = _rules(caps["same-no-bf00"], fast)
+        assert [r for r, _f in got] == ["STARTUP-NO-PARAM-RECORD"], got
+
+
+def first_ar_twice(path) -> bool:
+    ars = [e["ar_uuid"] for e in _events(path, kinds=("ar",))]
+    return len(ars) == 2 and ars[0] == ars[1]
+
+
+@pytest.mark.skipif(shutil.which("tshark") is None, reason="tshark not installed")
+def test_plugin_same(caps):
+    from test_lua_plugin import rule_rows
+    assert rule_rows(caps["same"]) == set()
+    assert {(f, r) for f, r, _d in rule_rows(caps["same-no-bf00"])} == \
+        {(f, r) for r, f in _rules(caps["same-no-bf00"])}
+
+
+def test_lua_checker_replays_the_new_connection(caps):
+    """Checker.new_connection through the Lua port (tests/luachk): the same violations and state."""
+    from luachk.record import LUA, Recorder, replay
+    if shutil.which(LUA) is None:
+        pytest.skip(f"{LUA} not installed")
+    for name in ("same", "same-no-bf00"):
+        with Recorder() as rec:
+            analyze_file(caps[name], Settings(fast_path=False))
+        assert any(op["op"] == "newconn" for op in rec.ops)
+        res = replay(rec)
+        assert not res["problems"], res["problems"][:10]
