@@ -1310,7 +1310,7 @@ end
 local function dcp_gone(mac, seen, xid)
     local S_ = dcp_state
     for _, idf in ipairs(S_.identifies) do
-        if idf.frame > seen and idf.xid ~= xid and not idf.answered[mac]
+        if idf.frame > seen and idf.xid ~= xid and next(idf.answered) ~= nil and not idf.answered[mac]
                 and (idf.all or (idf.name ~= nil and idf.name == S_.mac_name[mac])
                      or (idf.ip ~= nil and idf.ip == S_.mac_ip[mac])) then
             return true
@@ -1413,7 +1413,8 @@ local axis_list        -- axes in creation order (Python's dict order)
 local dev_records      -- device -> record/param events, replayed into a new axis (cap 256)
 local bf00_last        -- device -> {ar, decoded} of the latest 0xBF00/0xFFFF write
 local bf00_resp        -- AR UUID -> frame of a successful 0xBF00/0xFFFF write response (its request may be lost)
-local answered         -- DCE/RPC "act|seq" -> frame of its response (copies of either run once)
+local answered         -- DCE/RPC "act|seq" -> frame of its response (its copies run once)
+local wrote            -- DCE/RPC "act|seq" of the write requests seen (a response without one: _unseen_writes)
 local prev_bf00        -- device -> decoded 0xBF00 of an earlier connection (#31)
 local viol             -- frame -> list of {rule, decided} (decided: frame whose dissection decided it; 0 = finish)
 local viol_seen        -- "frame|rule" -> that entry
@@ -1540,7 +1541,8 @@ function on_reconnect(ar, dev, keys, fn)
                 if pick == nil and k[4].direction == ax.fm.direction then pick = k[4] end
             end
             ax.fm = pick or (keys[1] and keys[1][4]) or ax.fm
-            ax.sp, ax.sp_before, ax.pend = nil, nil, nil
+            ax.sp, ax.sp_frame, ax.sp_before, ax.pend = nil, nil, nil, nil   -- the pairing starts afresh
+            ax.sp_ok, ax.sp_new, ax.sp_break = false, false, false
             note(ax.checker:new_connection(prev_bf00[dev]), fn)
         end
     end
@@ -1555,16 +1557,15 @@ function on_record(ev, fn)
     end
     local lst = dev_records[dev]
     if lst == nil then lst = {}; dev_records[dev] = lst end
-    if #lst < 256 then lst[#lst + 1] = ev end
+    local kept = #lst < 256
+    if kept then lst[#lst + 1] = ev end
     for _, ax in ipairs(axis_list) do
         if (ax.info.device_mac or "") == dev and (ev.ar_uuid == nil or ax.fm.ar == nil or ev.ar_uuid == ax.fm.ar) then
             -- an axis of a restarted AR seen before its own 0xBF00 (#31)
             if ax.checker.prev_bf00 == nil then ax.checker.prev_bf00 = prev_bf00[dev] end
-            if ax.profile == "generic" and ev.index == 0xFFFF and ev.profile == "psm" then
-                refine_profile(ax, fn)   -- replays the device's 0xFFFF records, this one included
-            else
-                note(ax.checker:on_record(ev), fn)
-            end
+            local refined = ax.profile == "generic" and ev.index == 0xFFFF and ev.profile == "psm"
+            if refined then refine_profile(ax, fn) end   -- replays the device's 0xFFFF records, this one if kept
+            if not (refined and kept) then note(ax.checker:on_record(ev), fn) end
         end
     end
 end
@@ -2092,7 +2093,6 @@ local function write_responses(pinfo)
             if (index == 0xBF00 or index == 0xFFFF) and t(hs + 36, 4):uint() == 0 then   -- PNIOStatus OK
                 local au = inside(arus, b)[1]
                 local ar = au and tostring(au) or tostring(t(hs, 16):bytes())
-                bf00_resp[ar] = bf00_resp[ar] or pinfo.number
                 local dev = (ar_devs[ar] or {})[1] or tostring(pinfo.dl_src)
                 local f = facts[dev] or {}
                 if index == 0xFFFF and f.ffff == nil then
@@ -2100,6 +2100,9 @@ local function write_responses(pinfo)
                     for _, ax in ipairs(axis_list) do
                         if (ax.info.device_mac or "") == dev then refine_profile(ax, pinfo.number) end
                     end
+                end
+                if index == 0xBF00 or profile_for(dev) == "psm" then   -- 0xFFFF is the user record of PS/PSM only
+                    bf00_resp[ar] = bf00_resp[ar] or pinfo.number
                 end
             end
         end
@@ -2128,7 +2131,9 @@ local function first_pass(pinfo)
     local key = act and seq and (tostring(act) .. "|" .. tostring(seq.value))
     if pt and key then   -- a request or response again: a retransmission or a copy, run once (session.py _cm)
         local done = answered[key]
-        if done ~= nil and done ~= pinfo.number then return {} end
+        -- a response with no request open, its key answered before: a copy (an act|seq reused later is no copy)
+        if pt.value == 2 and open_req[key] == nil and done ~= nil and done ~= pinfo.number then return {} end
+        if pt.value == 0 and op.value == 3 then wrote[key] = true end   -- session_records: pending_writes
         if pt.value == 0 then
             local first = open_req[key]
             if first ~= nil and first ~= pinfo.number then return {} end
@@ -2144,7 +2149,7 @@ local function first_pass(pinfo)
         end
         if pt then control(op.value, pt.value, pinfo.number) end
         items = record_items(pinfo, records_of_frame())
-        if pt and pt.value == 2 and op.value == 3 then write_responses(pinfo) end
+        if pt and pt.value == 2 and op.value == 3 and key and not wrote[key] then write_responses(pinfo) end
     end)
     if not ok then items = {{error = tostring(err)}} end
     -- I&M0 read response: vendor ID + order ID name the profile (session.profile_for)
@@ -2195,7 +2200,7 @@ local function reset_state()
     ar_keys, ar_phase, ar_order = {}, {}, {}
     pending_connects, pairer, superseded = {}, {}, {}
     axes, axis_list, dev_records, bf00_last, prev_bf00 = {}, {}, {}, {}, {}
-    bf00_resp, answered = {}, {}
+    bf00_resp, answered, wrote = {}, {}, {}
     gap_streams = {}
     infer_streams, infer_list = {}, {}
     viol, viol_seen, late, finished = {}, {}, {}, false

@@ -1237,7 +1237,7 @@ function Checker:check_preset_value(pre, pos2, X1, shift)
   if pos2 ~= nil and (mode == 0 or pre.pos2 ~= nil) then
     local exp2 = expected_after_preset(mode, P_, pre.pos2 or 0, self.R)
     -- the range unknown (no scaling, no st_phys/mt_phys): the result may have wrapped at it
-    x2_ok = near(pos2, exp2, m2) or (self.R == nil and fits_binary_range(pos2, exp2, pre.pos2 or 0, pos2, tol))
+    x2_ok = near(pos2, exp2, m2) or (self.R == nil and mode ~= 0 and fits_binary_range(pos2, exp2, pre.pos2 or 0, pos2, tol))
     pre.after = pos2
     if not x2_ok then
       -- #27: position after the preset (000_37bf2397999f1108.txt:1799-1807, 1818-1829)
@@ -1268,7 +1268,7 @@ function Checker:check_preset_value(pre, pos2, X1, shift)
       self:emit("PRESET-XIST1-NOT-AFFECTED-WHEN-ENABLED", self.f, self.ts,
                 fmt("G1_XIST2 took the preset but G1_XIST1 stayed %d; expected %d", X1, lshift(mod(exp1, U32), sh)))
     elseif not ((near(rshift(X1, sh), exp1, m1) and band(X1, lshift(1, sh) - 1) == 0)
-                or self:x1_other_reading(rshift(X1, sh), exp1, base, pos2, x2_ok, tol)) then
+                or self:x1_other_reading(rshift(X1, sh), exp1, base, pos2, x2_ok, tol, mode)) then
       self:emit("PRESET-VALUE-WRONG", self.f, self.ts,
                 fmt("%s preset P65000=%s: G1_XIST1=0x%08X in the first frame with G1_ZSW.12, expected 0x%08X", words,
                     tostring(P_), X1, lshift(mod(exp1, U32), sh)))
@@ -1282,11 +1282,11 @@ end
 
 -- presets._x1_other_reading: a 32-bit counter may start again from the new absolute position (G1_XIST2's);
 -- a position of unknown range may have wrapped at it
-function Checker:x1_other_reading(x1, exp1, base, pos2, x2_ok, tol)
+function Checker:x1_other_reading(x1, exp1, base, pos2, x2_ok, tol, mode)
   if C.xist1_counter(self.cfg) then
     return x2_ok == true and pos2 ~= nil and math.abs(delta(pos2, x1, U32)) <= tol
   end
-  return self.R == nil and fits_binary_range(x1, exp1, base, x1, tol)
+  return self.R == nil and mode ~= 0 and fits_binary_range(x1, exp1, base, x1, tol)
 end
 
 -- ------------------------------------------------------------------------------ continuity and velocity (§4.2, #42, #44)
@@ -1804,8 +1804,8 @@ function Checker:finish()
   return self.out or EMPTY
 end
 
--- _state.new_connection: the same AR connected again; the ending connection is judged as at the end of a
--- capture (#31, #90), the next starts with what a new checker knows; counts, timeline and P65000 go on
+-- _state.new_connection: the same AR connected again; the ending connection's #31 and #90 are judged as at
+-- the end of a capture, the next starts with what a new checker knows; counts, timeline and P65000 go on
 function Checker:new_connection(prev_bf00)
   self.out = nil
   end_connection(self)

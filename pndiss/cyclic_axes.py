@@ -219,7 +219,8 @@ class AxisTracking:
                 continue
             same = [fm for fm in maps if ax.fm is not None and fm.direction == ax.fm.direction]
             ax.fm = (same or maps or [ax.fm])[0]
-            ax.sp = ax.sp_before = ax.pend = None
+            ax.sp = ax.sp_frame = ax.sp_before = ax.pend = None   # the pairing starts afresh, as on a new axis
+            ax.sp_ok = ax.sp_new = ax.sp_break = False
             self._out(ax.checker.new_connection(self.prev_bf00.get(dev)))
 
     # -- records -----------------------------------------------------------------------------------
@@ -227,10 +228,12 @@ class AxisTracking:
         """A write response whose request the capture lost (session_records._unseen_writes): a successful
         one of the user parameter record proves the start-up write #66 asks for; its values stay unknown."""
         if ev.get("ok") and ev.get("index") in BF00_INDEXES:
-            self.bf00_unseen[(ev.get("device_mac"), ev.get("ar_uuid"))] = ev["frame"]
             for ax in list(self.axes.values()):  # a 0xFFFF response may have named the device PS/PSM
                 if ax.info["device_mac"] == ev.get("device_mac") and ax.profile == "generic":
                     self._refine_profile(ax)
+            prof = getattr(self.a.session, "profile_for", None)
+            if ev["index"] == 0xBF00 or (prof is not None and prof(ev.get("device_mac"))[0] == "psm"):
+                self.bf00_unseen[(ev.get("device_mac"), ev.get("ar_uuid"))] = ev["frame"]
 
     def bf00_unseen_for(self, ax: Axis):
         """The response frame of a 0xBF00 write of this axis's AR whose request was lost, or None."""
@@ -247,7 +250,8 @@ class AxisTracking:
                 self.prev_bf00[dev] = old[1]
             self.bf00[dev] = (ev.get("ar_uuid"), ev.get("decoded") or {})
         lst = self.records.setdefault(dev, [])
-        if len(lst) < 256:
+        kept = len(lst) < 256
+        if kept:
             lst.append(ev)
         for ax in self.axes.values():
             if ax.info["device_mac"] == dev and (ev.get("ar_uuid") is None or ax.fm is None or ax.fm.ar_uuid is None
@@ -255,8 +259,9 @@ class AxisTracking:
                 if ax.checker.prev_bf00 is None:  # an axis of a restarted AR seen before its own 0xBF00 (#31)
                     ax.checker.prev_bf00 = self.prev_bf00.get(dev)
                 if ax.profile == "generic" and ev.get("index") == 0xFFFF and ev.get("profile") == "psm":
-                    self._refine_profile(ax)  # replays the device's 0xFFFF records, this one included
-                    continue
+                    self._refine_profile(ax)  # replays the device's 0xFFFF records, this one if kept
+                    if kept:
+                        continue
                 self._out(ax.checker.on_record(ev))
 
 

@@ -140,11 +140,9 @@ def _run(a, paths, fast_ok: bool, progress, col=None) -> None:
     for k, path in enumerate(paths):
         if k:
             _check_order(a, paths[k - 1], path)
-        ro = a.reader
-        for fn, ts, lt, data in open_capture(path, info=ro, first=first):
-            if ts < ro.last_ts:
-                ro.backwards(fn, 1, ro.last_ts - ts)
-            ro.last_ts = ts
+        order = a.reader.order   # time order (ReadInfo)
+        for fn, ts, lt, data in open_capture(path, info=a.reader, first=first):
+            order(fn, ts)
             a.feed(fn, ts, lt, data)
             if not fn & 0xFFF:
                 if progress is not None:

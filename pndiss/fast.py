@@ -136,12 +136,10 @@ def run(a, frames, streams: dict | None = None, engine=None, one=None) -> None:
     if one is None:
         one = stepper(a, streams)
     fn = ts = None
-    ro = a.reader   # time order (ReadInfo.backwards); the engine's windows keep it too
+    order = a.reader.order   # time order (ReadInfo); the engine counts its windows itself
     try:
         for fn, ts, lt, data in frames:
-            if ts < ro.last_ts:
-                ro.backwards(fn, 1, ro.last_ts - ts)
-            ro.last_ts = ts
+            order(fn, ts)
             one(fn, ts, lt, data)
     finally:
         if engine is not None and engine.last_fn > (fn or 0):

@@ -46,6 +46,12 @@ class ReadInfo:
             self.ts_clamped_first = fn
         return 0 if ts < 0 else TS_MAX
 
+    def order(self, fn: int, ts: int) -> None:
+        """A frame taken one by one, in file order (the engine counts its windows with backwards())."""
+        if ts < self.last_ts:
+            self.backwards(fn, 1, self.last_ts - ts)
+        self.last_ts = ts
+
     def backwards(self, fn: int, n: int, most: int) -> None:
         """``n`` frames from frame ``fn`` on went back in time, by at most ``most`` ns."""
         self.ts_back += n

@@ -59,10 +59,6 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
         op = pdu["opnum"]
         request = "args_max" in pdu
         if request:
-            if key in self.answered:  # a copy of a request answered already (its response came first)
-                self.counts["rpc_retransmissions"] += 1
-                self.calls.pop(key, None)
-                return
             call = self.calls.get(key)
             if call is not None and call["frame"] != fn and call["pdu"] is not None:
                 # the same activity and sequence number again before the response: DCE/RPC over UDP resends a

@@ -232,6 +232,9 @@ WRAP_CASES = [
     (dict(st_phys=None, mt_phys=None, p65000=33553432), _rel(33553432, 33553432, 5000, 5000), True),
     # the range known: the same result is the preset modulo R
     (dict(p65000=33553432), _rel(33553432, 33553432, 33552432, 33552432), False),
+    # an absolute preset is P itself: no wrap is assumed
+    (dict(st_phys=None, mt_phys=None, p65000=33553432 + (1 << 25)), [G, G, REQ.replace("5 5", "7 7"),
+                                                                       "0x1400 0x3000 | 0x1200 0x3000 33553432 33553432"], True),
     # below 2^12 no encoder wraps: a small result that fits a tiny modulus is still wrong
     (dict(st_phys=None, mt_phys=None, p65000=100), _rel(50, 50, 22, 22), True),
     # a 32-bit counter G1_XIST1 (SCANCON profile 4.1): counter + P, or the counter started again from the new

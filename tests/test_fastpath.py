@@ -44,6 +44,7 @@ def _run(frames, fast_path: bool):
         fast.run(a, frames)
     else:
         for fn, ts, lt, data in frames:
+            a.reader.order(fn, ts)   # as pndiss.driver's reference path
             a.feed(fn, ts, lt, data)
     a.finish()
     s = a.summary()
@@ -166,6 +167,7 @@ def _run_file(path: str, batched: bool):
             fast.run(a, open_capture(path, batch=eng), streams, eng, one)
         else:
             for f in open_capture(path):
+                a.reader.order(f[0], f[1])   # as pndiss.driver's reference path
                 a.feed(*f)
     except CaptureError as e:
         err = (str(e), e.frames)

@@ -41,7 +41,9 @@ class FakeAnalyzer:
         self.rt: list[tuple] = []
         self.records: list[dict] = []
         self.cyclic = type("C", (), {"on_record": lambda _s, ev: self.records.append(ev),
-                                     "on_phase": lambda _s, *args: None})()
+                                     "on_phase": lambda _s, *args: None,
+                                     "on_write_result": lambda _s, ev: None,
+                                     "on_reconnect": lambda _s, *args: None})()
         self.session = SessionTracker(self)
 
     def emit(self, ev):

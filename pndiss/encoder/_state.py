@@ -301,7 +301,8 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
 
     def new_connection(self, prev_bf00: dict | None) -> list[dict]:
         """The same AR connected again (a controller may reuse its AR UUID, so the axis goes on): the ending
-        connection is judged as at the end of a capture (#31, #90) and the next one starts with what a new
+        connection's #31 and #90 are judged as at the end of a capture (a pending preset handshake was broken
+        already by the cycles not judged before the new Connect) and the next one starts with what a new
         checker knows (#66 asks for its own 0xBF00, #78 for new request references); counts, the timeline
         and P65000 go on. ``prev_bf00``: the 0xBF00 of the connection that ended (#31)."""
         self.out = []

@@ -40,7 +40,7 @@ class PresetRules:
         if pos2 is not None and (mode == 0 or pre["pos2"] is not None):
             exp2 = P.expected_after_preset(mode, P_, pre["pos2"] or 0, self.R)
             # the range unknown (no scaling, no st_phys/mt_phys): the result may have wrapped at it
-            x2_ok = near(pos2, exp2, m2) or (self.R is None and P.fits_binary_range(
+            x2_ok = near(pos2, exp2, m2) or (self.R is None and mode != 0 and P.fits_binary_range(
                 pos2, exp2, (pre["pos2"] or 0, pos2), tol))
             pre["after"] = pos2
             if not x2_ok:
@@ -63,7 +63,7 @@ class PresetRules:
                 self._emit("PRESET-XIST1-NOT-AFFECTED-WHEN-ENABLED", self.f, self.ts,
                            f"G1_XIST2 took the preset but G1_XIST1 stayed {X1}; expected {P.aligned_xist1(exp1, sh)}")
             elif not (near(X1 >> sh, exp1, m1) and not (X1 & ((1 << sh) - 1))
-                      or self._x1_other_reading(X1 >> sh, exp1, base, pos2, x2_ok, tol)):
+                      or self._x1_other_reading(X1 >> sh, exp1, base, pos2, x2_ok, tol, mode)):
                 self._emit("PRESET-VALUE-WRONG", self.f, self.ts,
                            f"{words} preset P65000={P_}: G1_XIST1=0x{X1:08X} in the first frame with G1_ZSW.12, "
                            f"expected 0x{P.aligned_xist1(exp1, sh):08X}")
@@ -72,13 +72,13 @@ class PresetRules:
             self._emit("PRESET-XIST1-AFFECTED-WHEN-DISABLED", self.f, self.ts,
                        f"G1_XIST1 changed {x1_before} -> {X1} at the preset although G1_XIST1 preset control is disabled")
 
-    def _x1_other_reading(self, x1: int, exp1: int, base: int, pos2, x2_ok, tol: int) -> bool:
+    def _x1_other_reading(self, x1: int, exp1: int, base: int, pos2, x2_ok, tol: int, mode: int) -> bool:
         """G1_XIST1 after a preset, read where the manuals leave it open: a 32-bit counter (SCANCON/Hohner
         profile 4.1, cyclic.md §7 [AMBIGUOUS]) may start again from the new absolute position (G1_XIST2's);
         a position of unknown range may have wrapped at it (position.fits_binary_range)."""
         if self.cfg.xist1_counter:
             return bool(x2_ok) and pos2 is not None and abs(P.delta(pos2, x1, U32)) <= tol
-        return self.R is None and P.fits_binary_range(x1, exp1, (base, x1), tol)
+        return self.R is None and mode != 0 and P.fits_binary_range(x1, exp1, (base, x1), tol)
 
     # -- preset-carrying telegrams 86/87/88/100/101/860 (§2.5, #32-34) ----------------------------
     def _cycle_preset_telegram(self, sp: dict, ac: dict) -> None:

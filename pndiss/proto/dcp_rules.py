@@ -147,7 +147,8 @@ class DcpTracker:
         """Did an Identify after frame ``seen`` that the holder ``mac_`` had to answer (for all, for its name
         or its IP) go unanswered? (The Identify a response answers is still open: not judged with it.)"""
         for idf_xid, frame, flt, answered in self.identifies:
-            if frame > seen and idf_xid != xid and mac_ not in answered and (
+            # answered by someone: its responses reach the capture (they go to the asker only)
+            if frame > seen and idf_xid != xid and answered and mac_ not in answered and (
                     flt.get("all") or flt.get("name", False) == self.mac_name.get(mac_)
                     or flt.get("ip", False) == self.mac_ip.get(mac_)):
                 return True
