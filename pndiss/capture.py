@@ -26,6 +26,7 @@ from .readinfo import TS_MAX, ReadInfo  # noqa: F401  (ReadInfo: what the reader
 LINKTYPE_ETHERNET = 1
 LINKTYPE_LINUX_SLL = 113
 LINKTYPE_LINUX_SLL2 = 276
+LINKTYPE_NETANALYZER = 240   # Hilscher netANALYZER, the TAP of many PROFINET commissioning kits
 
 MAX_RECORD = 0x4000000  # 64 MiB: larger captured lengths mean a corrupt file
 MAX_PACKET = 262144     # tshark 4.0 refuses a pcapng packet block capturing more (WTAP_MAX_PACKET_SIZE_STANDARD)
@@ -180,6 +181,18 @@ def open_capture(path: str, batch=None, info: ReadInfo | None = None,
 NEVER = 1 << 62  # frame number at which to offer records to the batch path when there is none
 
 
+def netanalyzer(data) -> tuple[int, bytes]:
+    """A netANALYZER record: a 4-byte little-endian header, then the Ethernet frame with its FCS
+    (Wireshark's packet-netanalyzer.c hands the frame to the Ethernet-with-FCS dissector). An Ethernet
+    frame (header version 1, or 2 of type 0; not a GPIO event) comes back as plain Ethernet, the way
+    tshark's pn_rt sees it; a GPIO event, buffer state or time tick is a frame with no packet."""
+    if len(data) >= 22 and not data[1] & 0x01:
+        version = (data[1] >> 2) & 0xF
+        if version == 1 or (version == 2 and data[3] >> 4 == 0):
+            return LINKTYPE_ETHERNET, data[4:-4]
+    return LINKTYPE_NONE, data
+
+
 def _read_pcap(path: str, b: _Buffer, bo: str, ns: bool, batch=None, first: int = 0) -> Iterator[tuple[int, int, int, bytes]]:
     if not b.need(24):
         raise CaptureError(f"{path}: pcap file header truncated")
@@ -206,7 +219,10 @@ def _read_pcap(path: str, b: _Buffer, bo: str, ns: bool, batch=None, first: int 
             if stop > end or incl > MAX_RECORD:
                 break
             n += 1
-            yield n, sec * 1_000_000_000 + frac * mult, linktype, buf[start:stop]
+            if linktype != LINKTYPE_NETANALYZER:
+                yield n, sec * 1_000_000_000 + frac * mult, linktype, buf[start:stop]
+            else:
+                yield (n, sec * 1_000_000_000 + frac * mult, *netanalyzer(buf[start:stop]))
             pos = stop
         b.pos = pos
         # The next record is not wholly buffered: read more, or say why the file ends here.
@@ -308,7 +324,10 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
                 else:
                     t = ts_of(n, iface, t)
                 last_ts = t
-                yield n, t, iface[0], buf[pos + 28:pos + 28 + cap]
+                if iface[0] != LINKTYPE_NETANALYZER:
+                    yield n, t, iface[0], buf[pos + 28:pos + 28 + cap]
+                else:
+                    yield (n, t, *netanalyzer(buf[pos + 28:pos + 28 + cap]))
                 pos += blen
             if pos != b.pos:
                 b.pos = pos
@@ -336,7 +355,8 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
                 raise bad(f"total block length {blen} is too small for {cap} bytes of packet data")
             n += 1
             last_ts = ts_of(n, ifaces[ifid], (hi << 32) | lo)
-            yield n, last_ts, ifaces[ifid][0], b.buf[body + 20:body + 20 + cap]
+            lt, data = ifaces[ifid][0], b.buf[body + 20:body + 20 + cap]
+            yield (n, last_ts, lt, data) if lt != LINKTYPE_NETANALYZER else (n, last_ts, *netanalyzer(data))
         elif btype == BT_SPB:  # Simple Packet Block: interface 0, no timestamp, no options
             if not ifaces:
                 raise bad("simple packet block before any interface description")
@@ -350,7 +370,8 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
             if tail != blen:
                 raise bad(f"total block lengths (first {blen} and second {tail}) don't match")
             n += 1
-            yield n, 0, ifaces[0][0], b.buf[body + 4:body + 4 + cap]
+            lt, data = ifaces[0][0], b.buf[body + 4:body + 4 + cap]
+            yield (n, 0, lt, data) if lt != LINKTYPE_NETANALYZER else (n, 0, *netanalyzer(data))
         elif btype == BT_CB or btype == BT_CB_NOCOPY or btype == BT_JOURNAL:
             # tshark 4.0 shows custom blocks (any PEN) and systemd journal entries as frames of their
             # own; without counting them every later frame number would be one off Wireshark's

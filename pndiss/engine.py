@@ -246,9 +246,7 @@ class Window:
                     self._resolve()
                 i = j + 1
                 continue
-            present = np.unique(self.sid[i:j]).tolist()
-            if present and present[0] == -1:
-                present = present[1:]
+            present = self._present(i, j)
             cats = self._categories(present, self.fn(i))
             j = self._stream_stop(i, j, cats)
             a, b = np.searchsorted(self.neutral, (i, j))
@@ -282,6 +280,17 @@ class Window:
                 out[k] = None
             else:
                 out[k] = ("ok", fr)
+        return out
+
+    def _present(self, i: int, j: int) -> list:
+        """The known streams with a frame in [i, j), in stream order. From each stream's sorted frame
+        indices, not np.unique over the range: a segment cut short (a stream waiting for content inference
+        stops it at its resume frame) would otherwise pay for the whole rest of the window again."""
+        out = []
+        for k, p in enumerate(self.pos):
+            a = int(np.searchsorted(p, i))
+            if a < len(p) and p[a] < j:
+                out.append(k)
         return out
 
     def _stream_stop(self, i: int, j: int, cats: dict) -> int:

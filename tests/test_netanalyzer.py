@@ -1,0 +1,78 @@
+"""Captures of a Hilscher netANALYZER TAP (LINKTYPE_NETANALYZER, 240), common on PROFINET commissioning:
+each record is a 4-byte little-endian header and the Ethernet frame with its FCS (Wireshark's
+packet-netanalyzer.c). The same session written that way must give the same analysis as plain Ethernet,
+and tshark with the plugin the same violations; GPIO events are frames with no packet."""
+from __future__ import annotations
+
+import os
+import shutil
+import struct
+import subprocess
+import zlib
+
+import pytest
+
+import capedit
+from pndiss.analyzer import analyze_file
+from pndiss.capture import open_capture
+from pndiss.settings import Settings
+
+
+def _record(frame: bytes) -> bytes:
+    wire = frame + struct.pack("<I", zlib.crc32(frame))   # the FCS the TAP keeps
+    return struct.pack("<I", (len(wire) << 16) | (1 << 10)) + wire   # status 0, header version 1, port 0
+
+
+def _gpio() -> bytes:
+    return struct.pack("<I", (1 << 10) | (1 << 8)) + bytes(30)          # a GPIO event: no Ethernet frame
+
+
+def _write_pcap(path: str, recs) -> None:
+    with open(path, "wb") as f:
+        f.write(struct.pack("<IHHiIII", 0xA1B23C4D, 2, 4, 0, 0, 65535, 240))   # ns time stamps
+        for ts, rec in recs:
+            f.write(struct.pack("<IIII", ts // 1_000_000_000, ts % 1_000_000_000, len(rec), len(rec)) + rec)
+
+
+@pytest.fixture(scope="module")
+def caps(tmp_path_factory):
+    tmp = str(tmp_path_factory.mktemp("netana"))
+    src = capedit.simulate(os.path.join(tmp, "eth.pcapng"), "--scenario", "preset", "--cycles", "400",
+                           "--inject", "PRESET-ACK-MISSING")
+    frames = [(ts, bytes(d)) for _fn, ts, _lt, d in open_capture(src)]
+    dst = os.path.join(tmp, "netana.pcap")
+    recs = [(ts, _record(d)) for ts, d in frames]
+    recs.insert(50, (frames[49][0], _gpio()))   # one GPIO event among the frames (frame 51)
+    _write_pcap(dst, recs)
+    return src, dst
+
+
+def _run(path, fast):
+    evs = []
+    a = analyze_file(path, Settings(fast_path=fast), sink=lambda e: evs.append(e) if e["kind"] == "violation" else None)
+    return a.summary(), [(e["rule"], e["frame"]) for e in evs]
+
+
+def test_same_analysis_as_ethernet(caps):
+    src, dst = caps
+    _s0, want = _run(src, False)
+    assert [r for r, _f in want] == ["PRESET-ACK-MISSING"]
+    renum = [(r, f + (f > 50)) for r, f in want]   # the GPIO event is frame 51
+    for fast in (False, True):
+        s, got = _run(dst, fast)
+        assert got == renum
+        acc = s["accounting"]
+        assert acc["malformed"] == 0 and acc["not_profinet"] == _s0["accounting"]["not_profinet"] + 1
+
+
+@pytest.mark.skipif(shutil.which("tshark") is None, reason="tshark not installed")
+def test_tshark_and_plugin_same(caps):
+    from test_lua_plugin import rule_rows
+    src, dst = caps
+    n = subprocess.run(["tshark", "-r", dst, "-Y", "pn_rt", "-T", "fields", "-e", "frame.number"],
+                       capture_output=True, text=True, check=True).stdout.split()
+    m = subprocess.run(["tshark", "-r", src, "-Y", "pn_rt", "-T", "fields", "-e", "frame.number"],
+                       capture_output=True, text=True, check=True).stdout.split()
+    assert len(n) == len(m) > 0
+    _s, want = _run(dst, True)
+    assert {(f, r) for f, r, _d in rule_rows(dst)} == {(f, r) for r, f in want}
