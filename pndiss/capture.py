@@ -181,6 +181,17 @@ def open_capture(path: str, batch=None, info: ReadInfo | None = None,
 NEVER = 1 << 62  # frame number at which to offer records to the batch path when there is none
 
 
+def _convert(linktype: int, fcs: int):
+    """How a record of this link type becomes what the decoders take: None (as it is), netanalyzer(),
+    or an Ethernet frame with its FCS cut off (pcapng if_fcslen, pcap FCS length bits: tshark 4.0 strips
+    it too, and without this the APDU status would be read from the FCS)."""
+    if linktype == LINKTYPE_NETANALYZER:
+        return netanalyzer
+    if fcs and linktype == LINKTYPE_ETHERNET:
+        return lambda data: (LINKTYPE_ETHERNET, data[:-fcs] if len(data) > fcs else data)
+    return None
+
+
 def netanalyzer(data) -> tuple[int, bytes]:
     """A netANALYZER record: a 4-byte little-endian header, then the Ethernet frame with its FCS
     (Wireshark's packet-netanalyzer.c hands the frame to the Ethernet-with-FCS dissector). An Ethernet
@@ -196,12 +207,14 @@ def netanalyzer(data) -> tuple[int, bytes]:
 def _read_pcap(path: str, b: _Buffer, bo: str, ns: bool, batch=None, first: int = 0) -> Iterator[tuple[int, int, int, bytes]]:
     if not b.need(24):
         raise CaptureError(f"{path}: pcap file header truncated")
-    linktype = struct.unpack_from(bo + "I", b.buf, b.pos + 20)[0] & 0x0FFFFFFF  # upper bits: FCS info
+    raw_lt = struct.unpack_from(bo + "I", b.buf, b.pos + 20)[0]
+    linktype = raw_lt & 0x03FFFFFF   # bit 26: an FCS of (bits 28-31) x 16 bits follows every frame
+    conv = _convert(linktype, (raw_lt >> 28) * 2 if raw_lt & 0x04000000 else 0)
     b.pos += 24
     unpack = struct.Struct(bo + "IIII").unpack_from
     mult = 1 if ns else 1000
     n = first
-    take = batch.pcap(bo, linktype, mult) if batch is not None else None
+    take = batch.pcap(bo, linktype, mult, conv) if batch is not None else None
     retry = 0 if take is not None else NEVER
     while True:
         # Inner loop over the records already buffered: no method call per frame.
@@ -219,10 +232,10 @@ def _read_pcap(path: str, b: _Buffer, bo: str, ns: bool, batch=None, first: int 
             if stop > end or incl > MAX_RECORD:
                 break
             n += 1
-            if linktype != LINKTYPE_NETANALYZER:
+            if conv is None:
                 yield n, sec * 1_000_000_000 + frac * mult, linktype, buf[start:stop]
             else:
-                yield (n, sec * 1_000_000_000 + frac * mult, *netanalyzer(buf[start:stop]))
+                yield (n, sec * 1_000_000_000 + frac * mult, *conv(buf[start:stop]))
             pos = stop
         b.pos = pos
         # The next record is not wholly buffered: read more, or say why the file ends here.
@@ -324,10 +337,10 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
                 else:
                     t = ts_of(n, iface, t)
                 last_ts = t
-                if iface[0] != LINKTYPE_NETANALYZER:
+                if iface[6] is None:
                     yield n, t, iface[0], buf[pos + 28:pos + 28 + cap]
                 else:
-                    yield (n, t, *netanalyzer(buf[pos + 28:pos + 28 + cap]))
+                    yield (n, t, *iface[6](buf[pos + 28:pos + 28 + cap]))
                 pos += blen
             if pos != b.pos:
                 b.pos = pos
@@ -355,8 +368,8 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
                 raise bad(f"total block length {blen} is too small for {cap} bytes of packet data")
             n += 1
             last_ts = ts_of(n, ifaces[ifid], (hi << 32) | lo)
-            lt, data = ifaces[ifid][0], b.buf[body + 20:body + 20 + cap]
-            yield (n, last_ts, lt, data) if lt != LINKTYPE_NETANALYZER else (n, last_ts, *netanalyzer(data))
+            iface, data = ifaces[ifid], b.buf[body + 20:body + 20 + cap]
+            yield (n, last_ts, iface[0], data) if iface[6] is None else (n, last_ts, *iface[6](data))
         elif btype == BT_SPB:  # Simple Packet Block: interface 0, no timestamp, no options
             if not ifaces:
                 raise bad("simple packet block before any interface description")
@@ -370,8 +383,8 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
             if tail != blen:
                 raise bad(f"total block lengths (first {blen} and second {tail}) don't match")
             n += 1
-            lt, data = ifaces[0][0], b.buf[body + 4:body + 4 + cap]
-            yield (n, 0, lt, data) if lt != LINKTYPE_NETANALYZER else (n, 0, *netanalyzer(data))
+            iface, data = ifaces[0], b.buf[body + 4:body + 4 + cap]
+            yield (n, 0, iface[0], data) if iface[6] is None else (n, 0, *iface[6](data))
         elif btype == BT_CB or btype == BT_CB_NOCOPY or btype == BT_JOURNAL:
             # tshark 4.0 shows custom blocks (any PEN) and systemd journal entries as frames of their
             # own; without counting them every later frame number would be one off Wireshark's
@@ -380,7 +393,7 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
             yield n, last_ts, LINKTYPE_NONE, b.buf[start:p + blen - 4]
         elif btype == BT_IDB:  # Interface Description Block
             lt, _res, snap = struct.unpack_from(bo + "HHI", b.buf, body)
-            resol, tsoff = 6, 0
+            resol, tsoff, fcs = 6, 0, 0
             o, end = body + 8, p + blen - 4
             while o + 4 <= end:
                 code, olen = struct.unpack_from(bo + "HH", b.buf, o)
@@ -390,8 +403,11 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
                     resol = b.buf[o + 4]
                 elif code == 14 and olen >= 8:
                     tsoff = struct.unpack_from(bo + "q", b.buf, o + 4)[0] * 1_000_000_000
+                elif code == 13 and olen >= 1:   # if_fcslen: each frame ends in an FCS of that many bytes
+                    fcs = b.buf[o + 4]
                 o += 4 + ((olen + 3) & ~3)
             # decimal resolutions up to ns are a plain multiply: the hot loop inlines it
             mult = 10 ** (9 - resol) if resol <= 9 else 0
-            ifaces.append((lt, _tsres_to_ns(resol), tsoff, mult, snap, _ts_limit(mult, tsoff)))
+            # (link type, ts -> ns, offset, multiplier, snaplen, fast-multiply limit, record conversion or None)
+            ifaces.append((lt, _tsres_to_ns(resol), tsoff, mult, snap, _ts_limit(mult, tsoff), _convert(lt, fcs)))
         b.pos = p + blen

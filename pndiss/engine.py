@@ -60,8 +60,9 @@ class Engine:
         BIG = 1 << 62
 
         def fits(i) -> bool:
-            """Ethernet, and time stamps the plain multiply keeps in int64 (else the reader takes them)."""
-            return i[0] == 1 and 0 < i[3] < BIG and -BIG < i[2] < BIG and i[5] >= 0
+            """Ethernet without an FCS to cut, and time stamps the plain multiply keeps in int64 (else the
+            reader takes them)."""
+            return i[0] == 1 and i[6] is None and 0 < i[3] < BIG and -BIG < i[2] < BIG and i[5] >= 0
 
         ok = [fits(i) for i in ifaces]
         lts = np.array([1 if k else 0 for k in ok], dtype=np.int64)
@@ -88,9 +89,9 @@ class Engine:
                                 ix.end if m == len(ix) else int(ix.block[m]))
         return take
 
-    def pcap(self, bo: str, linktype: int, mult: int):
+    def pcap(self, bo: str, linktype: int, mult: int, conv=None):
         def take(buf, pos, end, n):
-            if linktype != 1:
+            if linktype != 1 or conv:
                 return 1 << 20
             ix = frameindex.pcap(buf, pos, end, bo)
             if len(ix) < MIN_FRAMES:

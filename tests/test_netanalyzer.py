@@ -76,3 +76,52 @@ def test_tshark_and_plugin_same(caps):
     assert len(n) == len(m) > 0
     _s, want = _run(dst, True)
     assert {(f, r) for f, r, _d in rule_rows(dst)} == {(f, r) for r, f in want}
+
+
+# -- Ethernet frames that keep their FCS: pcapng if_fcslen, pcap FCS length bits ---------------------
+
+def _blk(t: int, body: bytes) -> bytes:
+    body += b"\0" * (-len(body) % 4)
+    return struct.pack("<II", t, 12 + len(body)) + body + struct.pack("<I", 12 + len(body))
+
+
+def _write_fcs(path: str, frames, kind: str) -> None:
+    fcs = [(ts, d + struct.pack("<I", zlib.crc32(d))) for ts, d in frames]
+    with open(path, "wb") as f:
+        if kind == "pcapng":
+            f.write(_blk(0x0A0D0D0A, struct.pack("<IHHq", 0x1A2B3C4D, 1, 0, -1)))
+            opts = struct.pack("<HHB3x", 9, 1, 9) + struct.pack("<HHB3x", 13, 1, 4) + struct.pack("<HH", 0, 0)
+            f.write(_blk(1, struct.pack("<HHI", 1, 0, 0) + opts))   # if_tsresol 9, if_fcslen 4
+            for ts, w in fcs:
+                f.write(_blk(6, struct.pack("<IIIII", 0, ts >> 32, ts & 0xFFFFFFFF, len(w), len(w)) + w))
+        else:   # link type 1 with the FCS-present bit and 2 x 16 bits of FCS (bits 26, 28-31)
+            f.write(struct.pack("<IHHiIII", 0xA1B23C4D, 2, 4, 0, 0, 65535, 1 | 0x04000000 | (2 << 28)))
+            for ts, w in fcs:
+                f.write(struct.pack("<IIII", ts // 1_000_000_000, ts % 1_000_000_000, len(w), len(w)) + w)
+
+
+@pytest.fixture(scope="module")
+def fcs_caps(caps, tmp_path_factory):
+    src = caps[0]
+    tmp = str(tmp_path_factory.mktemp("fcs"))
+    frames = [(ts, bytes(d)) for _fn, ts, _lt, d in open_capture(src)]
+    out = {}
+    for kind in ("pcapng", "pcap"):
+        out[kind] = os.path.join(tmp, "fcs." + kind)
+        _write_fcs(out[kind], frames, kind)
+    return src, out
+
+
+@pytest.mark.parametrize("kind", ("pcapng", "pcap"))
+def test_fcs_is_cut_like_tshark(fcs_caps, kind):
+    """Without cutting the FCS the APDU status (DataStatus, IOPS) was read from it: cycles not judged,
+    the fault unseen, and with no word of it."""
+    src, out = fcs_caps
+    s0, want = _run(src, False)
+    for fast in (False, True):
+        s, got = _run(out[kind], fast)
+        assert got == want and s["cyclic"]["cycles_gated"] == s0["cyclic"]["cycles_gated"]
+    if shutil.which("tshark"):
+        ds = [subprocess.run(["tshark", "-r", p, "-Y", "pn_rt.ds", "-T", "fields", "-e", "pn_rt.ds"],
+                             capture_output=True, text=True, check=True).stdout for p in (src, out[kind])]
+        assert ds[0] == ds[1] != ""
