@@ -339,7 +339,7 @@ def test_exit_codes_0_1_2():
 def test_exit_2_on_a_full_disk(opt):
     r = run("analyze", T81, "-q", opt, "/dev/full")
     assert r.returncode == 2, r.stderr
-    assert r.stderr.strip().splitlines() == [f"pndiss: error: cannot write /dev/full: No space left on device"]
+    assert r.stderr.strip().splitlines() == ["pndiss: error: cannot write /dev/full: No space left on device"]
 
 
 def test_exit_2_on_an_unwritable_path(tmp_path):

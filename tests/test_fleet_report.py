@@ -21,7 +21,6 @@ from pndiss.cli import main as cli_main  # noqa: E402
 from pndiss.dataset.report import collect  # noqa: E402
 from pndiss.dataset.rows import TableRows  # noqa: E402
 from pndiss.fleet_html import SECTIONS, render  # noqa: E402
-from pndiss.settings import Settings  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CAPS = ["fault-preset-ack-missing", "plant-rt-loss-t81", "plant-restart-abort", "preset-t81-lika",

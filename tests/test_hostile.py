@@ -16,7 +16,7 @@ import pytest
 from pndiss.analyzer import Analyzer, analyze_file
 from pndiss.capture import open_capture
 from pndiss.settings import Settings
-from test_capture import ETH, epb, idb, shb
+from test_capture import epb, idb, shb
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "bench"))

@@ -10,7 +10,6 @@ import struct
 import subprocess
 from collections import Counter
 
-import pytest
 
 from pndiss.records import decode_record
 from pndiss.records.build import build_im0, build_param_request, build_param_response

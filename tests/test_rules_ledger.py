@@ -1,5 +1,4 @@
 """docs/rules.md is generated (tools/gen_rule_ledger.py) and must match the code and tests."""
-import json
 import os
 import sys
 

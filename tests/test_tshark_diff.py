@@ -50,8 +50,8 @@ def check_capture(path):
     record_count(f"tshark differential: frames not compared for maps with 'requires' over {N} captures", n_skipped)
     record_names(f"tshark coverage: PROFINET fields seen with values over {N} captures", seen)
     record_names(f"tshark coverage: PROFINET fields compared over {N} captures", done)
-    record_names(f"tshark coverage: PROFINET fields excluded (tests/tshark_coverage.json)", excluded)
-    record_names(f"tshark coverage: PROFINET fields open (not decoded yet)", still_open)
+    record_names("tshark coverage: PROFINET fields excluded (tests/tshark_coverage.json)", excluded)
+    record_names("tshark coverage: PROFINET fields open (not decoded yet)", still_open)
     print(f"\n{os.path.basename(path)}: {len(seen)} fields seen, {len(done)} compared, {len(excluded)} excluded, "
           f"{len(still_open)} open; {compared} values compared, {len(diffs)} mismatches, {n_skipped} frames skipped")
     assert not diffs, f"{len(diffs)} mismatches, first ones:\n" + "\n".join(diffs[:30])

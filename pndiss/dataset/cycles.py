@@ -17,7 +17,7 @@ import pyarrow as pa
 
 from .. import telegrams as tg
 from . import arrays
-from .schema import CYCLES_HEAD, TABLES, arrow_schema, bit_columns, ts_array
+from .schema import CYCLES_HEAD, arrow_schema, bit_columns, ts_array
 
 ROW_GROUP = 1 << 16   # rows held before a row group is written
 CONST_BYTES = 8 << 20  # memory of the cached constant columns (station names, MACs, ...) at most

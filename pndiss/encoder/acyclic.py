@@ -142,10 +142,8 @@ def _bmp_request(chk, ev: dict) -> None:
 
 
 def _param(chk, ev: dict) -> None:
-    c = chk.cfg
     qid = ev.get("request_id")  # the code (0x02 = change parameter); hand-made events may give the name
     change = qid == 0x02 if isinstance(qid, int) else "change" in str(ev.get("request_id_name") or qid or "")
-    ok = bool(ev.get("ok"))
     frame = ev.get("response_frame", ev.get("frame", 0))
     for prob in ev.get("pairing") or ():
         words = str(prob).lower()

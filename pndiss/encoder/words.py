@@ -29,24 +29,24 @@ class WordRules:
         CLS, CTRL = stw2 >> 12, (stw2 >> 10) & 1
         HMODE, PREQ, AREQ, PARK, SACK = ((g1stw >> b) & 1 for b in (11, 12, 13, 14, 15))
         FACK = (stw2 >> 7) & 1 if self.psm else 0
-        DLS, CREQ = zsw2 >> 12, (zsw2 >> self.creq_bit) & 1
+        CREQ = (zsw2 >> self.creq_bit) & 1
         ACKIP, PDONE, ATX, PKA, SERR = ((g1zsw >> b) & 1 for b in (11, 12, 13, 14, 15))
-        X1, X2, X3 = ac.get("g1_xist1"), ac.get("g1_xist2"), ac.get("g1_xist3")
+        X1, X2 = ac.get("g1_xist1"), ac.get("g1_xist2")
         NIST = ac.get("nist_b", ac.get("nist_a"))
         VALID = c.compat == 0 or CTRL == 1                        # §9 VALID[n]
         ps, pa = self.prev_sp, self.prev_ac
         first = ps is None
         if first:
-            pCLS = pCTRL = pHMODE = pPREQ = pAREQ = pPARK = pSACK = None
-            pDLS = pACKIP = pPDONE = pATX = pPKA = pSERR = pX1 = pX2 = None
+            pCLS = pHMODE = pPREQ = pAREQ = pPARK = pSACK = None
+            pDLS = pACKIP = pPDONE = pATX = pPKA = pSERR = pX1 = None
         else:
             s2, g = ps.get("stw2_enc", 0), ps.get("g1_stw", 0)
-            pCLS, pCTRL = s2 >> 12, (s2 >> 10) & 1
+            pCLS = s2 >> 12
             pHMODE, pPREQ, pAREQ, pPARK, pSACK = ((g >> b) & 1 for b in (11, 12, 13, 14, 15))
             z2, gz = pa.get("zsw2_enc", 0), pa.get("g1_zsw", 0)
             pDLS = z2 >> 12
             pACKIP, pPDONE, pATX, pPKA, pSERR = ((gz >> b) & 1 for b in (11, 12, 13, 14, 15))
-            pX1, pX2 = pa.get("g1_xist1"), pa.get("g1_xist2")
+            pX1 = pa.get("g1_xist1")
         rise = (lambda cur, prev: cur == 1 and prev == 0)
         fall = (lambda cur, prev: cur == 0 and prev == 1)
         self.hist.append((CTRL, PREQ, AREQ, PARK, SACK, VALID, PKA, SERR))
@@ -108,7 +108,7 @@ class WordRules:
         if not first and rise(PREQ, pPREQ):
             if not c.class4:
                 # 17: preset needs class 4 functionality (001_9461bb7bc8c2767b.txt:846)
-                self._hit("PRESET-CLASS4-DISABLED", f"preset requested (G1_STW.12 rise) with class 4 functionality off", controller=True)
+                self._hit("PRESET-CLASS4-DISABLED", "preset requested (G1_STW.12 rise) with class 4 functionality off", controller=True)
             moving = not standstill
             if moving:
                 # 26: presets only at standstill (001_9461bb7bc8c2767b.txt:844, 004_59bef5ae9f41db55.txt:772)
@@ -143,7 +143,7 @@ class WordRules:
             self.pdone_since = None
             if full and all(h[1] == 1 for h in H):
                 # 21: PDONE holds while PREQ = 1 (000_37bf2397999f1108.txt:1806-1812)
-                self._hit("PRESET-ACK-DROPPED", f"G1_ZSW.12 fell while G1_STW.12 stayed 1")
+                self._hit("PRESET-ACK-DROPPED", "G1_ZSW.12 fell while G1_STW.12 stayed 1")
         if pre is not None and not first and fall(PREQ, pPREQ):
             if not pre["done"] and not PDONE and pre["allowed"]:
                 # 23: the controller must hold PREQ until PDONE (000_37bf2397999f1108.txt:780-781)
@@ -279,7 +279,7 @@ class WordRules:
                            last=self.f)
         if self.psm and SERR and not (zsw2 >> 3) & 1:
             # 59: PS/PSM fault present follows the sensor error [INFERENCE] (002_d69f444daf0f8af2.txt:576-582)
-            self._hit("FAULT-PRESENT-INCONSISTENT", f"G1_ZSW.15=1 but ZSW2_ENC.3 (fault present)=0")
+            self._hit("FAULT-PRESENT-INCONSISTENT", "G1_ZSW.15=1 but ZSW2_ENC.3 (fault present)=0")
 
         # ---- 9.9 0xBF00 reaction (#70, #71) -----------------------------------------------------
         if self.bf00_due is not None:

@@ -14,7 +14,7 @@ from functools import lru_cache
 from scapy.layers.inet import IP, UDP
 from scapy.layers.l2 import Dot1Q, Ether
 from scapy.contrib import lldp as L
-from scapy.contrib import pnio_dcp as D
+from scapy.contrib import pnio_dcp as D  # noqa: F401  (registers the DCP layers with scapy)
 from scapy.contrib import pnio_rpc as R
 from scapy.packet import Raw
 
