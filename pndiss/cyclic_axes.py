@@ -123,8 +123,7 @@ class AxisTracking:
             # a length guess proves the vendor only when no other telegram fits
             reason = f"telegram {t} exists only in PS/PSM (cyclic.md §2); {ax.reason}"
         else:
-            prof = getattr(self.a.session, "profile_for", None)
-            got = prof(ax.info["device_mac"]) if prof else None
+            got = self._session_profile(ax.info["device_mac"])
             if got is None or got[0] != "psm":
                 return
             reason = got[1]
@@ -227,13 +226,22 @@ class AxisTracking:
     def on_write_result(self, ev: dict) -> None:
         """A write response whose request the capture lost (session_records._unseen_writes): a successful
         one of the user parameter record proves the start-up write #66 asks for; its values stay unknown."""
-        if ev.get("ok") and ev.get("index") in BF00_INDEXES:
-            for ax in list(self.axes.values()):  # a 0xFFFF response may have named the device PS/PSM
-                if ax.info["device_mac"] == ev.get("device_mac") and ax.profile == "generic":
+        dev = ev.get("device_mac")
+        if not ev.get("ok") or ev.get("index") not in BF00_INDEXES:
+            return
+        if ev["index"] == 0xFFFF:
+            for ax in list(self.axes.values()):  # the response may have named the device PS/PSM
+                if ax.info["device_mac"] == dev and ax.profile == "generic":
                     self._refine_profile(ax)
-            prof = getattr(self.a.session, "profile_for", None)
-            if ev["index"] == 0xBF00 or (prof is not None and prof(ev.get("device_mac"))[0] == "psm"):
-                self.bf00_unseen[(ev.get("device_mac"), ev.get("ar_uuid"))] = ev["frame"]
+            got = self._session_profile(dev)
+            if got is None or got[0] != "psm":
+                return   # 0xFFFF is the user parameter record of PS/PSM only
+        self.bf00_unseen[(dev, ev.get("ar_uuid"))] = ev["frame"]
+
+    def _session_profile(self, dev):
+        """(profile, reason) the session gives the device, or None (a tracker without one, in tests)."""
+        prof = getattr(self.a.session, "profile_for", None)
+        return prof(dev) if prof else None
 
     def bf00_unseen_for(self, ax: Axis):
         """The response frame of a 0xBF00 write of this axis's AR whose request was lost, or None."""

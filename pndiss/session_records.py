@@ -38,9 +38,8 @@ class RecordLayer:
         ar = self._ar_of(hb["ar_uuid"])
         if ar is not None:
             device, controller = ar["device_mac"], ar["controller_mac"]
-        if device and hb["index"] == 0xFFFF and op == "write" and device not in self.ffff_writes:
-            self.ffff_writes[device] = fn   # PS/PSM evidence (profile_for): decided again with it
-            self.profiles.pop(device, None)
+        if device and hb["index"] == 0xFFFF and op == "write":
+            self._ffff_written(device, fn)
         profile = self.profile_for(device)[0] if device else "generic"
         ev = {"frame": fn, "ts_ns": ts, "kind": "record", "op": op, "index": hb["index"],
               "index_name": _records.index_name(hb["index"]) if _records else f"0x{hb['index']:04X}",
@@ -142,10 +141,16 @@ class RecordLayer:
                   "device_mac": ar["device_mac"] if ar is not None else src, "request_frame": None,
                   "ar_uuid": r["ar_uuid"], "ok": r["status"]["ok"], "status": r["status"]}
             self.a.emit(ev)
-            if r["index"] == 0xFFFF and r["status"]["ok"] and ev["device_mac"] not in self.ffff_writes:
-                self.ffff_writes[ev["device_mac"]] = fn   # PS/PSM evidence (profile_for)
-                self.profiles.pop(ev["device_mac"], None)
+            if r["index"] == 0xFFFF and r["status"]["ok"]:
+                self._ffff_written(ev["device_mac"], fn)
             self.a.cyclic.on_write_result(ev)
+
+    def _ffff_written(self, device: str, fn: int) -> None:
+        """A write of record 0xFFFF (its request, or a successful response of a lost one): PS/PSM evidence
+        for profile_for, which decides the device's profile again with it."""
+        if device not in self.ffff_writes:
+            self.ffff_writes[device] = fn
+            self.profiles.pop(device, None)
 
     def _param(self, fn, ts, hb, rec, dec) -> None:
         key = self._param_key(hb, rec["device_mac"], rec["controller_mac"])
