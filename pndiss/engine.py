@@ -269,7 +269,8 @@ class Window:
 
     def _categories(self, present, fn: int) -> dict:
         """Per stream present: None when its frames must go one by one in capture order (not looked up yet,
-        the maps changed, content inference still samples it), else ("ok", its _Frame or None: unmapped)
+        the maps changed), ("sample", None) while content inference samples it (its frames in bulk, the one that
+        completes the samples on its own), else ("ok", its _Frame or None: unmapped)
         -- decided on the tracker's state, which changes only at global frames."""
         t = self.e.t
         gen_ok = t.map_generation == self.e.a.session.map_generation
@@ -277,7 +278,9 @@ class Window:
         for k in present:
             key = self.ss[k].key
             fr = t.frames.get(key, _MISSING) if gen_ok else _MISSING
-            if fr is _MISSING or (fr is None and t.infer.wants(key, fn)):
+            if fr is None and t.infer.sampling(key, fn):
+                out[k] = ("sample", None)   # its frames are offered to content inference in bulk (_stream_stop)
+            elif fr is _MISSING or (fr is None and t.infer.wants(key, fn)):
                 out[k] = None
             else:
                 out[k] = ("ok", fr)
@@ -300,7 +303,13 @@ class Window:
         inference samples an unmapped stream again (pndiss/infer.py)."""
         t = self.e.t
         for k, c in cats.items():
-            if c is not None and c[1] is None:
+            if c is not None and c[0] == "sample":
+                # the frame that completes its samples decides (an AR may be inferred): it goes on its own
+                p = self.pos[k]
+                a = int(np.searchsorted(p, i)) + t.infer.missing(self.ss[k].key) - 1
+                if a < len(p) and p[a] < j:
+                    j = int(p[a])
+            elif c is not None and c[1] is None:
                 again = t.infer.resumes_at(self.ss[k].key)
                 if again is not None:
                     p = self.pos[k]

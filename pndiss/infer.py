@@ -164,6 +164,16 @@ class Inference:
                                                                    and len(st.samples) < SAMPLES
                                                                    and fn >= st.retry_at)
 
+    def missing(self, key: tuple) -> int:
+        """Samples a stream still needs before a decision (the engine offers fewer than that in bulk: the
+        frame that completes them is handed over on its own, in capture order)."""
+        st = self.streams.get(key)
+        return SAMPLES - len(st.samples) if st is not None else SAMPLES
+
+    def sampling(self, key: tuple, fn: int) -> bool:
+        """Whether a stream known here is collecting samples from frame ``fn`` on (``wants``, and not new)."""
+        return key in self.streams and self.wants(key, fn)
+
     def resumes_at(self, key: tuple) -> int | None:
         """The frame number from which a stream waiting after a failed sampling is needed again."""
         st = self.streams.get(key) if self.enabled else None

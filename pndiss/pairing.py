@@ -27,7 +27,8 @@ class Group:
     __slots__ = ("kind", "streams", "pos", "fr", "ax")
 
     def __init__(self, kind, streams, pos, fr=None, ax=None):
-        self.kind = kind        # "count" (unmapped / no telegram), "axis" (one setpoint + one actual), "single"
+        self.kind = kind        # "count" (unmapped / no telegram), "sample" (unmapped, content inference samples
+        #                         it: counted, and its C_SDUs offered), "axis" (one setpoint + one actual), "single"
         self.streams = streams  # fast._Stream per member
         self.pos = pos          # window frame indexes per member (sorted)
         self.fr = fr            # _Frame per member (None: unmapped)
@@ -47,7 +48,7 @@ class Group:
             s = w.ss[k]
             fr = c[1]
             if fr is None or not fr.objs:
-                out.append(Group("count", [s], [p], [fr]))
+                out.append(Group("sample" if c[0] == "sample" else "count", [s], [p], [fr]))
                 continue
             axes = {id(o.ax): o.ax for o in fr.objs}
             if len(fr.objs) != 1 or fr.objs[0].ax is None or len(axes) != 1:
@@ -69,7 +70,7 @@ class Group:
 
 
 def walk_group(w, g: Group) -> None:
-    if g.kind == "count":
+    if g.kind in ("count", "sample"):
         _walk_count(w, g)
     elif g.kind == "axis":
         AxisWalk(w, g).run()
@@ -89,6 +90,16 @@ def _singles(w, g: Group, start: int, stop) -> None:
     o = np.argsort(idx, kind="stable")
     for i, k in zip(idx[o].tolist(), who[o].tolist()):
         w.single(i, g.streams[k])
+
+
+def _offer(w, s, idx) -> None:
+    """C_SDUs of an unmapped stream's frames to content inference, as CyclicTracker.on_cyclic offers each
+    (the engine's segment ends before the frame that would complete the samples: none does here)."""
+    offer = w.e.t.infer.offer
+    for i in idx.tolist():
+        data = w.frame(i)
+        off = 18 if data[12] == 0x81 else 14
+        offer(s.key, w.fn(i), data[off + 2:len(data) - 4], int(w.ts[i]))
 
 
 def _walk_count(w, g: Group) -> None:
@@ -111,6 +122,8 @@ def _walk_count(w, g: Group) -> None:
             c.bulk_gaps(t.gaps, r, e)
             if w.e.col is not None and w.e.col.str:
                 c.bulk_frames(w.e.col, r, e)
+            if g.kind == "sample":
+                _offer(w, s, p[r:e])
             if fr is None:
                 t.count_unmapped(s.key, cnt)
                 t.misses[s.key] = t.misses.get(s.key, 0) + cnt
