@@ -212,6 +212,14 @@ function C.store_cycles(c)
   return math.max(1, ceil(10e6 / t))
 end
 
+local DEFAULT_SOURCE = "default (telegrams.json profile_defaults)"   -- a profile default, nothing captured or given
+
+-- EncoderConfig.compat_open: the compatibility mode neither captured (0xBF00) nor given (--set compat)
+function C.compat_open(c)
+  local s = c.sources and c.sources.compat or ""
+  return s:sub(-#DEFAULT_SOURCE) == DEFAULT_SOURCE
+end
+
 -- EncoderConfig field defaults (config.py); nil = None
 local function new_config(profile, telegram)
   return {profile = profile, telegram = telegram, compat = 1, class4 = 1, preset_control = nil, scaling = 0,
@@ -242,7 +250,7 @@ function C.config_from_settings(s, kw)
   local d = defaults(c)
   for _, name in ipairs({"class4", "preset_control", "scaling", "compat"}) do
     c[name] = d[name]
-    src[name] = c.profile .. " default (telegrams.json profile_defaults)"
+    src[name] = c.profile .. " " .. DEFAULT_SOURCE
   end
   if s ~= nil then
     for _, m in ipairs(SETTINGS_MAP) do
@@ -333,6 +341,7 @@ function Checker:apply_cfg()
   self.lika = c.profile == "lika"
   self.psm = c.profile == "psm"
   self.creq_bit = K.creq_bit[self.psm and "psm" or "generic"]
+  self.compat_open = C.compat_open(c)   -- the mode is learnt from the words (learn_compat)
   local rm = K.reserved_masks
   self.res_stw2 = rm.stw2_enc[c.profile] or rm.stw2_enc.generic
   self.res_g1stw = rm.g1_stw[c.profile] or rm.g1_stw.generic
@@ -483,6 +492,23 @@ end
 local function h_all(self, arr, v)
   for i = 1, self.h_n do if arr[i] ~= v then return false end end
   return true
+end
+
+-- Checker._learn_compat (words.py): the compatibility mode from the words while nothing captured or given says it
+function Checker:learn_compat(full, CTRL, CREQ, executed)
+  local mode, why
+  if CREQ == 1 then
+    mode, why = 1, "control requested set"
+  elseif full and h_all(self, self.hCTRL, 1) then
+    mode, why = 0, fmt("control requested held 0 while control by PLC was 1 for %d cycles", self.L + 1)
+  elseif full and executed and h_all(self, self.hCTRL, 0) then
+    mode, why = 0, "a command acknowledged while control by PLC was 0"
+  else
+    return
+  end
+  self.cfg.compat = mode
+  self.cfg.sources.compat = fmt("learnt from the words (frame %s: %s)", tostring(self.f), why)
+  self:apply_cfg()
 end
 
 -- The "status bit follows control bit within L_max" rows of one group (registry.py FOLLOWS, generated into
@@ -706,7 +732,10 @@ function Checker:cycle_std(sp, ac)
   local o
 
   -- ---- 9.2 control by PLC -----------------------------------------------------------------
-  if c.compat == 1 then
+  if self.compat_open then
+    self:learn_compat(full, CTRL, CREQ, not first and has_g1 and (
+      (PDONE == 1 and pPDONE == 0) or (ATX == 1 and pATX == 0) or (PKA == 1 and pPKA == 0)))
+  elseif c.compat == 1 then
     if full and h_all(self, self.hCTRL, CTRL) and CREQ ~= CTRL then
       -- #13: CREQ follows CTRL within L_max (000_37bf2397999f1108.txt:3100-3106)
       o = self:hit("CTRLREQ-MISMATCH")
@@ -1617,7 +1646,11 @@ local function read(chk, ev, p, pnu, sub, vals, frame, vfloat)
   elseif pnu == 965 and sub == 1 and c.profile ~= "psm" and not vfloat and as_int(v) ~= nil then
     v = as_int(v)
     local exp = c.compat == 0 and 31 or 41
-    if v ~= exp then
+    if chk.compat_open and (v == 31 or v == 41) then  -- the profile version tells the mode (behaviour.md §2.2)
+      c.compat = v == 31 and 0 or 1
+      c.sources.compat = fmt("learnt from P965.1 = %d (frame %s)", v, tostring(frame))
+      chk:apply_cfg()
+    elseif v ~= exp then
       -- #75: P965.1 = 31 in V3.1 mode, 41 in V4.1 (000_37bf2397999f1108.txt:2369-2372)
       v_(chk, "P965-VERSION-MISMATCH", ev, fmt("P965.1 = %d with compatibility mode %s; expected %d", v,
          tostring(c.compat), exp), frame)

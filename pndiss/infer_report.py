@@ -43,8 +43,9 @@ def sections(summary: dict) -> list:
         for p in sorted(profiles):
             d = {k: v for k, v in tg.PROFILE_DEFAULTS.get(p, {}).items() if k not in ("source", "_doc")}
             out.append(Text(f"No 0xBF00 write in the capture for these devices: rules that need the user parameters "
-                            f"run with the {p} profile defaults ({', '.join(f'{k}={v}' for k, v in d.items())}); "
-                            f"slot/subslot are unknown (shown as 0/0)."))
+                            f"run with the {p} profile defaults ({', '.join(f'{k}={v}' for k, v in d.items() if k != 'compat')}); "
+                            f"the compatibility mode is learnt from the control and status words (see each "
+                            f"encoder's settings); slot/subslot are unknown (shown as 0/0)."))
     failed = ci.get("not_inferred", [])
     if failed:
         out.append(Text(f"{len(failed)} cyclic stream(s) have no AR map (no Connect in the capture) and pndiss could "

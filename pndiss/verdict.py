@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from collections import Counter
 
+from . import telegrams as tg
+from .encoder.config import DEFAULT_SOURCE
 from .rules import RULES
 
 MAX_ROWS = 2000  # (rule, side, station) rows kept; more are counted, not listed
@@ -200,6 +202,12 @@ def not_checked(summary: dict) -> list[str]:
     if no_range:
         out.append(f"position range against the hardware: not checked for {_names(no_range)} (steps and "
                    "revolutions unknown): --set st_phys=N --set mt_phys=N")
+    open_ = [e for e in encs if _value(e, "telegram") in tg.CONTROL_WORDS and
+             str(_source(e, "compat", "")).endswith(DEFAULT_SOURCE)]
+    if open_:
+        out.append(f"control by PLC (CTRLREQ-*, CMD-*-WITHOUT-CONTROL): not judged for {_names(open_)} "
+                   "(compatibility mode unknown: no 0xBF00 in the capture, and the words never showed it): "
+                   "--set compat=0 (V3.1) or compat=1 (V4.1)")
     unjudged = [e for e in encs if e.get("presets_unjudged")]
     if unjudged:
         n = sum(e["presets_unjudged"] for e in unjudged)

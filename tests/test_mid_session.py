@@ -74,7 +74,10 @@ def test_telegram_found_from_content_and_fault_found(caps, telegram):
     enc, = c["encoders"]
     assert enc["telegram"] == telegram and enc["telegram_source"] == "inferred from content"
     assert enc["cycles"] > 300
-    assert enc["settings"]["compat"]["source"].startswith("generic default")   # no 0xBF00: profile defaults
+    assert enc["settings"]["class4"]["source"].startswith("generic default")   # no 0xBF00: profile defaults
+    # ... but the mode is learnt from the words: control requested set on the first judged cycle is V4.1
+    assert enc["settings"]["compat"] == {"value": 1, "source": enc["settings"]["compat"]["source"]}
+    assert enc["settings"]["compat"]["source"].startswith("learnt from the words (frame ")
     assert c["content_inference"]["inferred"][0]["telegram"] == telegram
 
 

@@ -96,6 +96,7 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         self.lika = c.profile == "lika"
         self.psm = c.profile == "psm"
         self.creq_bit = tg.bit_position("zsw2_enc", "control_requested", "psm" if self.psm else "generic")
+        self.compat_open = c.compat_open()   # the mode is learnt from the words (words.py _learn_compat)
         self.res_stw2 = tg.reserved_mask("stw2_enc", c.profile)
         self.res_g1stw = tg.reserved_mask("g1_stw", c.profile)
         self.res_zsw2 = tg.reserved_mask("zsw2_enc", c.profile)

@@ -246,7 +246,11 @@ def _read(chk, ev, p, pnu, sub, vals, frame) -> None:
     elif pnu == 965 and sub == 1 and c.profile != "psm" and _as_int(v) is not None:
         v = _as_int(v)
         exp = 31 if c.compat == 0 else 41
-        if v != exp:
+        if chk.compat_open and v in (31, 41):   # the profile version tells the mode (behaviour.md §2.2)
+            c.compat = 0 if v == 31 else 1
+            c.sources["compat"] = f"learnt from P965.1 = {v} (frame {frame})"
+            chk.reconfigure()
+        elif v != exp:
             # 75: P965.1 = 31 in V3.1 mode, 41 in V4.1 (000_37bf2397999f1108.txt:2369-2372)
             _v(chk, "P965-VERSION-MISMATCH", ev, f"P965.1 = {v} with compatibility mode {c.compat}; expected {exp}", frame=frame)
     elif pnu == 979 and sub == 3 and isinstance(v, int) and 0 <= v < 32:

@@ -7,6 +7,8 @@ so the report can print the settings in force with their origin.
 """
 from __future__ import annotations
 
+DEFAULT_SOURCE = "default (telegrams.json profile_defaults)"   # a profile default, nothing captured or given
+
 import math
 from dataclasses import dataclass, field, fields
 
@@ -99,6 +101,13 @@ class EncoderConfig:
         t = self.cycle_ns or 1_000_000
         return max(1, math.ceil(10e6 / t))
 
+    def compat_open(self) -> bool:
+        """The compatibility mode is not known from the capture (no 0xBF00 seen: a capture started
+        mid-session, a lost write) nor given (--set compat): the checker learns it from the words
+        (words.py ``_learn_compat``) and judges #13-#16 only from then on. LIKA wants compat = 0 under a
+        SIMATIC technology object (000_37bf2397999f1108.txt:1280-1281): the default would blame the encoder."""
+        return self.sources.get("compat", "").endswith(DEFAULT_SOURCE)
+
     def in_force(self) -> dict:
         """The settings in force, with where each came from (for summary() and the report)."""
         out = {}
@@ -123,7 +132,7 @@ class EncoderConfig:
         d = c.defaults
         for name in ("class4", "preset_control", "scaling", "compat"):
             setattr(c, name, d[name])
-            src[name] = f"{c.profile} default (telegrams.json profile_defaults)"
+            src[name] = f"{c.profile} {DEFAULT_SOURCE}"
         s = settings
         if s is not None:
             for name, attr in (("l_max", "l_max"), ("preset_deadline_ms", "preset_deadline_ms"),

@@ -66,7 +66,10 @@ class WordRules:
 
         # ---- 9.2 control by PLC -----------------------------------------------------------------
         self.last_status = (CTRL, CREQ, has_g1, {"ATX": ATX, "PKA": PKA, "ACKIP": ACKIP})
-        if c.compat == 1:
+        if self.compat_open:
+            self._learn_compat(H, full, CTRL, CREQ, not first and has_g1 and (
+                rise(PDONE, pPDONE) or rise(ATX, pATX) or rise(PKA, pPKA)))
+        elif c.compat == 1:
             if full and self._ctrlreq_mismatch(H, CTRL, CREQ):
                 # 13: CREQ follows CTRL within L_max (000_37bf2397999f1108.txt:3100-3106)
                 self._hit("CTRLREQ-MISMATCH", f"control requested (ZSW2_ENC.{self.creq_bit})={CREQ} while control by PLC "
@@ -311,6 +314,24 @@ class WordRules:
         """#13's condition on a full window: control by PLC the same in every cycle, control requested not."""
         return all(h[0] == CTRL for h in H) and CREQ != CTRL
 
+    def _learn_compat(self, H, full: bool, CTRL: int, CREQ: int, executed: bool) -> None:
+        """The compatibility mode from the words, while nothing captured or given says it (cfg.compat_open):
+        control requested set proves V4.1 (V3.1 holds it at 0, R-CTRL-3); held at 0 under control by PLC
+        for L_max+1 cycles, or a command acknowledged while control by PLC was 0 as long, is V3.1
+        (R-CTRL-2/4 would make either a fault). [INFERENCE] docs/settings.md `compat`. Until then #13-#16
+        are not judged: either side could be right."""
+        if CREQ:
+            mode, why = 1, "control requested set"
+        elif full and all(h[0] == 1 for h in H):
+            mode, why = 0, f"control requested held 0 while control by PLC was 1 for {self.L + 1} cycles"
+        elif full and executed and all(h[0] == 0 for h in H):
+            mode, why = 0, "a command acknowledged while control by PLC was 0"
+        else:
+            return
+        self.cfg.compat = mode
+        self.cfg.sources["compat"] = f"learnt from the words (frame {self.f}: {why})"
+        self._apply_cfg()
+
     def windows_quiet(self) -> bool:
         """No window rule (#13, the FOLLOWS rows) can fire while the words stay those of the last cycle.
         Each needs its condition on every cycle of W(n, -L_max, 0), the newest included: a rule whose
@@ -321,7 +342,9 @@ class WordRules:
             return False
         CTRL, CREQ, has_g1, status = self.last_status
         T = (self.hist[-1],)
-        if self.cfg.compat == 1 and self._ctrlreq_mismatch(T, CTRL, CREQ):
+        if self.cfg.compat == 1 and not self.compat_open and self._ctrlreq_mismatch(T, CTRL, CREQ):
+            return False
+        if self.compat_open and CTRL == 1:   # a window that would teach the mode (_learn_compat)
             return False
         return not (has_g1 and any(next(self._follows_hits(g, status, T), None) for g in REG.FOLLOW_GROUPS))
 

@@ -1,0 +1,80 @@
+"""The compatibility mode learnt from the words when no 0xBF00 says it (a capture started mid-session,
+a lost write): behaviour.md §2.1-2.2, docs/settings.md ``compat``. Until the words show the mode, the
+rules that depend on it (#13-#16) are not judged; with the mode given, the same rows are faults."""
+from __future__ import annotations
+
+import shutil
+
+import pytest
+
+import encoder_table as T
+from pndiss.encoder import Checker
+
+# telegram 81 rows: STW2_ENC G1_STW | ZSW2_ENC G1_ZSW G1_XIST1 G1_XIST2 (bit 10 of STW2_ENC = control by
+# PLC, bit 9 of ZSW2_ENC = control requested; G1_STW.13 / G1_ZSW.13 = absolute value request / transmitted)
+V41 = "0x0400 0x0000 | 0x0200 0x0000 5 0"
+CTRL_NO_CREQ = "0x0400 0x0000 | 0x0000 0x0000 5 0"
+IDLE = "0x0000 0x0000 | 0x0000 0x0000 5 0"
+AREQ = "0x0000 0x2000 | 0x0000 0x0000 5 0"
+ATX = "0x0000 0x2000 | 0x0000 0x2000 5 5"
+
+# (name, rows, violations with compat open, learnt mode (None: still open), violations with compat = 1 given)
+CASES = [
+    ("v41 then control requested drops", [(V41, 5), (CTRL_NO_CREQ, 5)], {"CTRLREQ-MISMATCH"}, 1,
+     {"CTRLREQ-MISMATCH"}),
+    ("control requested held 0 under control", [(CTRL_NO_CREQ, 10)], set(), 0, {"CTRLREQ-MISMATCH"}),
+    ("command executed without control", [(IDLE, 5), (AREQ, 1), (ATX, 5)], set(), 0,
+     {"CMD-WITHOUT-CONTROL", "CMD-EXECUTED-WITHOUT-CONTROL"}),
+    ("no control, no command", [(IDLE, 20)], set(), None, set()),
+    ("v41 throughout", [(V41, 20)], set(), 1, set()),
+]
+
+
+def _run(rows, compat):
+    chk = Checker(T.make_cfg(compat=compat))
+    out = []
+    for i, r in enumerate(T.expand(rows)):
+        sp, ac = T.parse(r, 81)
+        out += chk.cycle(i, i * 1000, sp, ac)
+    out += chk.finish()
+    return {e["rule"] for e in out if e["kind"] == "violation"}, chk
+
+
+@pytest.mark.parametrize("name,rows,open_rules,learnt,given_rules", CASES, ids=[c[0] for c in CASES])
+def test_mode_learnt_from_the_words(name, rows, open_rules, learnt, given_rules):
+    got, chk = _run(rows, None)
+    assert got == open_rules
+    src = chk.cfg.sources["compat"]
+    if learnt is None:
+        assert chk.cfg.compat_open() and chk.compat_open
+    else:
+        assert chk.cfg.compat == learnt and src.startswith("learnt from the words (frame ")
+    given, chk1 = _run(rows, 1)
+    assert given == given_rules and not chk1.compat_open
+
+
+P965 = {"kind": "param", "request_id": 0x01, "response_id": 0x01, "params": [{"pnu": 965, "subindex": 1, "values": [31]}]}
+
+
+def test_p965_tells_the_mode():
+    """P965.1 = 31 is V3.1 mode (behaviour.md §2.2): learnt while open, a fault when compat = 1 was given."""
+    ev = P965
+    got = T.run([dict(ev)], compat=None)
+    assert got == []
+    chk = Checker(T.make_cfg(compat=None))
+    chk.on_record(dict(ev, frame=1, ts_ns=1))
+    assert chk.cfg.compat == 0 and chk.cfg.sources["compat"] == "learnt from P965.1 = 31 (frame 1)"
+    assert {e["rule"] for e in T.run([dict(ev)], compat=1)} == {"P965-VERSION-MISMATCH"}
+
+
+@pytest.mark.skipif(shutil.which("lua5.2") is None, reason="lua5.2 not installed")
+def test_lua_port_learns_the_same():
+    from luachk.record import Recorder, replay
+    with Recorder() as rec:
+        for _name, rows, *_ in CASES:
+            _run(rows, None)
+            _run(rows, 1)
+        T.run([dict(P965)] + [V41] * 3, compat=None)
+        T.run([dict(P965)], compat=1)
+    res = replay(rec)
+    assert not res["problems"], "\n".join(res["problems"][:20])
