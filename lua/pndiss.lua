@@ -451,7 +451,7 @@ for _, n in ipairs({"pn_io.opnum", "pn_io.block_type", "pn_io.ar_uuid", "pn_io.c
                     "pn_io.submodule_data_length", "pn_io.length_iops", "pn_io.length_iocs",
                     "pn_io.module_ident_number", "pn_io.submodule_ident_number", "pn_io.iocr_multicast_mac_add",
                     "pn_io.index", "pn_io.im_profile_id", "pn_io.vendor_id_high", "pn_io.vendor_id_low",
-                    "pn_io.order_id", "dcerpc.pkt_type", "dcerpc.dg_act_id", "dcerpc.dg_seqnum",
+                    "pn_io.order_id", "dcerpc.pkt_type", "dcerpc.dg_act_id", "dcerpc.dg_seqnum", "dcerpc.dg_frag_len",
                     "pn_rt.frame_id", "pn_rt.ds", "pn_rt.cycle_counter", "pn_io.send_clock_factor", "pn_io.reduction_ratio",
                     "pn_io.error_code", "pn_io.error_decode", "pn_io.error_code1", "pn_io.error_code2",
                     "pn_io.control_command", "pn_io.pdu_type.type",
@@ -497,6 +497,21 @@ local function before(list, off)
         if fi.offset < off then v = fi.value else break end
     end
     return v
+end
+
+-- latin-1 bytes as UTF-8 text (cmblock.text: bytes.decode("latin-1"))
+local function latin1(raw)
+    return (raw:gsub("[\128-\255]", function(c)
+        local b = c:byte()
+        return string.char(0xC0 + math.floor(b / 64), 0x80 + b % 64)
+    end))
+end
+
+-- session.station_name: a MAC's NameOfStation from the station table (DCP, Connects), nil when unknown or empty
+local function station_of(mac)
+    local n = dcp_state.station[mac]
+    if n == nil or n == "" then return nil end
+    return n
 end
 
 local pending_connects   -- "act|seq" -> request summary
@@ -563,12 +578,24 @@ local function connect_response(key, pinfo)
         elseif b.type == 0x8102 then
             local r, f = inside(all("pn_io.iocr_reference"), b), inside(all("pn_io.frame_id"), b)
             if r[1] and f[1] then res_fid[r[1].value] = f[1].value end
+        elseif b.type == 0x8106 and server_name == nil then
+            -- cm_connect._ar_server: u16 StationNameLength + the device's NameOfStation (latin-1), first block
+            local o, t = b.s + 6, b.tvb
+            if o + 2 <= b.e and o + 2 <= t:len() then
+                local n = t(o, 2):uint()
+                if o + 2 + n <= b.e and o + 2 + n <= t:len() then
+                    server_name = n > 0 and latin1(t(o + 2, n):raw()) or ""
+                end
+            end
         end
     end
     if req.ar and (ok or ar_devs[req.ar] == nil) then ar_devs[req.ar] = {device, req.controller} end
+    -- session._connect: dev_station = the station table's name (DCP, an earlier Connect) or the ARServerBlock's;
+    -- it goes into the station table, a refused Connect's too
+    local station = station_of(device)
+    if station == nil then station = server_name ~= "" and server_name or nil end
+    if station ~= nil then dcp_state.station[device] = station end
     if not ok then return end
-    local station = dcp_state.station[device]
-    if station == nil or station == "" then station = server_name end  -- session._connect: dev_station
     local keys = {}
     local again = req.ar ~= nil and ar_phase[req.ar] ~= nil   -- session_ar: controllers may reuse an AR UUID
     if req.ar then
@@ -796,9 +823,11 @@ local function infer_try(st, fn)
     end
     local out_s, in_s = best.out, best["in"]
     local controller, device = out_s.src, out_s.dst
+    local station = station_of(device)   -- session.add_inferred: the station table's name of the device
     for _, x in ipairs({{out_s, "output", best.os, best.cand.len_setpoint}, {in_s, "input", best.oa, best.cand.len_actual}}) do
         local s = x[1]
         maps[s.key] = {direction = x[2], device = device, controller = controller, frame_id = s.fid, source = "content",
+                       station = station,
                        objects = {{api = 0, slot = 0, subslot = 0, offset = x[3], length = x[4], telegram = best.t,
                                    telegram_source = CI.source}},
                        inferred = {confidence = best.confidence, first = math.min(out_s.frames[1], in_s.frames[1]),
@@ -1414,6 +1443,19 @@ local dev_records      -- device -> record/param events, replayed into a new axi
 local bf00_last        -- device -> {ar, decoded} of the latest 0xBF00/0xFFFF write
 local bf00_resp        -- AR UUID -> frame of a successful 0xBF00/0xFFFF write response (its request may be lost)
 local answered         -- DCE/RPC "act|seq" -> frame of its response (its copies run once)
+local req_body, answered_body   -- "act|seq" -> the open / the answered request's body (a resend of it runs once)
+local answered_at        -- "act|seq" -> time (s) of its response
+local bf00_before        -- device MAC .. "|" .. frame of a 0xBF00 write -> bf00_last before it (false: none)
+
+-- The body of a connectionless DCE/RPC PDU (the 80-byte header, then dg_frag_len bytes), from the Tvb the
+-- header was read from; nil when it is not all there
+local function rpc_body(seq)
+    local len = X["dcerpc.dg_frag_len"]()
+    if seq == nil or len == nil then return nil end
+    local src, at = seq.source, seq.offset - 64 + 80   -- the sequence number sits at header byte 64
+    if src == nil or at < 0 or at + len.value > src:len() then return nil end
+    return src(at, len.value):raw()
+end
 local wrote            -- DCE/RPC "act|seq" of the write requests seen (a response without one: _unseen_writes)
 local prev_bf00        -- device -> decoded 0xBF00 of an earlier connection (#31)
 local viol             -- frame -> list of {rule, decided} (decided: frame whose dissection decided it; 0 = finish)
@@ -1553,6 +1595,7 @@ function on_record(ev, fn)
     if ev.kind == "record" and (ev.index == 0xBF00 or ev.index == 0xFFFF) and ev.op == "write" then
         local old = bf00_last[dev]
         if old ~= nil and old.ar ~= ev.ar_uuid then prev_bf00[dev] = old.decoded end
+        bf00_before[dev .. "|" .. tostring(ev.frame)] = old or false   -- a refused write puts it back
         bf00_last[dev] = {ar = ev.ar_uuid, decoded = ev.decoded or {}}
     end
     local lst = dev_records[dev]
@@ -2109,6 +2152,32 @@ local function write_responses(pinfo)
     end
 end
 
+-- session_records._write_results / cyclic_axes.on_write_refused: a write the device answered with an error
+-- wrote nothing: a 0xBF00 / 0xFFFF applied at its request is taken back, a parameter request is not pending
+local function write_refusals(pinfo, req_frame)
+    for _, b in ipairs(blocks()) do
+        if b.type == 0x8008 and b.e - b.s >= 64 then
+            local t, hs = b.tvb, b.s + 8   -- after block header and SeqNumber
+            local index = t(hs + 26, 2):uint()
+            if t(hs + 36, 4):uint() ~= 0 and index ~= 0xE040 then   -- PNIOStatus not OK
+                local dev = tostring(pinfo.dl_src)
+                if index == 0xBF00 or index == 0xFFFF then
+                    local bk = dev .. "|" .. tostring(req_frame)
+                    local old = bf00_before[bk]
+                    if old ~= nil then bf00_last[dev] = old or nil; bf00_before[bk] = nil end
+                    for _, ax in ipairs(axis_list) do
+                        if (ax.info.device_mac or "") == dev then note(ax.checker:write_refused(req_frame), pinfo.number) end
+                    end
+                elseif index == 0xB02E or index == 0xB02F then
+                    for k, v in pairs(pairer) do
+                        if v.frame == req_frame then pairer[k] = nil end   -- ParamPairer.refused
+                    end
+                end
+            end
+        end
+    end
+end
+
 -- first pass of a non-cyclic frame: DCP identity and rules, Connects, records
 local function first_pass(pinfo)
     local op = X["pn_io.opnum"]()
@@ -2129,18 +2198,28 @@ local function first_pass(pinfo)
     local pt = X["dcerpc.pkt_type"]()
     local act, seq = X["dcerpc.dg_act_id"](), X["dcerpc.dg_seqnum"]()
     local key = act and seq and (tostring(act) .. "|" .. tostring(seq.value))
+    local req_frame   -- a response's request, when the capture holds it
     if pt and key then   -- a request or response again: a retransmission or a copy, run once (session.py _cm)
         local done = answered[key]
         -- a response with no request open, its key answered before: a copy (an act|seq reused later is no copy)
         if pt.value == 2 and open_req[key] == nil and done ~= nil and done ~= pinfo.number then return {} end
+        local body = pt.value == 0 and rpc_body(seq) or nil
+        -- session._cm: the same request again after its response (the client resends, the server answers
+        -- from its cache): the call runs once; a new request reusing the act|seq differs and runs
+        if body ~= nil and done ~= nil and open_req[key] == nil and answered_body[key] == body
+            and tonumber(pinfo.abs_ts) - answered_at[key] <= 10 then return {} end   -- session.RESEND_WINDOW_NS
         if pt.value == 0 and op.value == 3 then wrote[key] = true end   -- session_records: pending_writes
         if pt.value == 0 then
             local first = open_req[key]
             if first ~= nil and first ~= pinfo.number then return {} end
             open_req[key] = pinfo.number
+            req_body[key] = body
         elseif pt.value == 2 then
-            open_req[key] = nil
+            req_frame = open_req[key]
+            answered_body[key] = open_req[key] ~= nil and req_body[key] or nil
+            open_req[key], req_body[key] = nil, nil
             answered[key] = pinfo.number
+            answered_at[key] = tonumber(pinfo.abs_ts)
         end
     end
     local ok, err = pcall(function()
@@ -2150,6 +2229,7 @@ local function first_pass(pinfo)
         if pt then control(op.value, pt.value, pinfo.number) end
         items = record_items(pinfo, records_of_frame())
         if pt and pt.value == 2 and op.value == 3 and key and not wrote[key] then write_responses(pinfo) end
+        if pt and pt.value == 2 and op.value == 3 and req_frame ~= nil then write_refusals(pinfo, req_frame) end
     end)
     if not ok then items = {{error = tostring(err)}} end
     -- I&M0 read response: vendor ID + order ID name the profile (session.profile_for)
@@ -2201,6 +2281,7 @@ local function reset_state()
     pending_connects, pairer, superseded = {}, {}, {}
     axes, axis_list, dev_records, bf00_last, prev_bf00 = {}, {}, {}, {}, {}
     bf00_resp, answered, wrote = {}, {}, {}
+    req_body, answered_body, bf00_before, answered_at = {}, {}, {}, {}
     gap_streams = {}
     infer_streams, infer_list = {}, {}
     viol, viol_seen, late, finished = {}, {}, {}, false

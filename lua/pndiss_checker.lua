@@ -1548,6 +1548,7 @@ local function record(chk, ev)
   if not K.bf00_indexes[idx] or ev.op ~= "write" then return end
   if idx == 0xFFFF and chk.cfg.profile ~= "psm" then return end
   local c = chk.cfg
+  local was_seen = chk.bf00_seen
   chk.bf00_seen = true
   local problems = {}
   local d = ev.decoded or {}
@@ -1562,7 +1563,12 @@ local function record(chk, ev)
   else
     own_bf00_checks(chk, ev, idx, d, problems)
   end
-  -- the captured parameter set is now in force (behaviour.md §2.0: re-read whenever written)
+  -- the captured parameter set is now in force (behaviour.md §2.0: re-read whenever written); what it
+  -- replaces is kept until the response: a refused write wrote nothing (Checker:write_refused)
+  local saved = {}
+  for _, m in ipairs(BF00_MAP) do saved[#saved + 1] = {m[2], c[m[2]], c.sources[m[2]]} end
+  chk.bf00_undo = {frame = ev.frame, cfg = saved, state = {chk.bf00_invalid, chk.bf00_due, chk.bf00_valid_frame,
+                                                         chk.params_changed, was_seen}}
   for _, m in ipairs(BF00_MAP) do
     if d[m[1]] ~= nil then
       c[m[2]] = toint(d[m[1]])
@@ -1797,6 +1803,25 @@ local function param(chk, ev)
       v_(chk, "BMP-PROFILE-PARAM-UNREADABLE", ev, fmt("read of P%s refused with 0x11 after run-up", tostring(pnu)), frame)
     end
   end
+end
+
+-- acyclic.write_refused: the device refused the 0xBF00 / 0xFFFF write of request_frame; what was in force is again
+function Checker:write_refused(request_frame)
+  self.out = nil
+  local undo = self.bf00_undo
+  self.bf00_undo = nil
+  if undo ~= nil and undo.frame == request_frame then
+    local c = self.cfg
+    for i = #undo.cfg, 1, -1 do   -- last first: code_sequence and direction share an attribute
+      local a = undo.cfg[i]
+      c[a[1]] = a[2]
+      c.sources[a[1]] = a[3]
+    end
+    local st = undo.state
+    self.bf00_invalid, self.bf00_due, self.bf00_valid_frame, self.params_changed = st[1], st[2], st[3], st[4]
+    self:apply_cfg()
+  end
+  return self.out or EMPTY
 end
 
 -- A record or param event of this encoder's device, in capture order (Python event shape).

@@ -16,6 +16,8 @@ from .encoder import Checker, EncoderConfig
 
 BF00_INDEXES = (0xBF00, 0xFFFF)
 
+_NONE = object()   # no entry (on_write_refused)
+
 
 class Axis:
     """One encoder (AR/submodule): its checker, latest setpoint and identity."""
@@ -238,6 +240,23 @@ class AxisTracking:
                 return   # 0xFFFF is the user parameter record of PS/PSM only
         self.bf00_unseen[(dev, ev.get("ar_uuid"))] = ev["frame"]
 
+    def on_write_refused(self, ev: dict) -> None:
+        """A write the device answered with an error (a ``record_result``, ok false, its request seen): the
+        record it carried was applied at the request (on_record), so its checkers take the previous one back
+        (Checker.write_refused). A refused 0xBF00 leaves the parameters that were in force."""
+        dev = ev.get("device_mac")
+        if ev.get("index") not in BF00_INDEXES:
+            return
+        old = self.bf00_before.pop((dev, ev.get("request_frame")), _NONE)
+        if old is not _NONE:
+            if old is None:
+                self.bf00.pop(dev, None)
+            else:
+                self.bf00[dev] = old
+        for ax in self.axes.values():
+            if ax.info["device_mac"] == dev:
+                self._out(ax.checker.write_refused(ev.get("request_frame")))
+
     def _session_profile(self, dev):
         """(profile, reason) the session gives the device, or None (a tracker without one, in tests)."""
         prof = getattr(self.a.session, "profile_for", None)
@@ -256,6 +275,9 @@ class AxisTracking:
             old = self.bf00.get(dev)
             if old is not None and old[0] != ev.get("ar_uuid"):
                 self.prev_bf00[dev] = old[1]
+            self.bf00_before[(dev, ev.get("frame"))] = old   # a refused write puts it back (on_write_refused)
+            if len(self.bf00_before) > 64:
+                self.bf00_before.pop(next(iter(self.bf00_before)))
             self.bf00[dev] = (ev.get("ar_uuid"), ev.get("decoded") or {})
         lst = self.records.setdefault(dev, [])
         kept = len(lst) < 256

@@ -17,6 +17,8 @@ from .session_ar import ArLayer, ar_summary
 from .session_records import MAX_CALLS, RecordLayer, param_pairer
 from .session_rpc import PORT_RT_UDP, RpcLayer
 
+RESEND_WINDOW_NS = 10_000_000_000   # a client resends an unanswered DCE/RPC request within seconds (wire.md §5.1)
+
 
 class SessionTracker(RpcLayer, ArLayer, RecordLayer):
     def __init__(self, analyzer):
@@ -30,7 +32,7 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
         self.ars: dict[str, dict] = lim.table(s.max_ars, "ars", self._forget_ar)
         self.ar_list: list[dict] = []             # every Connect outcome, in order (report/summary)
         self.orphans: OrderedDict = OrderedDict()  # (act, seq) -> Connect response seen before its request
-        self.answered: OrderedDict = OrderedDict()  # (act, seq) -> frame of its response (copies run once)
+        self.answered: OrderedDict = OrderedDict()  # (act, seq) -> (frame of its response, its request's pdu): copies run once
         self.maps: dict[tuple, armap.FrameMap] = {}
         self.rt_ports = {PORT_RT_UDP}
         self.ip_datagrams: dict[tuple, bool] = {}  # IP fragment key -> PNIO? (bounded with ipr)
@@ -65,6 +67,15 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
                 # request until it is answered, and a mirror port may capture it twice; the call runs once
                 self.counts["rpc_retransmissions"] += 1
                 return
+            done = self.answered.get(key)
+            if done is not None and done[1] == pdu and ts - done[2] <= RESEND_WINDOW_NS and (call is None or call["frame"] == fn):
+                # the same call again after its response (the client missed it and resends; the server answers
+                # from its cache, at most once): the same request bytes under an answered act|seq run once. A
+                # new request reusing the act|seq (a restarted controller, a tool replaying a fixed Connect:
+                # profinet_io_cm_connect, years apart) differs, or comes later than any client resends, and runs
+                self.counts["rpc_retransmissions"] += 1
+                self.calls.pop(key, None)
+                return
             if call is not None and call["frame"] == fn or (call is not None and call["pdu"] is None):
                 call["pdu"] = pdu
             if op == 3:
@@ -82,7 +93,7 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
             # the response again (a mirror port's copy, or the server resending it): its effects run once
             self.counts["rpc_retransmissions"] += 1
             return
-        self.answered[key] = fn
+        self.answered[key] = (fn, call["pdu"] if call is not None else None, ts)
         if len(self.answered) > MAX_CALLS:
             self.answered.popitem(last=False)
         req = call["pdu"] if call is not None and call["opnum"] == op else None

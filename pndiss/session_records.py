@@ -98,10 +98,19 @@ class RecordLayer:
             else:
                 continue
             ev["result"] = st["text"]
-            self.a.emit({"frame": fn, "ts_ns": ts, "kind": "record_result", "op": "write", "index": ev["index"],
-                         "index_name": ev["index_name"], "api": ev["api"], "slot": ev["slot"],
-                         "subslot": ev["subslot"], "device_mac": ev["device_mac"], "request_frame": ev["frame"],
-                         "ok": st["ok"], "status": st})
+            res_ev = {"frame": fn, "ts_ns": ts, "kind": "record_result", "op": "write", "index": ev["index"],
+                      "index_name": ev["index_name"], "api": ev["api"], "slot": ev["slot"],
+                      "subslot": ev["subslot"], "device_mac": ev["device_mac"], "request_frame": ev["frame"],
+                      "ok": st["ok"], "status": st}
+            self.a.emit(res_ev)
+            if not st["ok"]:   # a refused write wrote nothing: its record is not in force, its request not pending
+                res_ev["ar_uuid"] = ev.get("ar_uuid")
+                self.a.cyclic.on_write_refused(res_ev)
+                if ev["index"] in IDX_PARAM and self.pairer is not None:
+                    self.pairer.refused(self._param_key({"ar_uuid": ev.get("ar_uuid") or pnio_cm.NIL_UUID,
+                                                         "api": ev["api"], "slot_nr": ev["slot"],
+                                                         "subslot_nr": ev["subslot"]},
+                                                        ev["device_mac"], ev["controller_mac"]), ev["frame"])
         for r in results:
             r.pop("_used", None)
 

@@ -611,3 +611,54 @@ def test_visible_string_parameter_value(tmp_path):
     assert "Lua Error" not in text
     n, bad, _lua, _py = compare(out)
     assert n and not bad, bad[:5]
+
+
+def test_station_from_ar_server_block(tmp_path):
+    """No DCP: the device's NameOfStation comes from the Connect response's ARServerBlock (0x8106), as
+    session._connect's dev_station; the plugin shows it on every telegram as the Python core does."""
+    import rpc_frames as R
+    req, _ = R.connect_pair([(1, 0x1, 3, 12, 4)])
+    name = b"enc-\xe4-server"
+    body = struct.pack(">H", len(name)) + name
+    body += bytes((-len(body) - 6) % 4)
+    res_blocks = (R.ar_block_res() + R.iocr_res(1, 1, 0x8000) + R.iocr_res(2, 2, 0x8001) + R.alarmcr_res()
+                  + R.block(0x8106, body))
+    res = R.frame(R.DEVICE_MAC, R.CONTROLLER_MAC, R.DEVICE_IP, R.CONTROLLER_IP, 49154, 49153,
+                  R.dcerpc(2, 0, R.ndr_response(res_blocks, little=True), act="00000007-0000-1010-8000-000000000007",
+                           little=True, flags1=0x0A))
+    frames = [req, res]
+    for i in range(40):
+        sol = i % 15 + 1
+        out = struct.pack(">HH", 0x0400 | sol << 12, 0) + b"\x80"
+        inp = struct.pack(">HHII", 0x0200 | sol << 12, 0, 1000 + i, 0) + b"\x80"
+        for src, dst, fid, sdu in ((R.CONTROLLER_MAC, R.DEVICE_MAC, 0x8001, out), (R.DEVICE_MAC, R.CONTROLLER_MAC, 0x8000, inp)):
+            frames.append(R.eth(src, dst, struct.pack(">H", fid) + sdu.ljust(40, b"\0") + struct.pack(">HBB", i * 32, 0x35, 0),
+                                0x8892))
+    path = str(tmp_path / "arserver.pcap")
+    _write_pcap(path, frames)
+    want, _ = python_expect(path)
+    assert {s for d in want.values() for s in d.get("pndiss.station", [])} == {"enc-\xe4-server"}
+    n, bad, lua_viol, viol = compare(path)
+    assert n and not bad, bad[:5]
+    assert lua_viol == viol
+
+
+def test_station_of_content_inferred_map(tmp_path):
+    """The Connect request lost (a capture started late, a dropped frame): the maps are inferred from the
+    cyclic content (infer.py) and carry the NameOfStation DCP gave the device (session.add_inferred)."""
+    src = os.path.join(ROOT, "captures", "startup-t81-lika.pcapng")
+    if not os.path.exists(src):
+        pytest.skip("captures/startup-t81-lika.pcapng is missing")
+    frames = _read_pcapng_frames(src)
+    path = str(tmp_path / "noconnect.pcap")
+    rc, out, _ = tshark(src, "-Y", "dcerpc.pkt_type == 0 && pn_io.opnum == 0", "-T", "fields", "-e", "frame.number",
+                        plugin=False, two_pass=False)
+    drop = {int(x) for x in out.split()}
+    assert rc == 0 and drop
+    _write_pcap(path, [f for i, f in enumerate(frames, 1) if i not in drop])
+    evs = []
+    analyze_file(path, Settings(), sink=evs.append)
+    assert any(e["kind"] == "ar" and e.get("source") == "inferred from content" and e.get("station") for e in evs)
+    n, bad, lua_viol, viol = compare(path)
+    assert n and not bad, bad[:5]
+    assert lua_viol == viol

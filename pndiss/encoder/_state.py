@@ -77,6 +77,7 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         self.shift_known = cfg.shift is not None
         self.state: dict = {}
         self.bf00_due = None           # (cycle, why): an invalid 0xBF00 must show 0x1002 (#70)
+        self.bf00_undo = None          # (frame, config, state) a 0xBF00 write replaced, until its response
         self.prev_bf00: dict | None = None     # the device's 0xBF00 of the previous connection (#31)
         self.p971_pending = None       # (frame, reads that still returned 1) after P971 := 1 (#90)
         self.p980: set | None = None   # PNUs the device lists in P980 (#88)
@@ -280,6 +281,14 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         from .acyclic import check_record  # the record rules live next door (9.9 / 9.10)
         self.out = []
         check_record(self, ev)
+        return self.out
+
+    def write_refused(self, request_frame) -> list[dict]:
+        """The device refused the record write of ``request_frame`` (a negative write response): a
+        0xBF00 applied at its request is taken back (acyclic.write_refused)."""
+        from .acyclic import write_refused
+        self.out = []
+        write_refused(self, request_frame)
         return self.out
 
     def finish(self) -> list[dict]:

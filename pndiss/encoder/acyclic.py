@@ -23,6 +23,13 @@ RECORD_RULES = {"BF00-LENGTH", "BF00-RESERVED-NONZERO", "BF00-VALUE-OUT-OF-RANGE
                 "BMP-REQREF-ZERO", "BMP-NEG-FORMAT", "BMP-ILLEGAL-REQID-RESPONSE", "BMP-RESPID-MISMATCH"}
 
 
+# 0xBF00 / 0xFFFF decoded keys -> EncoderConfig attributes (a captured record sets them)
+BF00_FIELDS = (("compat", "compat"), ("class4", "class4"), ("preset_control", "preset_control"),
+               ("scaling", "scaling"), ("direction", "direction"), ("code_sequence", "direction"),
+               ("mupr", "mupr"), ("tmr", "tmr"), ("max_master_sol_failures", "max_master_sol_failures"),
+               ("velocity_unit", "velocity_unit"))
+
+
 def check_record(chk, ev: dict) -> None:
     kind = ev.get("kind")
     if kind == "record":
@@ -45,6 +52,7 @@ def _record(chk, ev: dict) -> None:
     if idx == 0xFFFF and chk.cfg.profile != "psm":
         return
     c = chk.cfg
+    was_seen = chk.bf00_seen
     chk.bf00_seen = True
     problems: list[str] = []
     d = ev.get("decoded") or {}
@@ -56,11 +64,11 @@ def _record(chk, ev: dict) -> None:
                 _v(chk, rule, ev, "0x%04X: %s" % (idx, p.get("message", rule)))
     else:
         _own_bf00_checks(chk, ev, idx, d, problems)
-    # the captured parameter set is now in force (behaviour.md §2.0: re-read whenever written)
-    for key, attr in (("compat", "compat"), ("class4", "class4"), ("preset_control", "preset_control"),
-                      ("scaling", "scaling"), ("direction", "direction"), ("code_sequence", "direction"),
-                      ("mupr", "mupr"), ("tmr", "tmr"), ("max_master_sol_failures", "max_master_sol_failures"),
-                      ("velocity_unit", "velocity_unit")):
+    # the captured parameter set is now in force (behaviour.md §2.0: re-read whenever written); what it
+    # replaces is kept until the response: a refused write wrote nothing (write_refused)
+    chk.bf00_undo = (ev.get("frame"), {a: (getattr(c, a), c.sources.get(a)) for _k, a in BF00_FIELDS},
+                     (chk.bf00_invalid, chk.bf00_due, chk.bf00_valid_frame, chk.params_changed, was_seen))
+    for key, attr in BF00_FIELDS:
         if d.get(key) is not None:
             setattr(c, attr, int(d[key]))
             c.sources[attr] = f"captured 0xBF00 (frame {ev.get('frame')})"
@@ -78,6 +86,23 @@ def _record(chk, ev: dict) -> None:
         keys = ("direction", "code_sequence", "mupr", "tmr")
         if any(prev.get(k) != d.get(k) for k in keys if k in d or k in prev):
             chk.params_changed = True
+
+
+def write_refused(chk, request_frame) -> None:
+    """The device answered the 0xBF00 / 0xFFFF write of ``request_frame`` with an error: the parameters
+    in force before it are again (#66 still sees the write: the controller did write at start-up)."""
+    undo, chk.bf00_undo = chk.bf00_undo, None
+    if undo is None or undo[0] != request_frame:
+        return
+    c = chk.cfg
+    for attr, (value, source) in undo[1].items():
+        setattr(c, attr, value)
+        if source is None:
+            c.sources.pop(attr, None)
+        else:
+            c.sources[attr] = source
+    chk.bf00_invalid, chk.bf00_due, chk.bf00_valid_frame, chk.params_changed, _seen = undo[2]
+    chk.reconfigure()
 
 
 def _own_bf00_checks(chk, ev, idx, d, problems) -> None:

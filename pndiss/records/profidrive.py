@@ -230,6 +230,13 @@ class ParamPairer:
             self.superseded.setdefault(key, []).append(old[1])
         self.pending[key] = (decoded_request, frame, ts)
 
+    def refused(self, key, frame: int) -> None:
+        """The write of the request in ``frame`` was refused: it never reached the parameter manager
+        (001_9461bb7bc8c2767b.txt:1822, 2093), so it is not pending and a retry overwrites nothing."""
+        old = self.pending.get(key)
+        if old is not None and old[1] == frame:
+            del self.pending[key]
+
     def response(self, key, decoded_response: dict, frame: int, ts: int, profile: str = "generic") -> dict:
         pending = self.pending.pop(key, None)
         superseded = self.superseded.pop(key, [])

@@ -156,7 +156,7 @@ class Recorder:
         Checker.__init__ = init
         for name, opname in (("cycle", "cycle"), ("gap", "gap"), ("lost", "lost"), ("on_record", "rec"), ("finish", "finish"),
                              ("_apply_cfg", "apply"), ("_flush_all", "flush"), ("_reset_history", "reset"),
-                             ("new_connection", "newconn")):
+                             ("new_connection", "newconn"), ("write_refused", "refused")):
             self._saved[name] = Checker.__dict__[name]
             setattr(Checker, name, self._wrap(Checker.__dict__[name], opname))
         return self
@@ -203,6 +203,8 @@ class Recorder:
                 op["ev"] = copy.deepcopy(args[0])
             elif opname == "newconn":
                 op["prev"] = copy.deepcopy(args[0])
+            elif opname == "refused":
+                op["rf"] = args[0]
             before = len(chk.out)
             rec._depth += 1
             try:
@@ -213,13 +215,13 @@ class Recorder:
             rec.ops.append(op)
             if opname == "flush":
                 res = chk.out[before:]   # Python appends to the previous call's list
-            if opname in ("cycle", "gap", "lost", "rec", "finish", "flush", "newconn"):
+            if opname in ("cycle", "gap", "lost", "rec", "finish", "flush", "newconn", "refused"):
                 got = violations(res)
                 if got:
                     rec.expect[idx] = got
             if opname == "finish":
                 rec.counts_expect[idx] = counts_text(chk.counts)
-            if opname in ("rec", "finish", "newconn"):
+            if opname in ("rec", "finish", "newconn", "refused"):
                 rec.state_expect[idx] = state_text(chk)
             rec._after(chk, k)
             return res

@@ -126,6 +126,9 @@ for line in io.lines(path) do
     report(i, k, chk:flush_all())
   elseif kind == "reset" then
     chk:reset_history()
+  elseif kind == "refused" then
+    report(i, k, chk:write_refused(op.rf))
+    state(i, chk)
   elseif kind == "newconn" then
     report(i, k, chk:new_connection(op.prev))
     state(i, chk)

@@ -1,0 +1,141 @@
+"""Plant RPC traffic the simulator does not make: a request the controller sends again after its
+response (it missed the response; the device answers again from its cache, wire.md §5.1), and a
+record write the device refuses (a 0xBF00 rewritten during operation, answered with an error).
+The first runs once; the second writes nothing, so the parameters in force stay (helper audit,
+round 4: BMP-PIPELINED, PRESET-CLASS4-DISABLED and PRESET-EXECUTED-WHEN-NOT-ALLOWED were false)."""
+from __future__ import annotations
+
+import collections
+import os
+import shutil
+import struct
+
+import pytest
+
+import capedit
+from pndiss.analyzer import analyze_file
+from pndiss.capture import open_capture
+from pndiss.settings import Settings
+from pndiss.sim.pcapng import Writer
+
+STUB = 14 + 20 + 8 + 80      # Ethernet, IPv4, UDP, connectionless DCE/RPC header: the NDR stub
+BLOCKS = STUB + 20           # after the NDR header: the IOD read/write header block
+KINDS = ("record", "record_result", "param", "ar", "ar_phase")
+
+
+def _rpc(d: bytes):
+    """(ptype, act|seq) of a connectionless DCE/RPC PDU over UDP, else None."""
+    if len(d) < STUB or d[12:14] != b"\x08\x00" or d[23] != 17 or d[14 + 20 + 8] != 4:
+        return None
+    h = d[42:]
+    little = bool(h[4] & 0x10)
+    seq = struct.unpack("<I" if little else ">I", h[64:68])[0]
+    return h[1], (h[40:56], seq, little)
+
+
+def _events(path):
+    evs, kinds = [], collections.Counter()
+
+    def sink(e):
+        if e["kind"] == "violation":
+            evs.append((e["rule"], e["frame"]))
+        elif e["kind"] in KINDS:
+            kinds[e["kind"]] += 1
+    a = analyze_file(path, Settings(fast_path=False), sink=sink)
+    return evs, kinds, a.summary()["session"]["counts"]["rpc_retransmissions"]
+
+
+@pytest.fixture(scope="module")
+def caps(tmp_path_factory):
+    tmp = str(tmp_path_factory.mktemp("rpc"))
+    src = capedit.simulate(os.path.join(tmp, "full.pcapng"), "--scenario", "preset", "--cycles", "600",
+                           "--records", "plain")
+    frames = list(open_capture(src))
+    out = {"src": src}
+    # 1. every request sent again 1 ms after its response, and the response again after it
+    ren, reqs, n = {}, {}, 0
+    dst = os.path.join(tmp, "resent.pcapng")
+    with open(dst, "wb") as f:
+        w = Writer(f)
+        for fn, ts, _lt, d in frames:
+            d = bytes(d)
+            ren[fn] = w.write(ts, d)
+            r = _rpc(d)
+            if r is None:
+                continue
+            if r[0] == 0:
+                reqs[r[1][:2]] = d
+            elif r[0] == 2 and r[1][:2] in reqs:
+                w.write(ts + 1_000_000, reqs.pop(r[1][:2]))
+                w.write(ts + 1_100_000, d)
+                n += 1
+    out["resent"] = (dst, ren, n)
+    # 2. the start-up 0xBF00 written again before the first preset with class 4 off, and refused
+    bf00 = next((fn, d) for fn, _ts, _lt, d in frames if (r := _rpc(bytes(d))) and r[0] == 0
+                and struct.unpack(">H", bytes(d)[BLOCKS:BLOCKS + 2])[0] == 0x0008
+                and struct.unpack(">H", bytes(d)[BLOCKS + 34:BLOCKS + 36])[0] == 0xBF00)
+    req = bytearray(bf00[1])
+    key = _rpc(bytes(req))[1]
+    res = next(bytearray(d) for _fn, _ts, _lt, d in frames if (r := _rpc(bytes(d))) and r[0] == 2 and r[1] == key)
+    for p in (req, res):   # a new call: another sequence number
+        p[42 + 64:42 + 68] = struct.pack("<I" if key[2] else ">I", 0x7000)
+    req[BLOCKS + 64] &= ~0x02               # 0xBF00 byte 0 bit 1: class 4 functionality off
+    res[STUB:STUB + 4] = b"\xdf\x80\xb5\x00"   # PNIOStatus: write error, state conflict
+    res[BLOCKS + 8 + 36:BLOCKS + 8 + 40] = b"\xdf\x80\xb5\x00"
+    first_preset = _first_preset_frame(src)
+    dst = os.path.join(tmp, "refused.pcapng")
+    with open(dst, "wb") as f:
+        w = Writer(f)
+        for fn, ts, _lt, d in frames:
+            if fn == first_preset - 40:
+                w.write(ts - 2_000, bytes(req))
+                w.write(ts - 1_000, bytes(res))
+            w.write(ts, bytes(d))
+    out["refused"] = dst
+    out["accepted"] = os.path.join(tmp, "accepted.pcapng")   # the same write answered OK: class 4 is off
+    ok = bytearray(res)
+    ok[STUB:STUB + 4] = ok[BLOCKS + 8 + 36:BLOCKS + 8 + 40] = b"\0\0\0\0"
+    with open(out["accepted"], "wb") as f:
+        w = Writer(f)
+        for fn, ts, _lt, d in frames:
+            if fn == first_preset - 40:
+                w.write(ts - 2_000, bytes(req))
+                w.write(ts - 1_000, bytes(ok))
+            w.write(ts, bytes(d))
+    return out
+
+
+def _first_preset_frame(path) -> int:
+    evs = []
+    analyze_file(path, Settings(fast_path=False),
+                 sink=lambda e: evs.append(e["frame"]) if e["kind"] == "state" and e.get("state") == "preset"
+                 and e.get("value") not in (0, "idle") else None)
+    assert evs
+    return evs[0]
+
+
+def test_a_request_sent_again_after_its_response_runs_once(caps):
+    dst, ren, n = caps["resent"]
+    want, kinds, retrans = _events(caps["src"])
+    got, got_kinds, got_retrans = _events(dst)
+    assert n >= 5 and "param" in kinds
+    assert got == [(r, ren[f]) for r, f in want] and got_kinds == kinds
+    assert got_retrans == retrans + 2 * n
+
+
+def test_a_refused_0xbf00_writes_nothing(caps):
+    base, _k, _r = _events(caps["src"])
+    got, _k, _r = _events(caps["refused"])
+    assert {r for r, _f in got} == {r for r, _f in base}
+    accepted, _k, _r = _events(caps["accepted"])   # the negative: accepted, class 4 is off for the preset
+    assert "PRESET-CLASS4-DISABLED" in {r for r, _f in accepted}
+
+
+@pytest.mark.skipif(shutil.which("tshark") is None, reason="tshark not installed")
+@pytest.mark.parametrize("name", ("resent", "refused", "accepted"))
+def test_plugin_same(caps, name):
+    from test_lua_plugin import compare
+    path = caps[name][0] if name == "resent" else caps[name]
+    n, bad, lua_viol, viol = compare(path)
+    assert n and not bad, bad[:5]
+    assert lua_viol == viol
