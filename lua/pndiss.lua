@@ -553,9 +553,23 @@ local function connect_request(key, pinfo)
         end
     end
     pending_connects[key] = req
+    -- session_ar._connect_requested: the device may provide the new AR's frames before the response, so the
+    -- streams of the AR the controller holds with it start their capture-loss tracking afresh
+    for _, a in ipairs(ar_order) do
+        local d = ar_devs[a]
+        if a ~= req.ar and d ~= nil and d[1] == req.dst and d[2] == req.controller and ar_phase[a] ~= nil
+                and ar_phase[a] ~= "released" and ar_phase[a] ~= "aborted" then
+            for _, k in ipairs(ar_keys[a]) do
+                local sk = k[1] .. "|" .. k[2] .. "|" .. k[3]
+                local st = gap_streams[sk]
+                if st ~= nil and maps[sk] == k[4] then st.cc, st.ts = nil, nil end
+            end
+        end
+    end
 end
 
 local on_reconnect     -- CyclicTracker.on_reconnect (section 7): an AR UUID connected again
+local ar_moves         -- SessionTracker.set_phase (section 7): an AR moves to a later phase
 local function connect_response(key, pinfo)
     local req = pending_connects[key]
     pending_connects[key] = nil
@@ -596,6 +610,15 @@ local function connect_response(key, pinfo)
     if station == nil then station = server_name ~= "" and server_name or nil end
     if station ~= nil then dcp_state.station[device] = station end
     if not ok then return end
+    -- session_ar._superseded: the controller's new Connect ends the AR it held with this device (power lost,
+    -- link down, an abort not captured), before the new maps take its streams
+    for _, a in ipairs(ar_order) do
+        local d = ar_devs[a]
+        if a ~= req.ar and d ~= nil and d[1] == device and d[2] == req.controller and ar_phase[a] ~= nil
+                and ar_phase[a] ~= "released" and ar_phase[a] ~= "aborted" then
+            ar_moves(a, "aborted", pinfo.number)
+        end
+    end
     local keys = {}
     local again = req.ar ~= nil and ar_phase[req.ar] ~= nil   -- session_ar: controllers may reuse an AR UUID
     if req.ar then
@@ -1666,7 +1689,7 @@ end
 -- (cyclic.py NOT_JUDGED_PHASES); at PrmEnd #66 is decided for every encoder axis of the AR
 -- (cyclic.py _ar_axes creates them). Phases only move forward.
 local PHASE_RANK = {parameterisation = 0, judged = 1, released = 2, aborted = 3}
-local function ar_moves(ar, phase, fn)
+function ar_moves(ar, phase, fn)
     local cur = ar ~= nil and ar_phase[ar] or nil
     local to = (phase == "prm_end" or phase == "application_ready") and "judged" or phase
     if cur == nil or PHASE_RANK[to] <= PHASE_RANK[cur] then return end

@@ -148,8 +148,12 @@ class AxisTracking:
             for ax in self._ar_axes(ar):
                 self._startup(ax, fn, ts)
         elif phase in ("released", "aborted"):
-            for key, _fm in self.a.session.frame_keys(ar):
-                self.gaps.restart(key)   # a later AR on these streams is no capture loss
+            self.restart_gaps(key for key, _fm in self.a.session.frame_keys(ar))   # a later AR: no capture loss
+
+    def restart_gaps(self, keys) -> None:
+        """These streams' next frames start a new cycle counter (an AR ends or is being replaced)."""
+        for key in keys:
+            self.gaps.restart(key)
 
     def _exchange(self, fm, fn: int, ts: int) -> None:
         """The AR's first judged cycle: its phase becomes data_exchange."""

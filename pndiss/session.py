@@ -78,6 +78,8 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
                 return
             if call is not None and call["frame"] == fn or (call is not None and call["pdu"] is None):
                 call["pdu"] = pdu
+            if op == 0:
+                self._connect_requested(pdu, dst)
             if op == 3:
                 self._writes(fn, ts, pdu, key, src, dst)
             elif op == 4:

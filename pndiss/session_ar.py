@@ -78,6 +78,8 @@ class ArLayer:
         device = ars["cmresponder_macadd"] if ars else src  # the responder sent this frame
         if not ok:
             self.counts["connect_refused"] += 1
+        else:
+            self._superseded(controller, device, arq["ar_uuid"], fn, ts)
         # expected submodules: (api, slot, subslot) -> description per direction
         expected: dict[tuple, dict] = {}
         for b in rb.get(0x0104, []):
@@ -181,6 +183,28 @@ class ArLayer:
         self.a.emit(ar)
         if again:   # the AR UUID of an earlier connection (controllers may reuse it): a new connection
             self.a.cyclic.on_reconnect(rec, fn, ts)
+
+    def _connect_requested(self, pdu: dict, device: str) -> None:
+        """A Connect request for another AR of a controller that holds one with the device: the device may
+        provide the new AR's frames before its response (a new cycle counter), so the held AR's streams
+        start their capture-loss tracking afresh now; the AR itself ends at the response (_superseded)."""
+        arq = next((b for b in pdu.get("blocks", ()) if b.get("block_type") == 0x0101 and "undecoded" not in b), None)
+        if arq is None:
+            return
+        for old in self.ars.values():
+            if old["ar_uuid"] != arq["ar_uuid"] and old["ok"] and old["controller_mac"] == arq["cminitiator_mac_add"] \
+                    and old["device_mac"] == device and old.get("phase") not in ("released", "aborted", "refused"):
+                self.a.cyclic.restart_gaps([key for key, _fm in self.frame_keys(old)])
+
+    def _superseded(self, controller: str, device: str, ar_uuid: str, fn: int, ts: int) -> None:
+        """A controller holds one AR with a device: its new Connect (another AR UUID) means the AR that is
+        up ended without a Release the capture holds (the device lost power, the link went down, the abort
+        was not captured). It is aborted here, before the new AR's frame maps take its streams, so their
+        cycle counters start afresh (no capture loss across the restart)."""
+        for old in list(self.ars.values()):
+            if old["ar_uuid"] != ar_uuid and old["ok"] and old["controller_mac"] == controller \
+                    and old["device_mac"] == device and old.get("phase") not in ("released", "aborted", "refused"):
+                self.set_phase(old, "aborted", fn, ts, f"a new Connect of the same controller (frame {fn})")
 
     def _forget_ar(self, _uuid, old: dict) -> None:
         """An AR evicted from the bounded table: drop its frame maps (those no newer AR replaced)."""

@@ -88,3 +88,38 @@ def test_lua_checker_replays_the_new_connection(caps):
         assert any(op["op"] == "newconn" for op in rec.ops)
         res = replay(rec)
         assert not res["problems"], res["problems"][:10]
+
+
+# -- a power cycle: the device restarts without a Release, the controller connects again ---------------
+
+def test_power_cycle_is_no_capture_loss(caps, tmp_path):
+    """The restart with its Release lost (the encoder lost power; the link went down): the controller's new
+    Connect ends the AR it held with the device (aborted at the response), and the device's streams, which
+    may start the new AR's cycle counter before that response, are no capture loss (the helper audit's
+    power_cycle: two capture gaps of ~2,000 cycles, and the first AR in data exchange for ever)."""
+    evs = _events(caps["two"], kinds=("rpc",))
+    release = {e["frame"] for e in evs if e.get("opnum") == 1}
+    assert len(release) == 4   # two Releases: request and response each
+    last_two = sorted(release)[:2]   # the first AR's Release
+    path = str(tmp_path / "power-cycle.pcapng")
+    renum = capedit.rewrite(caps["two"], path, lambda fn, _d: fn not in last_two)
+    kinds = ("violation", "capture_gap", "ar_phase")
+    for fast in (False, True):
+        got = _events(path, fast, kinds)
+        assert not [e for e in got if e["kind"] == "capture_gap"]
+        phases = [(e["phase"], e.get("cause", "")) for e in got if e["kind"] == "ar_phase"]
+        assert phases.count(("aborted", phases[3][1])) == 1 and phases[3][1].startswith("a new Connect")
+        want = [(e["rule"], renum[e["frame"]]) for e in _events(caps["two"], fast, ("violation",))]
+        assert [(e["rule"], e["frame"]) for e in got if e["kind"] == "violation"] == want
+
+
+@pytest.mark.skipif(shutil.which("tshark") is None, reason="tshark not installed")
+def test_power_cycle_plugin_same(caps, tmp_path):
+    from test_lua_plugin import compare
+    evs = _events(caps["two"], kinds=("rpc",))
+    first_release = sorted(e["frame"] for e in evs if e.get("opnum") == 1)[:2]
+    path = str(tmp_path / "power-cycle.pcapng")
+    capedit.rewrite(caps["two"], path, lambda fn, _d: fn not in first_release)
+    n, bad, lua_viol, viol = compare(path)
+    assert n and not bad, bad[:5]
+    assert lua_viol == viol

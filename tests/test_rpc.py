@@ -43,7 +43,9 @@ class FakeAnalyzer:
         self.cyclic = type("C", (), {"on_record": lambda _s, ev: self.records.append(ev),
                                      "on_phase": lambda _s, *args: None,
                                      "on_write_result": lambda _s, ev: None,
-                                     "on_reconnect": lambda _s, *args: None})()
+                                     "on_reconnect": lambda _s, *args: None,
+                                     "on_write_refused": lambda _s, ev: None,
+                                     "restart_gaps": lambda _s, keys: None})()
         self.session = SessionTracker(self)
 
     def emit(self, ev):
