@@ -1626,7 +1626,8 @@ function on_record(ev, fn)
     local kept = #lst < 256
     if kept then lst[#lst + 1] = ev end
     for _, ax in ipairs(axis_list) do
-        if (ax.info.device_mac or "") == dev and (ev.ar_uuid == nil or ax.fm.ar == nil or ev.ar_uuid == ax.fm.ar) then
+        if (ax.info.device_mac or "") == dev and (ev.ar_uuid == nil or ax.fm.ar == nil or ev.ar_uuid == ax.fm.ar
+                                                   or ev.kind == "param") then   -- any AR's parameter access
             -- an axis of a restarted AR seen before its own 0xBF00 (#31)
             if ax.checker.prev_bf00 == nil then ax.checker.prev_bf00 = prev_bf00[dev] end
             local refined = ax.profile == "generic" and ev.index == 0xFFFF and ev.profile == "psm"

@@ -324,7 +324,7 @@ function C.new(cfg, info)
   self.prev_bf00 = nil            -- the device's 0xBF00 of the previous connection (#31)
   self.p971_pending = nil         -- {frame, reads that still returned 1, ts} after P971 := 1 (#90)
   self.p980 = nil                 -- set of PNUs the device lists in P980 (#88)
-  self.last_req_ref = nil
+  self.last_req_ref = {}   -- AR UUID -> its last request reference (#78)
   self.io_len = {}                -- data object length per direction, for P922 plausibility (#65)
   self.p922_rejected = nil
   self:apply_cfg()
@@ -1741,11 +1741,11 @@ local function param(chk, ev)
     if ref == 0 then
       -- #77: request reference 0 is reserved (001_9461bb7bc8c2767b.txt:2013)
       v_(chk, "BMP-REQREF-ZERO", ev, "request reference 0x00 (reserved)", ev.request_frame or frame)
-    elseif ref == chk.last_req_ref then
-      -- #78: a new reference per request (001_9461bb7bc8c2767b.txt:1908)
+    elseif ref == chk.last_req_ref[ev.ar_uuid or ""] then
+      -- #78: a new reference per request (001_9461bb7bc8c2767b.txt:1908) -- of the same AR
       v_(chk, "BMP-REQREF-NOT-CHANGED", ev, fmt("request reference %d repeated", ref), ev.request_frame or frame)
     end
-    chk.last_req_ref = ref
+    chk.last_req_ref[ev.ar_uuid or ""] = ref
   end
   local params = ev.params or {}
   local rid = ev.response_id
@@ -1874,7 +1874,7 @@ function Checker:new_connection(prev_bf00)
   self.params_changed, self.preset_done = false, false
   self.first_frame = nil
   self.prev_bf00 = prev_bf00
-  self.last_req_ref = nil
+  self.last_req_ref = {}
   return self.out or EMPTY
 end
 

@@ -288,8 +288,10 @@ class AxisTracking:
         if kept:
             lst.append(ev)
         for ax in self.axes.values():
+            # records of the axis' AR; parameter accesses of any AR of the device: an engineering tool's Device
+            # Access AR writes the encoder's one P65000 too (behaviour.md §9.3 #27), and its answers are the device's
             if ax.info["device_mac"] == dev and (ev.get("ar_uuid") is None or ax.fm is None or ax.fm.ar_uuid is None
-                                                  or ev.get("ar_uuid") == ax.fm.ar_uuid):
+                                                  or ev.get("ar_uuid") == ax.fm.ar_uuid or ev.get("kind") == "param"):
                 if ax.checker.prev_bf00 is None:  # an axis of a restarted AR seen before its own 0xBF00 (#31)
                     ax.checker.prev_bf00 = self.prev_bf00.get(dev)
                 if ax.profile == "generic" and ev.get("index") == 0xFFFF and ev.get("profile") == "psm":

@@ -139,3 +139,40 @@ def test_plugin_same(caps, name):
     n, bad, lua_viol, viol = compare(path)
     assert n and not bad, bad[:5]
     assert lua_viol == viol
+
+
+# -- an engineering tool's Device Access AR writes P65000 ----------------------------------------------
+
+def test_p65000_written_through_another_ar_is_the_encoders(caps, tmp_path):
+    """The preset value is the encoder's one P65000, whichever AR wrote it (behaviour.md §9.3 #27): the
+    write and read-back of P65000 moved to another AR UUID (a Device Access AR of a commissioning tool)
+    still set it, and that AR's parameter channel is judged too (its own request references, #78)."""
+    import uuid
+    evs = []
+    analyze_file(caps["src"], Settings(fast_path=False), sink=lambda e: evs.append(e) if e["kind"] == "param" else None)
+    p = next(e for e in evs if any(x.get("pnu") == 65000 for x in e["params"]))
+    ar = uuid.UUID(p["ar_uuid"])
+    other = uuid.UUID(int=ar.int ^ 0xFFFF)
+    lo, hi = p["request_frame"] - 1, p["frame"] + 20
+    dst = str(tmp_path / "da-ar.pcapng")
+    with open(dst, "wb") as f:
+        w = Writer(f)
+        for fn, ts, _lt, d in open_capture(caps["src"]):
+            d = bytes(d)
+            if lo <= fn <= hi and _rpc(d):
+                d = d.replace(ar.bytes, other.bytes).replace(ar.bytes_le, other.bytes_le)
+            w.write(ts, d)
+
+    def enc(path):
+        got = []
+        a = analyze_file(path, Settings(fast_path=False), sink=lambda e: got.append(e) if e["kind"] == "param" else None)
+        assert any(e["ar_uuid"] == str(other) for e in got) == (path == dst)
+        e, = a.summary()["cyclic"]["encoders"]
+        return e["p65000"], e["presets_unjudged"], sorted(e["violations"])
+    want = enc(caps["src"])
+    assert want[0] == 1000 and want[1] == 0
+    assert enc(dst) == want
+    if shutil.which("tshark"):   # the plugin routes the other AR's parameter access the same way
+        from test_lua_plugin import compare
+        n, bad, lua_viol, viol = compare(dst)
+        assert n and not bad and lua_viol == viol

@@ -81,7 +81,7 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         self.prev_bf00: dict | None = None     # the device's 0xBF00 of the previous connection (#31)
         self.p971_pending = None       # (frame, reads that still returned 1) after P971 := 1 (#90)
         self.p980: set | None = None   # PNUs the device lists in P980 (#88)
-        self.last_req_ref = None
+        self.last_req_ref: dict = {}   # AR UUID -> request reference of its last parameter request (#78)
         self.io_len: dict = {}         # data object length per direction, for P922 plausibility (#65)
         self.p922_rejected = None
         self._apply_cfg()
@@ -324,7 +324,7 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         self.params_changed = self.preset_done = False
         self.first_frame = None
         self.prev_bf00 = prev_bf00
-        self.last_req_ref = None
+        self.last_req_ref = {}
         return self.out
 
     def summary(self) -> dict:

@@ -182,10 +182,11 @@ def _param(chk, ev: dict) -> None:
         if ref == 0:
             # 77: request reference 0 is reserved (001_9461bb7bc8c2767b.txt:2013)
             _v(chk, "BMP-REQREF-ZERO", ev, "request reference 0x00 (reserved)", frame=ev.get("request_frame", frame))
-        elif ref == chk.last_req_ref:
-            # 78: a new reference per request (001_9461bb7bc8c2767b.txt:1908)
+        elif ref == chk.last_req_ref.get(ev.get("ar_uuid")):
+            # 78: a new reference per request (001_9461bb7bc8c2767b.txt:1908) -- of the same AR: an engineering
+            # tool's Device Access AR has a parameter channel of its own
             _v(chk, "BMP-REQREF-NOT-CHANGED", ev, f"request reference {ref} repeated", frame=ev.get("request_frame", frame))
-        chk.last_req_ref = ref
+        chk.last_req_ref[ev.get("ar_uuid")] = ref
     params = ev.get("params") or []
     rid = ev.get("response_id")
     qid = ev.get("request_id_code")
