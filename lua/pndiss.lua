@@ -424,7 +424,7 @@ local function lookup(fid, src, dst)
         for _, d in ipairs(fm.objects) do
             if d.length and d.length > 0 then
                 local t, source = d.telegram, d.telegram_source
-                if t == nil and pndiss.prefs.telegram ~= 0 then
+                if pndiss.prefs.telegram ~= 0 and (t == nil or tostring(source):sub(1, 6) == "length") then
                     t, source = pndiss.prefs.telegram, "settings.telegram"
                 end
                 -- no telegram from the session (map, P922, both directions' lengths) and no preference:
@@ -1541,6 +1541,7 @@ local function refine_profile(ax, fn)
     do
         ax.profile = "psm"
         ax.reason = reason
+        ax.ambiguous = nil   -- PS/PSM has OEM telegrams of the standard lengths: the guess is weighed again
         chk.cfg.profile = "psm"
         chk.cfg.sources.profile = ax.reason
         chk:apply_cfg()
@@ -1551,7 +1552,7 @@ local function refine_profile(ax, fn)
 end
 
 -- cyclic.py _ambiguous: a length guess is judged when both data lengths leave one candidate among
--- the profile's telegrams, or when the guess is a standard telegram (81 is mandatory in every class)
+-- the profile's telegrams, or when the guess is a standard telegram of a profile without OEM telegrams of its lengths
 local function ambiguous(ax, o)
     if not tostring(o.source):find("length", 1, true) then return false end
     local io = ax.checker.io_len
@@ -1562,7 +1563,8 @@ local function ambiguous(ax, o)
         for _, p in ipairs(d.profiles) do if p == ax.profile then ok = true end end
         if ok then n = n + 1 end
     end
-    return n > 1 and not T.telegrams[ax.telegram].standard
+    -- PS/PSM's OEM 100/101 have the lengths of 81/83: mandatory 81 is supported, not necessarily run
+    return n > 1 and (not T.telegrams[ax.telegram].standard or ax.profile == "psm")
 end
 
 -- cyclic.py _axis: a checker configured like EncoderConfig.from_settings (iso from the frame ID
@@ -1792,7 +1794,8 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok, miss, key)
     for _, o in ipairs(fr.objs) do
         local d = o.d
         local t = d.telegram
-        if t ~= nil and t ~= o.telegram and t ~= o.rejected then relabel(o, fr, fn) end
+        if t ~= nil and t ~= o.telegram and t ~= o.rejected and not (o.source == "settings.telegram"
+                and tostring(d.telegram_source):sub(1, 6) == "length") then relabel(o, fr, fn) end
         local skip = false
         if not same or o.sig == nil then
             if o.stop > n_csdu then   -- Python raises Malformed: the rest of the frame is not looked at
@@ -1819,7 +1822,7 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok, miss, key)
                 if ax == nil then
                     ax = new_axis(o, fr, fn)
                 elseif ax.telegram ~= o.telegram then
-                    ax.telegram, ax.source = o.telegram, o.source   -- layouts rebuilt after a P922 relabel
+                    ax.telegram, ax.source, ax.ambiguous = o.telegram, o.source, nil   -- layouts rebuilt after a P922 relabel
                 end
                 o.ax = ax
             end

@@ -139,7 +139,7 @@ class CyclicTracker(AxisTracking):
             if not do.length:
                 continue
             telegram, source = do.telegram, do.telegram_source
-            if telegram is None and self.s.telegram:
+            if self.s.telegram and (telegram is None or str(source).startswith("length")):   # beats a length guess
                 telegram, source = int(self.s.telegram), "settings.telegram"
             # No telegram from the session (map, P922, GSDML, or both directions' lengths): not an
             # encoder submodule. A one-direction length guess would call any IO module a telegram.
@@ -208,7 +208,8 @@ class CyclicTracker(AxisTracking):
         for o in fr.objs:
             do = o.do
             t = do.telegram
-            if t is not None and t != o.telegram and t != o.rejected:
+            if t is not None and t != o.telegram and t != o.rejected and not (
+                    o.source == "settings.telegram" and str(do.telegram_source).startswith("length")):
                 self._relabel(o, fr)  # the session learnt the telegram (P922) after the first frame
             if not same or o.sig is None:
                 if o.end > n_csdu:
@@ -231,7 +232,7 @@ class CyclicTracker(AxisTracking):
                 elif ax.telegram != o.telegram:
                     # layouts were rebuilt after the session relabelled the telegram (P922): the
                     # checker took it from the P922 read itself; keep the axis' report in step
-                    ax.telegram, ax.source = o.telegram, o.source
+                    ax.telegram, ax.source, ax.ambiguous = o.telegram, o.source, None   # weighed again
                 o.ax = ax
             chk = ax.checker
             if direction not in chk.io_len:
@@ -360,7 +361,11 @@ class CyclicTracker(AxisTracking):
             chk = ax.checker
             s = chk.summary()
             encs.append({**ax.info, "telegram": ax.telegram, "telegram_source": ax.source, "profile": ax.profile,
-                         "profile_reason": ax.reason, **s})
+                         "profile_reason": ax.reason, **s,
+                         # the length guess fits several telegrams of the profile: reported, not judged
+                         **({"telegram_unsure": tg.telegrams_for_length(ax.checker.io_len.get("actual"),
+                                                                        ax.checker.io_len.get("setpoint"))}
+                            if ax.ambiguous else {})})
             unseen = self.bf00_unseen_for(ax)
             if unseen is not None and not s.get("bf00_seen"):
                 encs[-1]["bf00_request_lost"] = unseen

@@ -99,7 +99,7 @@ class AxisTracking:
 
     def _ambiguous(self, ax, o) -> bool:
         """A length guess is judged when both data lengths leave one candidate among the profile's telegrams,
-        or a standard telegram among several (81 is mandatory in every class, 002_d69f444daf0f8af2.txt:528);
+        or a standard telegram among several of a profile without OEM telegrams of the same lengths;
         otherwise cycles are reported, not judged, until P922 names the telegram (cyclic.md §14)."""
         return self._guess_fits_several(ax, o.source)
 
@@ -110,7 +110,9 @@ class AxisTracking:
         io = ax.checker.io_len
         cands = [t for t in tg.telegrams_for_length(io.get("actual"), io.get("setpoint"))
                  if ax.profile in tg.TELEGRAMS[t]["profiles"] or (ax.profile == "generic" and t in tg.STANDARD)]
-        return len(cands) > 1 and ax.telegram not in tg.STANDARD
+        # PS/PSM has OEM telegrams of the standard ones' lengths (100: 4/12 bytes as 81, 101: 8/16): 81 being
+        # mandatory (002_d69f444daf0f8af2.txt:528) says the device supports it, not that the AR runs it
+        return len(cands) > 1 and (ax.telegram not in tg.STANDARD or ax.profile == "psm")
 
     def _refine_profile(self, ax) -> None:
         """A 'generic' device is PS/PSM when it uses a telegram only PS/PSM has (86-89/100/101, cyclic.md §2)
@@ -130,6 +132,7 @@ class AxisTracking:
                 return
             reason = got[1]
         ax.profile, ax.reason = "psm", reason
+        ax.ambiguous = None   # PS/PSM has OEM telegrams of the standard lengths: the guess is weighed again
         for fr in self.frames.values():  # bits were cached with the old profile
             for ob in (fr.objs if fr else ()):
                 if ob.key == ax.key:

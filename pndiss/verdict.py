@@ -213,7 +213,13 @@ def not_checked(summary: dict) -> list[str]:
         n = sum(e["presets_unjudged"] for e in unjudged)
         out.append(f"preset results: {n:,} preset(s) of {_names(unjudged)} not judged (P65000 unknown: no write in "
                    "the capture, and a saved value survives power-up): --set p65000=N")
-    gated = sum(e.get("gated_cycles", 0) for e in encs)
+    for e in encs:
+        if e.get("telegram_unsure"):
+            cands = " or ".join(str(t) for t in e["telegram_unsure"])
+            out.append(f"{e.get('station') or e.get('device_mac')} {e['slot']}/{e['subslot']}: no cycle judged -- "
+                       f"the telegram is only guessed from the data lengths, which fit {cands} of profile "
+                       f"{e.get('profile')} (cyclic.md §14): --set telegram=N, --gsdml FILE, or a P922 read in the capture")
+    gated = sum(e.get("gated_cycles", 0) for e in encs if not e.get("telegram_unsure"))
     if gated:
         out.append(f"{gated:,} cycles not judged (provider stopped, DataValid 0 or IOPS bad)")
     io = summary.get("cyclic", {}).get("frames_no_telegram", 0)

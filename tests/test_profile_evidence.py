@@ -64,3 +64,56 @@ def test_plugin_same(caps, name):
     from test_lua_plugin import rule_rows
     assert rule_rows(caps[name]) == set()
     assert {r for _f, r, _d in rule_rows(caps[name], "-o", "pndiss.profile:generic")} >= {"RESERVED-BIT-SET-ZSW2"}
+
+
+# -- PS/PSM OEM telegram 100: the lengths of 81 ----------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def oem100(tmp_path_factory):
+    """A PS/PSM session on OEM telegram 100 (4/12 bytes, as 81), and the same without its parameter accesses
+    (no P922 read: the telegram is only a length guess)."""
+    tmp = str(tmp_path_factory.mktemp("t100"))
+    src = capedit.simulate(os.path.join(tmp, "t100.pcapng"), "--profile", "psm", "--telegram", "100", "--cycles", "300")
+    evs = []
+    analyze_file(src, Settings(fast_path=False), sink=evs.append)
+    drop = set()
+    for e in evs:
+        if e["kind"] in ("record", "record_result", "param") and e.get("index") in (0xB02E, 0xB02F):
+            drop |= {e["frame"], e.get("request_frame"), e.get("response_frame")}
+    assert drop
+    dst = os.path.join(tmp, "t100-no-p922.pcapng")
+    capedit.rewrite(src, dst, lambda fn, _d: fn not in drop)
+    return src, dst
+
+
+def test_oem100_judged_once_p922_names_it(oem100):
+    a, evs = _run(oem100[0], fast_path=True)
+    e, = a.summary()["cyclic"]["encoders"]
+    assert (e["telegram"], e["profile"], e.get("telegram_unsure")) == (100, "psm", None)
+    assert e["cycles"] > 200 and not [v for v in evs if v["kind"] == "violation"]
+
+
+@pytest.mark.parametrize("fast", (False, True))
+def test_oem100_length_guess_not_judged(oem100, fast):
+    """Without P922 the 4/12 bytes fit 81 and OEM 100: judging 81 blamed the encoder (the helper audit's
+    t100_oem: 16 violations); now no cycle is judged, and the report says what would decide it."""
+    from pndiss.verdict import not_checked
+    a, evs = _run(oem100[1], fast_path=fast)
+    s = a.summary()
+    e, = s["cyclic"]["encoders"]
+    assert e["telegram_unsure"] == [81, 100] and e["cycles"] == 0
+    assert not [v for v in evs if v["kind"] == "violation"]
+    assert any("fit 81 or 100" in line for line in not_checked(s))
+    a, evs = _run(oem100[1], fast_path=fast, telegram=100)   # the user names it
+    e, = a.summary()["cyclic"]["encoders"]
+    assert e["cycles"] > 200 and not [v for v in evs if v["kind"] == "violation"]
+
+
+@pytest.mark.skipif(shutil.which("tshark") is None, reason="tshark not installed")
+def test_oem100_plugin_same(oem100):
+    from test_lua_plugin import compare
+    for path in oem100:
+        n, bad, lua_viol, viol = compare(path)
+        assert n and not bad and lua_viol == viol
+    n, bad, lua_viol, viol = compare(oem100[1], Settings(telegram=100), prefs=("pndiss.telegram:100",))
+    assert n and not bad and lua_viol == viol
