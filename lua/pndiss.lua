@@ -1821,7 +1821,7 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok, miss, key)
                 ax = axes[o.key]
                 if ax == nil then
                     ax = new_axis(o, fr, fn)
-                elseif ax.telegram ~= o.telegram then
+                elseif ax.telegram ~= o.telegram or ax.source ~= o.source then   -- (or P922 confirmed a guess)
                     ax.telegram, ax.source, ax.ambiguous = o.telegram, o.source, nil   -- layouts rebuilt after a P922 relabel
                 end
                 o.ax = ax

@@ -313,6 +313,7 @@ function C.new(cfg, info)
   -- last written preset value; until a write is seen, settings.p65000 (nil = unknown, _state.py)
   self.p65000 = self.cfg.p65000
   self.presets_unjudged = 0       -- presets acknowledged while P65000 was unknown (not judged)
+  self.velocity_filter = nil      -- frame of a SCANCON velocity filter write (0x1000): NIST-SIGN not judged
   self.bf00_seen = false
   self.bf00_invalid = nil         -- why the last 0xBF00 was invalid (#67-69)
   self.bf00_valid_frame = nil
@@ -1104,7 +1105,7 @@ function Checker:value_rules(CLS, pCLS, DLS, pDLS, SERR, ATX, PKA, PDONE, X1, X2
     if o then o.msg = fmt("position G1_XIST2=%s G1_XIST1=%s >= R=%s", tostring(X2), tostring(X1), tostring(R)) end
   end
   self:continuity(pos2, ppos2, pre, PKA)
-  self:nist_sign(motion_ref, pmotion, NIST)
+  if self.velocity_filter == nil then self:nist_sign(motion_ref, pmotion, NIST) end   -- not with a SCANCON filter written
 
   if self.lika and PKA == 1 and ((X1 or 0) ~= 0 or (X2 or 0) ~= 0 or PDONE ~= 0 or ATX ~= 0) then
     -- #47: LIKA clears outputs while parked (000_37bf2397999f1108.txt:3149-3159)
@@ -1543,6 +1544,11 @@ local function record(chk, ev)
   local idx = ev.index
   if (idx == 0xB02E or idx == 0xB02F) and ev.op == "write" then
     bmp_request(chk, ev)
+    return
+  end
+  if idx == 0x1000 and ev.op == "write" and chk.cfg.profile == "scancon" and chk.velocity_filter == nil then
+    chk.velocity_filter = ev.frame or 0   -- its lag is unknown: NIST-SIGN is not judged (value_rules.py)
+    chk:apply_cfg()
     return
   end
   if not K.bf00_indexes[idx] or ev.op ~= "write" then return end

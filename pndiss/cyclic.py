@@ -229,7 +229,7 @@ class CyclicTracker(AxisTracking):
                 ax = self.axes.get(o.key)
                 if ax is None:
                     ax = self._axis(o, fr)
-                elif ax.telegram != o.telegram:
+                elif ax.telegram != o.telegram or ax.source != o.source:   # (or P922 confirmed a length guess)
                     # layouts were rebuilt after the session relabelled the telegram (P922): the
                     # checker took it from the P922 read itself; keep the axis' report in step
                     ax.telegram, ax.source, ax.ambiguous = o.telegram, o.source, None   # weighed again

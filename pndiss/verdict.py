@@ -208,6 +208,11 @@ def not_checked(summary: dict) -> list[str]:
         out.append(f"control by PLC (CTRLREQ-*, CMD-*-WITHOUT-CONTROL): not judged for {_names(open_)} "
                    "(compatibility mode unknown: no 0xBF00 in the capture, and the words never showed it): "
                    "--set compat=0 (V3.1) or compat=1 (V4.1)")
+    filt = [e for e in encs if e.get("velocity_filter_frame") is not None]
+    if filt:
+        out.append(f"NIST sign against the motion (NIST-SIGN): not checked for {_names(filt)} (a SCANCON velocity "
+                   "filter was written, record 0x1000: Normal and Coarse lag a reversal by ~17 and ~173 cycles, and "
+                   "the record's codes are not documented)")
     unjudged = [e for e in encs if e.get("presets_unjudged")]
     if unjudged:
         n = sum(e["presets_unjudged"] for e in unjudged)

@@ -54,7 +54,7 @@ def test_forced_generic_keeps_the_false_errors(caps):
     """The negative: the user's --profile wins over the evidence, and generic rules then fire."""
     _a, evs = _run(caps["startup"], fast_path=False, profile="generic")
     # (CTRLREQ-MISMATCH no longer: without 0xBF00 the mode is learnt, and "control requested" read at the
-    # generic bit 9 held 0 under control by PLC reads as V3.1 -- tests/test_compat_learning.py)
+    # generic bit 9 held 0 under control by PLC reads as V3.1 -- tests/test_learnt_settings.py)
     assert {"STARTUP-NO-PARAM-RECORD", "RESERVED-BIT-SET-ZSW2"} <= {e["rule"] for e in evs}
 
 

@@ -216,7 +216,8 @@ def test_report_sections_render():
     from rich.console import Console
     sp = bytes.fromhex("14002000")
     bad = bytes.fromhex("1000 2000 00000005 00000005".replace(" ", ""))
-    a, _ = _analyze([(sp, bad, True)] * 5, _maps())
+    good = bytes.fromhex("1200 2000 00000005 00000005".replace(" ", ""))   # control requested: V4.1 (no 0xBF00 says it)
+    a, _ = _analyze([(sp, good, True)] + [(sp, bad, True)] * 5, _maps())
     con = Console(record=True, width=200)
     for sec in a.cyclic.report_sections():
         con.print(sec)

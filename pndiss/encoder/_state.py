@@ -68,6 +68,7 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         # been replaced and saved with P971, 000_37bf2397999f1108.txt:1787-1789, 2078-2079)
         self.p65000 = cfg.p65000
         self.presets_unjudged = 0      # presets acknowledged while P65000 was unknown (their result not judged)
+        self.velocity_filter = None    # frame of a SCANCON velocity filter write (0x1000): NIST-SIGN not judged
         self.bf00_seen = False
         self.bf00_invalid: str | None = None   # why the last 0xBF00 was invalid (#67-69)
         self.bf00_valid_frame: int | None = None
@@ -331,4 +332,4 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         return {"cycles": self.n, "gated_cycles": self.gated, "lost_cycles": self.lost_cycles, "settings": self.cfg.in_force(),
                 "violations": self.counts, "state_changes": self.state_changes, "timeline": self.timeline[:50],
                 "p65000": self.p65000, "bf00_seen": self.bf00_seen,
-                "presets_unjudged": self.presets_unjudged}
+                "presets_unjudged": self.presets_unjudged, "velocity_filter_frame": self.velocity_filter}

@@ -47,6 +47,10 @@ def _record(chk, ev: dict) -> None:
     if idx in (0xB02E, 0xB02F) and ev.get("op") == "write":
         _bmp_request(chk, ev)
         return
+    if idx == 0x1000 and ev.get("op") == "write" and chk.cfg.profile == "scancon" and chk.velocity_filter is None:
+        chk.velocity_filter = ev.get("frame", 0)   # its lag is unknown: NIST-SIGN is not judged (value_rules.py)
+        chk.reconfigure()
+        return
     if idx not in BF00_INDEXES or ev.get("op") != "write":
         return
     if idx == 0xFFFF and chk.cfg.profile != "psm":

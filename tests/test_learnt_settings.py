@@ -1,6 +1,9 @@
-"""The compatibility mode learnt from the words when no 0xBF00 says it (a capture started mid-session,
+"""What the capture does not say: learnt from what it shows, or not judged.
+
+The compatibility mode learnt from the words when no 0xBF00 says it (a capture started mid-session,
 a lost write): behaviour.md §2.1-2.2, docs/settings.md ``compat``. Until the words show the mode, the
-rules that depend on it (#13-#16) are not judged; with the mode given, the same rows are faults."""
+rules that depend on it (#13-#16) are not judged; with the mode given, the same rows are faults. A SCANCON
+velocity filter written (record 0x1000, codes undocumented) leaves NIST's lag unknown: NIST-SIGN is not judged."""
 from __future__ import annotations
 
 import shutil
@@ -78,3 +81,27 @@ def test_lua_port_learns_the_same():
         T.run([dict(P965)], compat=1)
     res = replay(rec)
     assert not res["problems"], "\n".join(res["problems"][:20])
+
+
+# -- SCANCON's velocity filter (record 0x1000): NIST lags a reversal by an unknown number of cycles --------
+
+FILTER = {"kind": "record", "op": "write", "index": 0x1000, "decoded": {"velocity_filter": 1}}
+AGAINST = ["0x1400 0x2000 | 0x1200 0x2000 %d %d -10" % (i, i) for i in range(5, 15)]   # moving up, NIST < 0
+
+
+def test_velocity_filter_written_nist_sign_not_judged():
+    assert "NIST-SIGN" in T.rule_ids(AGAINST, profile="scancon", telegram=83)
+    assert "NIST-SIGN" not in T.rule_ids([dict(FILTER)] + AGAINST, profile="scancon", telegram=83)
+    assert "NIST-SIGN" in T.rule_ids([dict(FILTER)] + AGAINST, profile="lika", telegram=83)   # SCANCON's record only
+
+
+@pytest.mark.skipif(shutil.which("lua5.2") is None, reason="lua5.2 not installed")
+def test_velocity_filter_lua_same():
+    from luachk.record import Recorder, replay
+    with Recorder() as rec:
+        for prof in ("scancon", "lika"):
+            T.run([dict(FILTER)] + AGAINST, profile=prof, telegram=83)
+            T.run(AGAINST, profile=prof, telegram=83)
+    res = replay(rec)
+    assert not res["problems"], "\n".join(res["problems"][:20])
+    assert "NIST-SIGN" in res["lua_rules"]
