@@ -454,7 +454,8 @@ for _, n in ipairs({"pn_io.opnum", "pn_io.block_type", "pn_io.ar_uuid", "pn_io.c
                     "pn_io.order_id", "dcerpc.pkt_type", "dcerpc.dg_act_id", "dcerpc.dg_seqnum", "dcerpc.dg_frag_len",
                     "pn_rt.frame_id", "pn_rt.ds", "pn_rt.cycle_counter", "pn_io.send_clock_factor", "pn_io.reduction_ratio",
                     "pn_io.error_code", "pn_io.error_decode", "pn_io.error_code1", "pn_io.error_code2",
-                    "pn_io.control_command", "pn_io.pdu_type.type",
+                    "pn_io.control_command", "pn_io.pdu_type.type", "pn_io.alarm_type", "pn_io.send_seq_num",
+                    "pn_io.alarm_src_endpoint", "pn_io.channel_error_type", "pn_io.channel_properties.specifier",
                     "pn_dcp.service_id",
                     "pn_dcp.suboption_vendor_id", "pn_dcp.suboption_device_id", "pn_dcp.suboption_device_devicevendorvalue"}) do
     X[n] = Field.new(n)
@@ -1468,6 +1469,7 @@ local bf00_resp        -- AR UUID -> frame of a successful 0xBF00/0xFFFF write r
 local answered         -- DCE/RPC "act|seq" -> frame of its response (its copies run once)
 local req_body, answered_body   -- "act|seq" -> the open / the answered request's body (a resend of it runs once)
 local answered_at        -- "act|seq" -> time (s) of its response
+local alarm_seq          -- device MAC .. "|" .. alarm endpoint .. "|" .. priority -> last notification's sequence number
 local bf00_before        -- device MAC .. "|" .. frame of a 0xBF00 write -> bf00_last before it (false: none)
 
 -- The body of a connectionless DCE/RPC PDU (the 80-byte header, then dg_frag_len bytes), from the Tvb the
@@ -1756,6 +1758,31 @@ local function rta_error(pinfo)
                 and ph ~= "released" and ph ~= "aborted" then
             ar_moves(ar, "aborted", pinfo.number)
             return
+        end
+    end
+end
+
+-- CyclicTracker.on_alarm: a DATA-RTA alarm notification reaches the encoder axes of its submodule (#48, #70); the
+-- RTA resends it with the same sequence number until it is acknowledged: judged once
+local function rta_alarm(pinfo)
+    local at, pt = X["pn_io.alarm_type"](), X["pn_io.pdu_type.type"]()
+    if at == nil or pt == nil or pt.value ~= 1 then return end
+    local src = tostring(pinfo.dl_src)
+    local ep, seq, fid = X["pn_io.alarm_src_endpoint"](), X["pn_io.send_seq_num"](), X["pn_rt.frame_id"]()
+    local key = src .. "|" .. tostring(ep and ep.value) .. "|" .. ((fid and fid.value == 0xFC01) and "high" or "low")
+    local sq = seq and seq.value
+    if alarm_seq[key] == sq then return end
+    alarm_seq[key] = sq
+    local slot, sub = all("pn_io.slot_nr"), all("pn_io.subslot_nr")
+    local items, spec = {}, all("pn_io.channel_properties.specifier")
+    for i, c in ipairs(all("pn_io.channel_error_type")) do
+        items[i] = {channel_error_type = c.value, channel_properties = {specifier = spec[i] and spec[i].value}}
+    end
+    local ev = {kind = "alarm", frame = pinfo.number, ts_ns = ts_ns(pinfo), src = src, alarm_type = at.value,
+                slot_nr = slot[1] and slot[1].value, subslot_nr = sub[1] and sub[1].value, items = items}
+    for _, ax in ipairs(axis_list) do
+        if (ax.info.device_mac or "") == src and ax.info.slot == ev.slot_nr and ax.info.subslot == ev.subslot_nr then
+            note(ax.checker:on_alarm(ev), pinfo.number)
         end
     end
 end
@@ -2219,6 +2246,7 @@ local function first_pass(pinfo)
         end
         on_dcp(pinfo)
         rta_error(pinfo)
+        rta_alarm(pinfo)
         return nil
     end
     local items
@@ -2308,7 +2336,7 @@ local function reset_state()
     pending_connects, pairer, superseded = {}, {}, {}
     axes, axis_list, dev_records, bf00_last, prev_bf00 = {}, {}, {}, {}, {}
     bf00_resp, answered, wrote = {}, {}, {}
-    req_body, answered_body, bf00_before, answered_at = {}, {}, {}, {}
+    req_body, answered_body, bf00_before, answered_at, alarm_seq = {}, {}, {}, {}, {}
     gap_streams = {}
     infer_streams, infer_list = {}, {}
     viol, viol_seen, late, finished = {}, {}, {}, false

@@ -1811,6 +1811,31 @@ local function param(chk, ev)
   end
 end
 
+-- acyclic.check_alarm: a diagnosis alarm whose channel diagnosis appears: 0x9011 reports an invalid 0xBF00 (#70),
+-- and none may come while parked (#48)
+function Checker:on_alarm(ev)
+  self.out = nil
+  if ev.alarm_type == 1 then
+    local codes, n, commissioning = {}, 0, false
+    for _, it in ipairs(ev.items or {}) do
+      if it.channel_properties ~= nil and it.channel_properties.specifier == 1 then
+        n = n + 1
+        codes[#codes + 1] = fmt("0x%04X", it.channel_error_type or 0)
+        if it.channel_error_type == 0x9011 then commissioning = true end
+      end
+    end
+    if n > 0 then
+      if self.bf00_due ~= nil and commissioning then self.bf00_due = nil end
+      local pa = self.prev_ac   -- the last cycle's actual values: G1_ZSW.14 parked
+      if pa ~= nil and (pa.g1_zsw or 0) % 32768 >= 16384 then
+        -- #48: no error reports while parked (000_37bf2397999f1108.txt:1775-1777)
+        v_(self, "PARK-ERROR-REPORTED", ev, "diagnosis alarm (channel error type " .. table.concat(codes, ", ") .. ") while parked")
+      end
+    end
+  end
+  return self.out or EMPTY
+end
+
 -- acyclic.write_refused: the device refused the 0xBF00 / 0xFFFF write of request_frame; what was in force is again
 function Checker:write_refused(request_frame)
   self.out = nil

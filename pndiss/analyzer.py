@@ -216,6 +216,8 @@ class Analyzer:
             self.emit(d)
             if d.get("pdu_type", {}).get("type") == alarm.ERR:
                 self.session.on_rta_error(fn, ts, src, dst)   # the AR is aborted
+            elif d.get("alarm_type") is not None:
+                self.cyclic.on_alarm(d)   # a diagnosis of an encoder submodule (#48, #70)
             self.activity.on_event(d)
             self.stations.seen(src)
         elif cls in rt.PTCP_CLASSES:

@@ -95,6 +95,7 @@ class CyclicTracker(AxisTracking):
         self.bf00: dict = lim.table(cap, "profiles")     # device MAC -> (ar_uuid, decoded 0xBF00) of the latest write
         self.prev_bf00: dict = lim.table(cap, "profiles")  # device MAC -> decoded 0xBF00 of an earlier connection (#31)
         self.bf00_before: dict = {}   # (device MAC, frame of a 0xBF00 write) -> self.bf00's entry before it (refusals)
+        self.alarm_seq: dict = {}     # (device MAC, alarm endpoint, priority) -> last alarm's sequence number (resends)
         # (device MAC, AR UUID) -> response frame of a 0xBF00 write whose request the capture lost
         self.bf00_unseen: dict = lim.table(cap, "profiles")
         self.byte_order = "little" if self.s.byte_order == "little" else "big"

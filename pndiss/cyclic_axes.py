@@ -247,6 +247,21 @@ class AxisTracking:
                 return   # 0xFFFF is the user parameter record of PS/PSM only
         self.bf00_unseen[(dev, ev.get("ar_uuid"))] = ev["frame"]
 
+    def on_alarm(self, ev: dict) -> None:
+        """A DATA-RTA alarm notification (pndiss/proto/alarm.py) from a device: the encoder axes on its
+        submodule judge its diagnosis (Checker.on_alarm). The RTA resends a notification until it is
+        acknowledged, with the same sequence number: that is the same alarm, judged once."""
+        key = (ev.get("src"), ev.get("alarm_src_endpoint"), ev.get("priority"))
+        if self.alarm_seq.get(key) == ev.get("send_seq_num"):
+            return
+        self.alarm_seq[key] = ev.get("send_seq_num")
+        if len(self.alarm_seq) > 256:
+            self.alarm_seq.pop(next(iter(self.alarm_seq)))
+        for ax in self.axes.values():
+            if ax.info["device_mac"] == ev.get("src") and ax.info.get("slot") == ev.get("slot_nr") \
+                    and ax.info.get("subslot") == ev.get("subslot_nr"):
+                self._out(ax.checker.on_alarm(ev))
+
     def on_write_refused(self, ev: dict) -> None:
         """A write the device answered with an error (a ``record_result``, ok false, its request seen): the
         record it carried was applied at the request (on_record), so its checkers take the previous one back

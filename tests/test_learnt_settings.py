@@ -105,3 +105,61 @@ def test_velocity_filter_lua_same():
     res = replay(rec)
     assert not res["problems"], "\n".join(res["problems"][:20])
     assert "NIST-SIGN" in res["lua_rules"]
+
+
+# -- diagnosis alarms of the encoder's submodule (#48, #70) ------------------------------------------------
+
+PARKED = [("0x1400 0x4000 | 0x1200 0x0000 5 0", 1), ("0x1400 0x4000 | 0x1200 0x4000 0 0", 6)]   # PARK -> PKA
+RUNNING = [("0x1400 0x2000 | 0x1200 0x2000 5 5", 6)]
+
+
+def _alarm(frame, cet=0x9000, specifier=1, alarm_type=1):
+    return {"kind": "alarm", "frame": frame, "ts_ns": frame, "alarm_type": alarm_type, "slot_nr": 1, "subslot_nr": 2,
+            "items": [{"channel_error_type": cet, "channel_properties": {"specifier": specifier}}]}
+
+
+def _with_alarm(rows, alarm, compat=1, before=()):
+    chk = Checker(T.make_cfg(compat=compat))
+    out = []
+    for ev in before:
+        out += chk.on_record(dict(ev))
+    n = 0
+    for r in T.expand(rows):
+        sp, ac = T.parse(r, 81)
+        n += 1
+        out += chk.cycle(n, n * 1000, sp, ac)
+    if alarm is not None:
+        out += chk.on_alarm(alarm)
+    for r in T.expand(RUNNING * 5):
+        sp, ac = T.parse(r, 81)
+        n += 1
+        out += chk.cycle(n, n * 1000, sp, ac)
+    out += chk.finish()
+    return {e["rule"] for e in out if e["kind"] == "violation"}
+
+
+BAD_BF00 = {"kind": "record", "op": "write", "index": 0xBF00, "frame": 0, "ts_ns": 0, "length": 31, "data": "00" * 31,
+            "decoded": {"compat": 1, "class4": 1, "mupr": 0, "problems": [
+                {"rule": "BF00-VALUE-OUT-OF-RANGE", "message": "MUPR 0"}]}}
+
+
+def test_alarm_while_parked_and_commissioning_diagnostic():
+    assert "PARK-ERROR-REPORTED" in _with_alarm(PARKED, _alarm(99))                    # 48
+    assert "PARK-ERROR-REPORTED" not in _with_alarm(PARKED, None)
+    assert "PARK-ERROR-REPORTED" not in _with_alarm(PARKED, _alarm(99, specifier=2))   # a diagnosis disappears
+    assert "PARK-ERROR-REPORTED" not in _with_alarm(RUNNING, _alarm(99))               # not parked
+    assert "PARK-ERROR-REPORTED" not in _with_alarm(PARKED, _alarm(99, alarm_type=3))  # a pull alarm: no diagnosis
+    # 70: an invalid 0xBF00 reported by the commissioning diagnostic 0x9011 (000_37bf2397999f1108.txt:2611-2615)
+    assert "BF00-ERROR-NOT-REPORTED" in _with_alarm(RUNNING, None, before=[BAD_BF00])
+    assert "BF00-ERROR-NOT-REPORTED" not in _with_alarm(RUNNING, _alarm(5, cet=0x9011), before=[BAD_BF00])
+    assert "BF00-ERROR-NOT-REPORTED" in _with_alarm(RUNNING, _alarm(5, cet=0x9000), before=[BAD_BF00])
+
+
+@pytest.mark.skipif(shutil.which("lua5.2") is None, reason="lua5.2 not installed")
+def test_alarms_lua_same():
+    from luachk.record import Recorder, replay
+    with Recorder() as rec:
+        test_alarm_while_parked_and_commissioning_diagnostic()
+    res = replay(rec)
+    assert not res["problems"], "\n".join(res["problems"][:20])
+    assert {"PARK-ERROR-REPORTED", "BF00-ERROR-NOT-REPORTED"} <= res["lua_rules"]

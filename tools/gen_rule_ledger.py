@@ -22,8 +22,10 @@ NOT_DECIDABLE = {
                  "the pairer assigns blocks to requests by position, so a capture cannot show a reordering",
 }
 PARTIAL = {
-    "PARK-ERROR-REPORTED": "checks SERR rising while parked; new diagnosis alarms while parked are not correlated yet",
-    "BF00-ERROR-NOT-REPORTED": "checks for 0x1002 in G1_XIST2 within D_preset cycles; 0x9011 alarms are not correlated",
+    "PARK-ERROR-REPORTED": "SERR rising, or a diagnosis alarm of the axis' submodule appearing, while parked; an AR "
+                           "inferred from the cyclic content has no slot/subslot, so its alarms are not correlated",
+    "BF00-ERROR-NOT-REPORTED": "0x1002 in G1_XIST2, or a 0x9011 diagnosis alarm of the axis' submodule, within D_preset "
+                               "cycles",
     "BF00-VALID-REJECTED": "checks 0x1002 in G1_XIST2 after a valid record; 0x9011 alarms are not correlated",
     "SOL-MASTER-ZERO": "only with SOLMON (iso from the RT class, or settings.iso / sol_monitor_rt)",
     "POSITION-DISCONTINUITY": "plausible step = settings.max_position_step, else R/8 [INFERENCE]; LIKA red-zone jumps not modelled",

@@ -284,6 +284,13 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         check_record(self, ev)
         return self.out
 
+    def on_alarm(self, ev: dict) -> list[dict]:
+        """A diagnosis alarm of this encoder's submodule (acyclic.check_alarm), in capture order."""
+        from .acyclic import check_alarm
+        self.out = []
+        check_alarm(self, ev)
+        return self.out
+
     def write_refused(self, request_frame) -> list[dict]:
         """The device refused the record write of ``request_frame`` (a negative write response): a
         0xBF00 applied at its request is taken back (acyclic.write_refused)."""

@@ -92,6 +92,24 @@ def _record(chk, ev: dict) -> None:
             chk.params_changed = True
 
 
+def check_alarm(chk, ev: dict) -> None:
+    """A diagnosis alarm (AlarmType 1) whose channel diagnosis appears (ChannelProperties.Specifier 1):
+    #70 takes the commissioning diagnostic 0x9011 as the report of an invalid 0xBF00, and #48 forbids
+    reporting an error while parked."""
+    if ev.get("alarm_type") != 1:
+        return
+    appears = [it for it in ev.get("items") or () if (it.get("channel_properties") or {}).get("specifier") == 1]
+    if not appears:
+        return
+    codes = ", ".join(f"0x{it.get('channel_error_type', 0):04X}" for it in appears)
+    if chk.bf00_due is not None and any(it.get("channel_error_type") == 0x9011 for it in appears):
+        chk.bf00_due = None   # 70: reported as "user parameter data assignment error" (000_37bf2397999f1108.txt:2611-2615)
+    pa = chk.prev_ac   # the last cycle's actual values: G1_ZSW.14 parked
+    if pa is not None and (pa.get("g1_zsw", 0) >> 14) & 1:
+        # 48: no error reports while parked (000_37bf2397999f1108.txt:1775-1777)
+        _v(chk, "PARK-ERROR-REPORTED", ev, f"diagnosis alarm (channel error type {codes}) while parked")
+
+
 def write_refused(chk, request_frame) -> None:
     """The device answered the 0xBF00 / 0xFFFF write of ``request_frame`` with an error: the parameters
     in force before it are again (#66 still sees the write: the controller did write at start-up)."""

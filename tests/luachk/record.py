@@ -156,7 +156,7 @@ class Recorder:
         Checker.__init__ = init
         for name, opname in (("cycle", "cycle"), ("gap", "gap"), ("lost", "lost"), ("on_record", "rec"), ("finish", "finish"),
                              ("_apply_cfg", "apply"), ("_flush_all", "flush"), ("_reset_history", "reset"),
-                             ("new_connection", "newconn"), ("write_refused", "refused")):
+                             ("new_connection", "newconn"), ("write_refused", "refused"), ("on_alarm", "alarm")):
             self._saved[name] = Checker.__dict__[name]
             setattr(Checker, name, self._wrap(Checker.__dict__[name], opname))
         return self
@@ -205,6 +205,8 @@ class Recorder:
                 op["prev"] = copy.deepcopy(args[0])
             elif opname == "refused":
                 op["rf"] = args[0]
+            elif opname == "alarm":
+                op["ev"] = copy.deepcopy(args[0])
             before = len(chk.out)
             rec._depth += 1
             try:
@@ -215,7 +217,7 @@ class Recorder:
             rec.ops.append(op)
             if opname == "flush":
                 res = chk.out[before:]   # Python appends to the previous call's list
-            if opname in ("cycle", "gap", "lost", "rec", "finish", "flush", "newconn", "refused"):
+            if opname in ("cycle", "gap", "lost", "rec", "finish", "flush", "newconn", "refused", "alarm"):
                 got = violations(res)
                 if got:
                     rec.expect[idx] = got

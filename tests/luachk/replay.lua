@@ -126,6 +126,8 @@ for line in io.lines(path) do
     report(i, k, chk:flush_all())
   elseif kind == "reset" then
     chk:reset_history()
+  elseif kind == "alarm" then
+    report(i, k, chk:on_alarm(op.ev))
   elseif kind == "refused" then
     report(i, k, chk:write_refused(op.rf))
     state(i, chk)
