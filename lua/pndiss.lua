@@ -815,8 +815,10 @@ end
 local function infer_retry(st, fn)
     if st.tries >= CI.retry_max_doublings then infer_fail(st); return end
     local span = #st.frames > 0 and (fn - st.frames[1] + 1) or CI.samples
+    -- the first failure samples again at once (a capture started in the AR's start-up: IOPS bad at first)
+    local pause = st.tries == 0 and 0 or math.floor(span * 2 ^ math.min(st.tries, CI.retry_max_doublings))
     st.tries = st.tries + 1
-    st.retry_at = fn + 1 + math.floor(span * 2 ^ math.min(st.tries, CI.retry_max_doublings))
+    st.retry_at = fn + 1 + pause
     st.samples, st.frames = {}, {}
 end
 

@@ -20,9 +20,9 @@ learnt from; streams nothing fits are listed for a ready-to-edit --map template 
 Frames used for learning are counted, not judged.
 
 Nothing fitting is not final: a capture may start while the PLC is in STOP (IOPS bad, no sign of
-life) and the AR run later. A pair that fails is sampled again after a pause in frames of twice the
-span its samples took, doubling, RETRY_MAX_DOUBLINGS times at most (then never again: a stream of an
-ordinary IO device costs a few samplings per capture). The pause is counted in frame numbers, so the engine (which
+life), or in the AR's start-up, and the AR run later. A pair that fails is sampled again at once, then
+after a pause in frames of twice the span its samples took, doubling, RETRY_MAX_DOUBLINGS times at most
+(then never again: a stream of an ordinary IO device costs a few samplings per capture). The pause is counted in frame numbers, so the engine (which
 hands a waiting stream over in bulk until then, pndiss/engine.py) and the frame loop sample the
 same frames.
 """
@@ -221,8 +221,11 @@ class Inference:
             s.done, s.samples = True, []
             return
         span = fn - s.frames[0] + 1 if s.frames else SAMPLES
+        # the first failure samples again at once: a capture that starts in the AR's start-up has IOPS bad in
+        # its first samples (no pause of cycles learnt from nothing); then pauses of 2, 4 ... 64 spans
+        pause = 0 if s.tries == 0 else span << min(s.tries, RETRY_MAX_DOUBLINGS)
         s.tries += 1
-        s.retry_at = fn + 1 + (span << min(s.tries, RETRY_MAX_DOUBLINGS))
+        s.retry_at = fn + 1 + pause
         s.samples, s.frames = [], []
 
     def _fail(self, s: Stream) -> None:

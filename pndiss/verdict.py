@@ -224,6 +224,11 @@ def not_checked(summary: dict) -> list[str]:
             out.append(f"{e.get('station') or e.get('device_mac')} {e['slot']}/{e['subslot']}: no cycle judged -- "
                        f"the telegram is only guessed from the data lengths, which fit {cands} of profile "
                        f"{e.get('profile')} (cyclic.md §14): --set telegram=N, --gsdml FILE, or a P922 read in the capture")
+    cyc = summary.get("cyclic", {})
+    if cyc.get("frames_before_ar"):
+        n = cyc["frames_before_ar"]
+        out.append(f"{n:,} cyclic frame{'s' if n != 1 else ''} came before {'their' if n != 1 else 'its'} AR was known "
+                   "(before its Connect response, or before the telegram was inferred from the content): not judged")
     gated = sum(e.get("gated_cycles", 0) for e in encs if not e.get("telegram_unsure"))
     if gated:
         out.append(f"{gated:,} cycles not judged (provider stopped, DataValid 0 or IOPS bad)")
