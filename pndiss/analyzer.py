@@ -125,6 +125,9 @@ class Analyzer:
         return self._pn_rt(fn, ts, data, off, src, dst, tags, udp, end)
 
     def _malformed(self, fn: int, ts: int, layer: str, reason: str) -> None:
+        cut = self.reader.cut_of(fn)
+        if cut is not None:   # not the sender's fault: the capture kept only the first bytes (tshark: "Packet size limited")
+            reason = f"{reason} (the capture cut the frame: {cut[0]} of {cut[1]} bytes kept, snap length)"
         ev = {"frame": fn, "ts_ns": ts, "kind": "malformed", "layer": layer, "reason": reason}
         if len(self.malformed) < MAX_KEPT_MALFORMED:
             self.malformed.append(ev)

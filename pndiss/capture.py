@@ -214,6 +214,7 @@ def _read_pcap(path: str, b: _Buffer, bo: str, ns: bool, batch=None, first: int 
     unpack = struct.Struct(bo + "IIII").unpack_from
     mult = 1 if ns else 1000
     n = first
+    info = b.info
     take = batch.pcap(bo, linktype, mult, conv) if batch is not None else None
     retry = 0 if take is not None else NEVER
     while True:
@@ -226,12 +227,14 @@ def _read_pcap(path: str, b: _Buffer, bo: str, ns: bool, batch=None, first: int 
                     pos, n = r
                     continue
                 retry = n + r
-            sec, frac, incl, _orig = unpack(buf, pos)
+            sec, frac, incl, orig = unpack(buf, pos)
             start = pos + 16
             stop = start + incl
             if stop > end or incl > MAX_RECORD:
                 break
             n += 1
+            if incl < orig:
+                info.cut(n, incl, orig)
             if conv is None:
                 yield n, sec * 1_000_000_000 + frac * mult, linktype, buf[start:stop]
             else:
@@ -277,7 +280,7 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
     n = first
     retry = 0 if batch is not None else NEVER
     bo = "<"
-    epb_bo = {"<": struct.Struct("<IIIIII"), ">": struct.Struct(">IIIIII")}  # type, length, if, ts hi/lo, caplen
+    epb_bo = {"<": struct.Struct("<IIIIIII"), ">": struct.Struct(">IIIIIII")}  # type, length, if, ts hi/lo, cap, orig
     # (linktype, ts->ns function, tsoffset ns, multiplier or 0, snaplen, largest raw ts of the fast multiply)
     ifaces: list[tuple] = []
     info = b.info
@@ -325,12 +328,14 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
                         pos, n = r
                         continue
                     retry = n + r
-                btype, blen, ifid, hi, lo, cap = unpack(buf, pos)
+                btype, blen, ifid, hi, lo, cap, orig = unpack(buf, pos)
                 if btype != 6 or ifid >= nif or blen % 4 or blen < 32 + cap or pos + blen > end \
                         or cap > MAX_PACKET or trail(buf, pos + blen - 4)[0] != blen:
                     break
                 iface = ifaces[ifid]
                 n += 1
+                if cap < orig:
+                    info.cut(n, cap, orig)
                 t = (hi << 32) | lo
                 if t <= iface[5]:
                     t = t * iface[3] + iface[2]
@@ -357,9 +362,9 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
                 raise bad(f"total block lengths (first {blen} and second {tail}) don't match")
         if btype == BT_EPB or btype == BT_PB:
             if btype == BT_EPB:
-                ifid, hi, lo, cap, _orig = struct.unpack_from(bo + "IIIII", b.buf, body)
+                ifid, hi, lo, cap, orig = struct.unpack_from(bo + "IIIII", b.buf, body)
             else:
-                ifid, _drops, hi, lo, cap, _orig = struct.unpack_from(bo + "HHIIII", b.buf, body)
+                ifid, _drops, hi, lo, cap, orig = struct.unpack_from(bo + "HHIIII", b.buf, body)
             if ifid >= len(ifaces):
                 raise bad(f"interface index {ifid} is not less than the section's interface count {len(ifaces)}")
             if cap > MAX_PACKET:
@@ -367,6 +372,8 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
             if 32 + cap > blen:
                 raise bad(f"total block length {blen} is too small for {cap} bytes of packet data")
             n += 1
+            if cap < orig:
+                info.cut(n, cap, orig)
             last_ts = ts_of(n, ifaces[ifid], (hi << 32) | lo)
             iface, data = ifaces[ifid], b.buf[body + 20:body + 20 + cap]
             yield (n, last_ts, iface[0], data) if iface[6] is None else (n, last_ts, *iface[6](data))
@@ -383,6 +390,8 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
             if tail != blen:
                 raise bad(f"total block lengths (first {blen} and second {tail}) don't match")
             n += 1
+            if cap < orig:
+                info.cut(n, cap, orig)
             iface, data = ifaces[0], b.buf[body + 4:body + 4 + cap]
             yield (n, 0, iface[0], data) if iface[6] is None else (n, 0, *iface[6](data))
         elif btype == BT_CB or btype == BT_CB_NOCOPY or btype == BT_JOURNAL:

@@ -67,10 +67,18 @@ def pcapng(buf, pos: int, end: int, bo: str, nif: int) -> Index:
     ok = (W[c + nwb - 1] == blen) & (W[c + 2] < nif) & (cap <= MAX_PACKET) & (cap + MIN_EPB <= blen)
     c, nwb = c[ok], nwb[ok]
     c = _chain(c, c + nwb)
-    if not len(c):
-        return _empty(pos)
-    last = int(c[-1])
-    stop = pos + ((last + int(W[last + 1] >> 2)) << 2)
+    cut = W[c + 5] != W[c + 6]   # captured length < length on the wire: the reader counts those (ReadInfo.cut)
+    if cut.any():
+        k = int(np.argmax(cut))
+        stop = pos + (int(c[k]) << 2)
+        c = c[:k]
+        if not len(c):
+            return _empty(pos)
+    else:
+        if not len(c):
+            return _empty(pos)
+        last = int(c[-1])
+        stop = pos + ((last + int(W[last + 1] >> 2)) << 2)
     raw = (W[c + 3].astype(np.uint64) << np.uint64(32)) | W[c + 4].astype(np.uint64)
     return Index(pos + (c << 2), pos + (c << 2) + 28, W[c + 5].astype(np.int64), W[c + 2].astype(np.int64), raw, stop)
 
@@ -95,7 +103,7 @@ def _chain(c, nxt):
     return np.concatenate(keep_parts) if len(keep_parts) > 1 else (keep_parts[0] if keep_parts else c)
 
 
-_PCAP_HDR = {"<": struct.Struct("<I"), ">": struct.Struct(">I")}
+_PCAP_HDR = {"<": struct.Struct("<II"), ">": struct.Struct(">II")}   # captured length, length on the wire
 
 
 def pcap(buf, pos: int, end: int, bo: str, limit: int = 1 << 20) -> Index:
@@ -105,9 +113,9 @@ def pcap(buf, pos: int, end: int, bo: str, limit: int = 1 << 20) -> Index:
     add = offs.append
     p = pos
     while p + 16 <= end and len(offs) < limit:
-        incl = unpack(buf, p + 8)[0]
+        incl, orig = unpack(buf, p + 8)
         q = p + 16 + incl
-        if q > end or incl > MAX_RECORD:
+        if q > end or incl > MAX_RECORD or incl < orig:   # a frame the capture cut: the reader counts it
             break
         add(p)
         p = q

@@ -13,7 +13,7 @@ class ReadInfo:
     stamps were out of the range every sink can show (clamped to [0, TS_MAX] ns)."""
 
     __slots__ = ("_h", "_known", "complete", "ts_clamped", "ts_clamped_first", "last_ts", "ts_back", "ts_back_max",
-                 "ts_back_first")
+                 "ts_back_first", "cut_n", "cut_first", "cut_to", "_cut_at")
 
     def __init__(self, known_sha256: str | None = None):
         # a digest the caller took already (pndiss fleet hashes every input to plan): not taken twice
@@ -28,6 +28,12 @@ class ReadInfo:
         self.ts_back = 0
         self.ts_back_max = 0
         self.ts_back_first = None
+        # frames the capture cut (captured length < length on the wire: the snap length): what was cut off is
+        # not there to decode; tshark 4.0 says "Packet size limited during capture"
+        self.cut_n = 0
+        self.cut_first = None
+        self.cut_to = 0
+        self._cut_at: dict = {}   # frame -> (captured, on the wire), the latest ones (malformed reasons)
 
     def sha256(self) -> str:
         """The digest of the whole input, or '' when it was not read to its end."""
@@ -59,7 +65,23 @@ class ReadInfo:
         if self.ts_back_first is None or fn < self.ts_back_first:
             self.ts_back_first = fn
 
+    def cut(self, fn: int, cap: int, orig: int) -> None:
+        """Frame ``fn`` was captured with ``cap`` of its ``orig`` bytes (the readers, frame by frame: the engine
+        leaves such frames to them, pndiss/frameindex.py)."""
+        self.cut_n += 1
+        if self.cut_first is None:
+            self.cut_first = fn
+        self.cut_to = max(self.cut_to, cap)
+        self._cut_at[fn] = (cap, orig)
+        if len(self._cut_at) > 1024:
+            self._cut_at.pop(next(iter(self._cut_at)))
+
+    def cut_of(self, fn: int):
+        """(captured, on the wire) of a recent frame the capture cut, else None."""
+        return self._cut_at.get(fn)
+
     def as_dict(self) -> dict:
         return {"timestamps_clamped": self.ts_clamped, "timestamps_clamped_first_frame": self.ts_clamped_first,
                 "timestamps_backwards": self.ts_back, "timestamps_backwards_max_ns": self.ts_back_max,
-                "timestamps_backwards_first_frame": self.ts_back_first}
+                "timestamps_backwards_first_frame": self.ts_back_first,
+                "frames_cut": self.cut_n, "frames_cut_first_frame": self.cut_first, "frames_cut_to_bytes": self.cut_to}

@@ -147,6 +147,11 @@ def trust(summary: dict) -> list[str]:
                    f"(same cycle counter, status and data within half a cycle; first: frame {fd[0]} of frame {fd[1]}): "
                    "a mirror port seeing them twice; counted once as a cycle")
     inp = summary.get("input") or {}
+    if inp.get("frames_cut"):
+        out.append(f"{inp['frames_cut']:,} frame(s) cut by the capture's snap length (kept {inp['frames_cut_to_bytes']:,} "
+                   f"bytes at most; first at frame {inp['frames_cut_first_frame']}): what was cut off is not decoded, and "
+                   "a layer that runs past the kept bytes counts as malformed -- capture with a larger snap length "
+                   "(dumpcap -s 0)")
     if (inp.get("timestamps_backwards_max_ns") or 0) >= BACKWARDS_NS:
         out.append(f"frames out of time order: time goes back {inp['timestamps_backwards']:,} time(s), by up to "
                    f"{inp['timestamps_backwards_max_ns'] / 1e6:,.3f} ms (first at frame "

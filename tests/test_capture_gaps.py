@@ -15,6 +15,7 @@ import os
 import shutil
 import subprocess
 import sys
+import struct
 
 import pytest
 from hypothesis import given, settings as hsettings, strategies as st
@@ -326,3 +327,54 @@ def test_frames_out_of_time_order_are_reported(tmp_path):
     assert inp["timestamps_backwards"] == 1 and inp["timestamps_backwards_max_ns"] < 1_000_000
     assert not any("out of time order" in t for t in lines)
     assert out["sorted"][0]["timestamps_backwards"] == 0
+
+
+# -- a capture taken with a short snap length (tcpdump -s 96) -------------------------------------------------
+
+def _write_cut(src: str, dst: str, snap: int, pcapng_out: bool) -> int:
+    """src's frames with only their first ``snap`` bytes kept (the wire length recorded); returns how many."""
+    from pndiss.capture import open_capture
+    frames = [(ts, bytes(d)) for _fn, ts, _lt, d in open_capture(src)]
+    n = 0
+    with open(dst, "wb") as f:
+        if pcapng_out:
+            f.write(struct.pack("<IIIHHq", 0x0A0D0D0A, 28, 0x1A2B3C4D, 1, 0, -1) + struct.pack("<I", 28))
+            f.write(struct.pack("<IIHHI", 1, 20, 1, 0, snap) + struct.pack("<I", 20))
+        else:
+            f.write(struct.pack("<IHHiIII", 0xA1B23C4D, 2, 4, 0, 0, snap, 1))
+        for ts, d in frames:
+            keep = d[:snap]
+            n += len(keep) < len(d)
+            if pcapng_out:
+                pad = (-len(keep)) % 4
+                blen = 32 + len(keep) + pad
+                ts_us = ts // 1000
+                f.write(struct.pack("<IIIIIII", 6, blen, 0, ts_us >> 32, ts_us & 0xFFFFFFFF, len(keep), len(d))
+                        + keep + b"\0" * pad + struct.pack("<I", blen))
+            else:
+                f.write(struct.pack("<IIII", ts // 1_000_000_000, ts % 1_000_000_000, len(keep), len(d)) + keep)
+    return n
+
+
+@pytest.mark.parametrize("pcapng_out", (False, True), ids=("pcap", "pcapng"))
+def test_frames_cut_by_the_snap_length(tmp_path, pcapng_out):
+    """Frames cut by the snap length were malformed with a reason that blamed the frame ("total length
+    exceeds the captured bytes"). Now the reader counts them (summary.input.frames_cut, a Trust line), each
+    malformed reason says the capture cut it, and the engine leaves them to the reader: the same on both paths,
+    and the same count as tshark's frames with frame.cap_len < frame.len."""
+    from test_fastpath import _same_both_ways
+    from pndiss.verdict import trust
+    src = capedit.simulate(str(tmp_path / "full.pcapng"), "--scenario", "preset", "--cycles", "600")
+    path = str(tmp_path / ("cut.pcapng" if pcapng_out else "cut.pcap"))
+    n = _write_cut(src, path, 96, pcapng_out)
+    assert n > 5
+    _same_both_ways(path)
+    a = analyze_file(path, Settings())
+    s = a.summary()
+    assert s["input"]["frames_cut"] == n and s["input"]["frames_cut_to_bytes"] == 96
+    assert a.malformed and all("the capture cut the frame" in m["reason"] for m in a.malformed)
+    assert any("cut by the capture's snap length" in line for line in trust(s))
+    if shutil.which("tshark"):
+        out = subprocess.run(["tshark", "-n", "-r", path, "-Y", "frame.cap_len < frame.len", "-T", "fields",
+                              "-e", "frame.number"], capture_output=True, text=True).stdout.split()
+        assert len(out) == n
