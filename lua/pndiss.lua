@@ -207,6 +207,7 @@ end
 -- cycle_ns, source, objects}
 local maps, map_cache
 local open_req         -- DCE/RPC "act|seq" -> frame of its request, until the response (retransmissions run once)
+local alarm_seq        -- device MAC .. "|" .. alarm endpoint .. "|" .. priority -> {sequence number, time} (resends)
 local dcp_state        -- DcpTracker state (section 6); station = MAC -> last NameOfStation (stations.py)
 local usermap = {}     -- fid -> {direction, telegram, offset} (preference, not capture state)
 local profiles         -- device MAC -> profile (I&M0 / DCP)
@@ -424,7 +425,10 @@ local function lookup(fid, src, dst)
         for _, d in ipairs(fm.objects) do
             if d.length and d.length > 0 then
                 local t, source = d.telegram, d.telegram_source
-                if pndiss.prefs.telegram ~= 0 and (t == nil or tostring(source):sub(1, 6) == "length") then
+                local pt = pndiss.prefs.telegram
+                if pt ~= 0 and (t == nil or (tostring(source):sub(1, 6) == "length" and T.telegrams[pt] ~= nil
+                        and T.telegrams[t] ~= nil and layout(pt, "setpoint").len == layout(t, "setpoint").len
+                        and layout(pt, "actual").len == layout(t, "actual").len)) then   -- the guess's lengths only
                     t, source = pndiss.prefs.telegram, "settings.telegram"
                 end
                 -- no telegram from the session (map, P922, both directions' lengths) and no preference:
@@ -455,7 +459,7 @@ for _, n in ipairs({"pn_io.opnum", "pn_io.block_type", "pn_io.ar_uuid", "pn_io.c
                     "pn_rt.frame_id", "pn_rt.ds", "pn_rt.cycle_counter", "pn_io.send_clock_factor", "pn_io.reduction_ratio",
                     "pn_io.error_code", "pn_io.error_decode", "pn_io.error_code1", "pn_io.error_code2",
                     "pn_io.control_command", "pn_io.pdu_type.type", "pn_io.alarm_type", "pn_io.send_seq_num",
-                    "pn_io.alarm_src_endpoint", "pn_io.channel_error_type", "pn_io.channel_properties.specifier",
+                    "pn_io.alarm_src_endpoint", "pn_io.channel_error_type", "pn_io.channel_properties.specifier", "pn_io.artype_req",
                     "pn_dcp.service_id",
                     "pn_dcp.suboption_vendor_id", "pn_dcp.suboption_device_id", "pn_dcp.suboption_device_devicevendorvalue"}) do
     X[n] = Field.new(n)
@@ -517,6 +521,12 @@ end
 
 local pending_connects   -- "act|seq" -> request summary
 
+-- session_ar._replaces: a Connect that takes over the cyclic data of the AR the controller holds with the device
+-- (an IO controller AR with IOCRs; a supervisor / Device Access AR from the same MAC runs beside it)
+local function replaces(req)
+    return (req.ar_type == 0x0001 or req.ar_type == 0x0010) and #req.iocrs > 0
+end
+
 local function connect_request(key, pinfo)
     local bl = blocks()
     local req = {iocrs = {}, expected = {}, src = tostring(pinfo.dl_src), dst = tostring(pinfo.dl_dst)}
@@ -526,6 +536,8 @@ local function connect_request(key, pinfo)
             local u, m = inside(all("pn_io.ar_uuid"), b), inside(all("pn_io.cminitiator_mac_add"), b)
             req.ar = u[1] and tostring(u[1])
             req.controller = m[1] and tostring(m[1].value)
+            local at = inside(all("pn_io.artype_req"), b)[1]   -- a label in tshark 4.0: its two bytes are the ARType
+            req.ar_type = at and at.range:len() == 2 and at.range:uint() or nil
         elseif b.type == 0x0102 then
             local function first(n) local l = inside(all(n), b); return l[1] and l[1].value end
             local cr = {type = first("pn_io.iocr_type"), ref = first("pn_io.iocr_reference"),
@@ -554,6 +566,7 @@ local function connect_request(key, pinfo)
         end
     end
     pending_connects[key] = req
+    if not replaces(req) then return end
     -- session_ar._connect_requested: the device may provide the new AR's frames before the response, so the
     -- streams of the AR the controller holds with it start their capture-loss tracking afresh
     for _, a in ipairs(ar_order) do
@@ -611,12 +624,15 @@ local function connect_response(key, pinfo)
     if station == nil then station = server_name ~= "" and server_name or nil end
     if station ~= nil then dcp_state.station[device] = station end
     if not ok then return end
+    for k in pairs(alarm_seq) do   -- cyclic_axes.on_new_ar: the new AR's alarms number afresh
+        if k:sub(1, #device + 1) == device .. "|" then alarm_seq[k] = nil end
+    end
     -- session_ar._superseded: the controller's new Connect ends the AR it held with this device (power lost,
     -- link down, an abort not captured), before the new maps take its streams
     for _, a in ipairs(ar_order) do
         local d = ar_devs[a]
-        if a ~= req.ar and d ~= nil and d[1] == device and d[2] == req.controller and ar_phase[a] ~= nil
-                and ar_phase[a] ~= "released" and ar_phase[a] ~= "aborted" then
+        if replaces(req) and a ~= req.ar and d ~= nil and d[1] == device and d[2] == req.controller
+                and ar_phase[a] ~= nil and ar_phase[a] ~= "released" and ar_phase[a] ~= "aborted" then
             ar_moves(a, "aborted", pinfo.number)
         end
     end
@@ -1471,7 +1487,6 @@ local bf00_resp        -- AR UUID -> frame of a successful 0xBF00/0xFFFF write r
 local answered         -- DCE/RPC "act|seq" -> frame of its response (its copies run once)
 local req_body, answered_body   -- "act|seq" -> the open / the answered request's body (a resend of it runs once)
 local answered_at        -- "act|seq" -> time (s) of its response
-local alarm_seq          -- device MAC .. "|" .. alarm endpoint .. "|" .. priority -> last notification's sequence number
 local bf00_before        -- device MAC .. "|" .. frame of a 0xBF00 write -> bf00_last before it (false: none)
 
 -- The body of a connectionless DCE/RPC PDU (the 80-byte header, then dg_frag_len bytes), from the Tvb the
@@ -1560,12 +1575,14 @@ end
 local function ambiguous(ax, o)
     if not tostring(o.source):find("length", 1, true) then return false end
     local io = ax.checker.io_len
-    local n = 0
+    local n, seen = 0, {}
     for _, t in ipairs(telegrams_for_length(io.actual, io.setpoint)) do
         local d = T.telegrams[t]
         local ok = ax.profile == "generic" and d.standard
         for _, p in ipairs(d.profiles) do if p == ax.profile then ok = true end end
-        if ok then n = n + 1 end
+        -- telegrams of the same layout are one candidate (PS/PSM 86 = 860)
+        local sig = table.concat(d.setpoint, ",") .. "|" .. table.concat(d.actual, ",")
+        if ok and not seen[sig] then n = n + 1; seen[sig] = true end
     end
     -- PS/PSM's OEM 100/101 have the lengths of 81/83: mandatory 81 is supported, not necessarily run
     return n > 1 and (not T.telegrams[ax.telegram].standard or ax.profile == "psm")
@@ -1633,7 +1650,8 @@ function on_record(ev, fn)
     if kept then lst[#lst + 1] = ev end
     for _, ax in ipairs(axis_list) do
         if (ax.info.device_mac or "") == dev and (ev.ar_uuid == nil or ax.fm.ar == nil or ev.ar_uuid == ax.fm.ar
-                                                   or ev.kind == "param") then   -- any AR's parameter access
+                or (ev.kind == "param" and ax.fm.phase ~= "released" and ax.fm.phase ~= "aborted")) then
+            -- any AR's parameter access while the axis' AR is up
             -- an axis of a restarted AR seen before its own 0xBF00 (#31)
             if ax.checker.prev_bf00 == nil then ax.checker.prev_bf00 = prev_bf00[dev] end
             local refined = ax.profile == "generic" and ev.index == 0xFFFF and ev.profile == "psm"
@@ -1772,9 +1790,10 @@ local function rta_alarm(pinfo)
     local src = tostring(pinfo.dl_src)
     local ep, seq, fid = X["pn_io.alarm_src_endpoint"](), X["pn_io.send_seq_num"](), X["pn_rt.frame_id"]()
     local key = src .. "|" .. tostring(ep and ep.value) .. "|" .. ((fid and fid.value == 0xFC01) and "high" or "low")
-    local sq = seq and seq.value
-    if alarm_seq[key] == sq then return end
-    alarm_seq[key] = sq
+    local sq, now = seq and seq.value, tonumber(pinfo.abs_ts)
+    local last = alarm_seq[key]
+    if last ~= nil and last[1] == sq and now - last[2] <= 10 then return end   -- cyclic_axes.ALARM_RESEND_NS
+    alarm_seq[key] = {sq, now}
     local slot, sub = all("pn_io.slot_nr"), all("pn_io.subslot_nr")
     local items, spec = {}, all("pn_io.channel_properties.specifier")
     for i, c in ipairs(all("pn_io.channel_error_type")) do
@@ -1783,7 +1802,8 @@ local function rta_alarm(pinfo)
     local ev = {kind = "alarm", frame = pinfo.number, ts_ns = ts_ns(pinfo), src = src, alarm_type = at.value,
                 slot_nr = slot[1] and slot[1].value, subslot_nr = sub[1] and sub[1].value, items = items}
     for _, ax in ipairs(axis_list) do
-        if (ax.info.device_mac or "") == src and ax.info.slot == ev.slot_nr and ax.info.subslot == ev.subslot_nr then
+        if (ax.info.device_mac or "") == src and ax.info.slot == ev.slot_nr and ax.info.subslot == ev.subslot_nr
+                and ax.fm.phase ~= "released" and ax.fm.phase ~= "aborted" then   -- an ended AR's axis: not its alarm
             note(ax.checker:on_alarm(ev), pinfo.number)
         end
     end
@@ -2211,27 +2231,36 @@ end
 -- session_records._write_results / cyclic_axes.on_write_refused: a write the device answered with an error
 -- wrote nothing: a 0xBF00 / 0xFFFF applied at its request is taken back, a parameter request is not pending
 local function write_refusals(pinfo, req_frame)
+    local dev = tostring(pinfo.dl_src)
+    local function refuse(index)
+        if index == nil or index == 0xBF00 or index == 0xFFFF then
+            local bk = dev .. "|" .. tostring(req_frame)
+            local old = bf00_before[bk]
+            if old ~= nil then bf00_last[dev] = old or nil; bf00_before[bk] = nil end
+            for _, ax in ipairs(axis_list) do
+                if (ax.info.device_mac or "") == dev then note(ax.checker:write_refused(req_frame), pinfo.number) end
+            end
+        end
+        if index == nil or index == 0xB02E or index == 0xB02F then
+            for k, v in pairs(pairer) do
+                if v.frame == req_frame then pairer[k] = nil end   -- ParamPairer.refused
+            end
+        end
+    end
+    local inner = false
     for _, b in ipairs(blocks()) do
         if b.type == 0x8008 and b.e - b.s >= 64 then
             local t, hs = b.tvb, b.s + 8   -- after block header and SeqNumber
             local index = t(hs + 26, 2):uint()
-            if t(hs + 36, 4):uint() ~= 0 and index ~= 0xE040 then   -- PNIOStatus not OK
-                local dev = tostring(pinfo.dl_src)
-                if index == 0xBF00 or index == 0xFFFF then
-                    local bk = dev .. "|" .. tostring(req_frame)
-                    local old = bf00_before[bk]
-                    if old ~= nil then bf00_last[dev] = old or nil; bf00_before[bk] = nil end
-                    for _, ax in ipairs(axis_list) do
-                        if (ax.info.device_mac or "") == dev then note(ax.checker:write_refused(req_frame), pinfo.number) end
-                    end
-                elseif index == 0xB02E or index == 0xB02F then
-                    for k, v in pairs(pairer) do
-                        if v.frame == req_frame then pairer[k] = nil end   -- ParamPairer.refused
-                    end
-                end
+            if index ~= 0xE040 then
+                inner = true
+                if t(hs + 36, 4):uint() ~= 0 then refuse(index) end   -- PNIOStatus not OK
             end
         end
     end
+    -- no result of its own (a MultipleWrite refused as a whole, an error without headers): the call's PNIOStatus
+    local st = X["pn_io.error_code"]()
+    if not inner and st ~= nil and st.value ~= 0 then refuse(nil) end
 end
 
 -- first pass of a non-cyclic frame: DCP identity and rules, Connects, records

@@ -341,7 +341,14 @@ function Checker:apply_cfg()
   self.D = C.d_preset(c)
   self.lika = c.profile == "lika"
   self.psm = c.profile == "psm"
-  self.creq_bit = K.creq_bit[self.psm and "psm" or "generic"]
+  local creq = K.creq_bit[self.psm and "psm" or "generic"]
+  if self.creq_bit ~= nil and self.creq_bit ~= creq and c.sources.compat ~= nil
+      and c.sources.compat:sub(1, 21) == "learnt from the words" then
+    -- learnt at the other bit (a PS/PSM device judged generic until its 0xFFFF showed it): learn again
+    c.compat = defaults(c).compat
+    c.sources.compat = c.profile .. " " .. DEFAULT_SOURCE
+  end
+  self.creq_bit = creq
   self.compat_open = C.compat_open(c)   -- the mode is learnt from the words (learn_compat)
   local rm = K.reserved_masks
   self.res_stw2 = rm.stw2_enc[c.profile] or rm.stw2_enc.generic

@@ -140,7 +140,9 @@ class CyclicTracker(AxisTracking):
             if not do.length:
                 continue
             telegram, source = do.telegram, do.telegram_source
-            if self.s.telegram and (telegram is None or str(source).startswith("length")):   # beats a length guess
+            if self.s.telegram and (telegram is None or (str(source).startswith("length") and all(
+                    tg.length(int(self.s.telegram), d) == tg.length(telegram, d) for d in tg.DIRECTIONS))):
+                # beats a length guess of the same lengths (81 for OEM 100), not another device's telegram
                 telegram, source = int(self.s.telegram), "settings.telegram"
             # No telegram from the session (map, P922, GSDML, or both directions' lengths): not an
             # encoder submodule. A one-direction length guess would call any IO module a telegram.

@@ -17,6 +17,8 @@ from .encoder import Checker, EncoderConfig
 BF00_INDEXES = (0xBF00, 0xFFFF)
 
 _NONE = object()   # no entry (on_write_refused)
+ENDED = ("released", "aborted")   # AR phases after which its axes take no other AR's events
+ALARM_RESEND_NS = 10_000_000_000  # an RTA resends an unacknowledged alarm within its timeout (seconds)
 
 
 class Axis:
@@ -108,8 +110,10 @@ class AxisTracking:
         if "length" not in str(source):
             return False
         io = ax.checker.io_len
-        cands = [t for t in tg.telegrams_for_length(io.get("actual"), io.get("setpoint"))
-                 if ax.profile in tg.TELEGRAMS[t]["profiles"] or (ax.profile == "generic" and t in tg.STANDARD)]
+        # telegrams of the same layout are one candidate (PS/PSM 86 = 860, 002_d69f444daf0f8af2.txt:729, 940)
+        cands = {(tuple(map(tuple, tg.TELEGRAMS[t]["setpoint"])), tuple(map(tuple, tg.TELEGRAMS[t]["actual"])))
+                 for t in tg.telegrams_for_length(io.get("actual"), io.get("setpoint"))
+                 if ax.profile in tg.TELEGRAMS[t]["profiles"] or (ax.profile == "generic" and t in tg.STANDARD)}
         # PS/PSM has OEM telegrams of the standard ones' lengths (100: 4/12 bytes as 81, 101: 8/16): 81 being
         # mandatory (002_d69f444daf0f8af2.txt:528) says the device supports it, not that the AR runs it
         return len(cands) > 1 and (ax.telegram not in tg.STANDARD or ax.profile == "psm")
@@ -252,15 +256,23 @@ class AxisTracking:
         submodule judge its diagnosis (Checker.on_alarm). The RTA resends a notification until it is
         acknowledged, with the same sequence number: that is the same alarm, judged once."""
         key = (ev.get("src"), ev.get("alarm_src_endpoint"), ev.get("priority"))
-        if self.alarm_seq.get(key) == ev.get("send_seq_num"):
+        last = self.alarm_seq.get(key)
+        ts = ev.get("ts_ns", 0)
+        if last is not None and last[0] == ev.get("send_seq_num") and ts - last[1] <= ALARM_RESEND_NS:
             return
-        self.alarm_seq[key] = ev.get("send_seq_num")
+        self.alarm_seq[key] = (ev.get("send_seq_num"), ts)
         if len(self.alarm_seq) > 256:
             self.alarm_seq.pop(next(iter(self.alarm_seq)))
         for ax in self.axes.values():
             if ax.info["device_mac"] == ev.get("src") and ax.info.get("slot") == ev.get("slot_nr") \
-                    and ax.info.get("subslot") == ev.get("subslot_nr"):
-                self._out(ax.checker.on_alarm(ev))
+                    and ax.info.get("subslot") == ev.get("subslot_nr") and (ax.fm is None or ax.fm.phase not in ENDED):
+                self._out(ax.checker.on_alarm(ev))   # (an ended AR's axis: the alarm is the next AR's)
+
+    def on_new_ar(self, device: str) -> None:
+        """A Connect of the device succeeded: its alarm sequence numbers start again (a new AR's first alarm is
+        no resend of the old AR's)."""
+        for key in [k for k in self.alarm_seq if k[0] == device]:
+            del self.alarm_seq[key]
 
     def on_write_refused(self, ev: dict) -> None:
         """A write the device answered with an error (a ``record_result``, ok false, its request seen): the
@@ -306,10 +318,12 @@ class AxisTracking:
         if kept:
             lst.append(ev)
         for ax in self.axes.values():
-            # records of the axis' AR; parameter accesses of any AR of the device: an engineering tool's Device
-            # Access AR writes the encoder's one P65000 too (behaviour.md §9.3 #27), and its answers are the device's
+            # records of the axis' AR; parameter accesses of any AR of the device while the axis' AR is up: an
+            # engineering tool's Device Access AR writes the encoder's one P65000 too (behaviour.md §9.3 #27), and
+            # its answers are the device's
             if ax.info["device_mac"] == dev and (ev.get("ar_uuid") is None or ax.fm is None or ax.fm.ar_uuid is None
-                                                  or ev.get("ar_uuid") == ax.fm.ar_uuid or ev.get("kind") == "param"):
+                                                  or ev.get("ar_uuid") == ax.fm.ar_uuid
+                                                  or (ev.get("kind") == "param" and ax.fm.phase not in ENDED)):
                 if ax.checker.prev_bf00 is None:  # an axis of a restarted AR seen before its own 0xBF00 (#31)
                     ax.checker.prev_bf00 = self.prev_bf00.get(dev)
                 if ax.profile == "generic" and ev.get("index") == 0xFFFF and ev.get("profile") == "psm":

@@ -78,7 +78,7 @@ class ArLayer:
         device = ars["cmresponder_macadd"] if ars else src  # the responder sent this frame
         if not ok:
             self.counts["connect_refused"] += 1
-        else:
+        elif _replaces(arq, rb.get(0x0102)):
             self._superseded(controller, device, arq["ar_uuid"], fn, ts)
         # expected submodules: (api, slot, subslot) -> description per direction
         expected: dict[tuple, dict] = {}
@@ -180,6 +180,8 @@ class ArLayer:
         if dev_station:
             self.a.stations.update(device, name=dev_station)
         self.map_generation += 1
+        if ok:
+            self.a.cyclic.on_new_ar(device)
         self.a.emit(ar)
         if again:   # the AR UUID of an earlier connection (controllers may reuse it): a new connection
             self.a.cyclic.on_reconnect(rec, fn, ts)
@@ -188,8 +190,9 @@ class ArLayer:
         """A Connect request for another AR of a controller that holds one with the device: the device may
         provide the new AR's frames before its response (a new cycle counter), so the held AR's streams
         start their capture-loss tracking afresh now; the AR itself ends at the response (_superseded)."""
-        arq = next((b for b in pdu.get("blocks", ()) if b.get("block_type") == 0x0101 and "undecoded" not in b), None)
-        if arq is None:
+        blocks = [b for b in pdu.get("blocks", ()) if "undecoded" not in b]
+        arq = next((b for b in blocks if b.get("block_type") == 0x0101), None)
+        if arq is None or not _replaces(arq, [b for b in blocks if b.get("block_type") == 0x0102]):
             return
         for old in self.ars.values():
             if old["ar_uuid"] != arq["ar_uuid"] and old["ok"] and old["controller_mac"] == arq["cminitiator_mac_add"] \
@@ -283,6 +286,16 @@ class ArLayer:
                      "previous_phase": old, "cause": cause, "device_mac": ar["device_mac"], "station": ar["station"],
                      "controller_mac": ar["controller_mac"]})
         self.a.cyclic.on_phase(ar, phase, fn, ts)
+
+
+IO_CONTROLLER_AR_TYPES = (0x0001, 0x0010)   # IOCARSingle, and with RT_CLASS_3 (wire.md; tshark pn_io_ar_type)
+
+
+def _replaces(arq: dict, iocrs) -> bool:
+    """A Connect that takes over the cyclic data of an AR the controller holds with the device: an IO
+    controller AR with IOCRs. A supervisor or Device Access AR from the same MAC (a SoftPLC's engineering
+    tool reading I&M0) runs beside it."""
+    return arq.get("artype_req") in IO_CONTROLLER_AR_TYPES and bool(iocrs)
 
 
 def _do_row(do: armap.DataObject) -> dict:

@@ -228,7 +228,8 @@ def not_checked(summary: dict) -> list[str]:
             cands = " or ".join(str(t) for t in e["telegram_unsure"])
             out.append(f"{e.get('station') or e.get('device_mac')} {e['slot']}/{e['subslot']}: no cycle judged -- "
                        f"the telegram is only guessed from the data lengths, which fit {cands} of profile "
-                       f"{e.get('profile')} (cyclic.md §14): --set telegram=N, --gsdml FILE, or a P922 read in the capture")
+                       f"{e.get('profile')} (cyclic.md §14): --map FILE (per station), --gsdml FILE, a P922 read in the capture, "
+                       "or --set telegram=N (for every submodule of those lengths)")
     cyc = summary.get("cyclic", {})
     if cyc.get("frames_before_ar"):
         n = cyc["frames_before_ar"]

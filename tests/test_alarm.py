@@ -6,7 +6,7 @@ import struct
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from pndiss.analyzer import Analyzer
+from pndiss.analyzer import Analyzer, analyze_file
 from pndiss.proto import alarm
 from pndiss.proto.common import Malformed
 from synframes import (block, channel_item, ext_channel_item, notification, pn_rt, rta, write_pcap)
@@ -144,3 +144,45 @@ def test_truncated_and_mutated(pdu, cut, pos, val):
     _check(pdu[:cut])
     if pos < len(pdu):
         _check(pdu[:pos] + bytes([val]) + pdu[pos + 1:])
+
+
+# -- alarms of a capture reach the encoder axes (#48): resends, other submodules, the plugin ---------------
+
+def test_alarm_while_parked_in_a_capture(tmp_path):
+    """A diagnosis alarm of the parked encoder's submodule is PARK-ERROR-REPORTED once, although the RTA sends
+    it twice (same sequence number); one of another subslot is not the encoder's. Both paths and the plugin."""
+    import shutil
+
+    from pndiss.capture import open_capture
+    from pndiss.settings import Settings
+    from pndiss.sim.pcapng import Writer
+    from synframes import eth
+    from test_fastpath import _same_both_ways
+    src = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "captures", "parking-t81-scancon.pcapng")
+    if not os.path.exists(src):
+        pytest.skip("captures/parking-t81-scancon.pcapng is missing")
+    dev, plc = bytes.fromhex("020000000101"), bytes.fromhex("020000000001")   # parked from frame 664 to 1264
+
+    def alarm_frame(seq, subslot):
+        pdu = rta(0x11, 0x11, seq, 0xFFFE, notification(0x0001, 0xA801, channel_item(0x8000, APPEARS, 0x9000),
+                                                          subslot=subslot))
+        return eth(0x8892, struct.pack(">H", 0xFE01) + pdu, src=dev, dst=plc)
+    path = str(tmp_path / "parked-alarm.pcapng")
+    with open(path, "wb") as f:
+        w = Writer(f)
+        for fn, ts, _lt, d in open_capture(src):
+            w.write(ts, bytes(d))
+            if fn == 800:
+                w.write(ts + 1000, alarm_frame(7, 2))      # the encoder submodule (slot 1 / subslot 2)
+            if fn == 850:
+                w.write(ts + 1000, alarm_frame(7, 2))      # the RTA's resend of it (not acknowledged yet)
+            if fn == 900:
+                w.write(ts + 1000, alarm_frame(8, 1))      # the next alarm: another submodule of the device
+    _same_both_ways(path)
+    evs = []
+    analyze_file(path, Settings(), sink=lambda e: evs.append(e) if e["kind"] == "violation" else None)
+    assert [(e["rule"], e["frame"]) for e in evs if e["rule"] == "PARK-ERROR-REPORTED"] == [("PARK-ERROR-REPORTED", 801)]
+    if shutil.which("tshark"):
+        from test_lua_plugin import compare as plugin_compare
+        n, bad, lua_viol, viol = plugin_compare(path)
+        assert n and not bad and lua_viol == viol and (801, "PARK-ERROR-REPORTED") in lua_viol

@@ -123,3 +123,44 @@ def test_power_cycle_plugin_same(caps, tmp_path):
     n, bad, lua_viol, viol = compare(path)
     assert n and not bad, bad[:5]
     assert lua_viol == viol
+
+
+@pytest.mark.parametrize("ar_type,iocrs,aborts", [(0x0006, False, False), (0x0001, False, False)],
+                         ids=("supervisor-ar", "io-ar-without-iocrs"))
+def test_a_connect_beside_the_ar_does_not_end_it(tmp_path, ar_type, iocrs, aborts):
+    """A SoftPLC's engineering tool opens an AR from the controller's MAC (a supervisor AR reading I&M0): it
+    runs beside the IO AR, which keeps being judged (the review of the power-cycle change: it was aborted and
+    254 of its 277 cycles went unjudged)."""
+    import struct
+
+    import rpc_frames as R
+    src = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "captures", "parking-t81-scancon.pcapng")
+    if not os.path.exists(src):
+        pytest.skip("captures/parking-t81-scancon.pcapng is missing")
+    other = "0badc0de-0000-4000-8000-000000000001"
+    arb = bytearray(R.ar_block_req(station="tool", ar_uuid=other))
+    arb[6:8] = struct.pack(">H", ar_type)
+    act = "00000009-0000-1010-8000-000000000009"
+    req = R.frame(R.CONTROLLER_MAC, R.DEVICE_MAC, R.CONTROLLER_IP, R.DEVICE_IP, 49153, 34964,
+                  R.dcerpc(0, 0, R.ndr_request(bytes(arb) + R.alarmcr_req()), act=act))
+    res = R.frame(R.DEVICE_MAC, R.CONTROLLER_MAC, R.DEVICE_IP, R.CONTROLLER_IP, 49154, 49153,
+                  R.dcerpc(2, 0, R.ndr_response(R.ar_block_res(other) + R.alarmcr_res(), little=True), act=act,
+                           little=True, flags1=0x0A))
+    path = str(tmp_path / "beside.pcapng")
+    with open(path, "wb") as f:
+        w = Writer(f)
+        for fn, ts, _lt, d in open_capture(src):
+            w.write(ts, bytes(d))
+            if fn == 500:
+                w.write(ts + 1000, req)
+                w.write(ts + 2000, res)
+    want = analyze_file(src, Settings()).summary()["cyclic"]["encoders"][0]["cycles"]
+    for fast in (False, True):
+        evs = _events(path, fast, ("ar_phase", "ar"))
+        assert any(e["kind"] == "ar" and e["ar_uuid"] == other for e in evs)
+        assert not [e for e in evs if e["kind"] == "ar_phase" and e["phase"] == "aborted"]
+        assert analyze_file(path, Settings(fast_path=fast)).summary()["cyclic"]["encoders"][0]["cycles"] == want
+    if shutil.which("tshark"):
+        from test_lua_plugin import compare
+        n, bad, lua_viol, viol = compare(path)
+        assert n and not bad and lua_viol == viol

@@ -163,3 +163,40 @@ def test_alarms_lua_same():
     res = replay(rec)
     assert not res["problems"], "\n".join(res["problems"][:20])
     assert {"PARK-ERROR-REPORTED", "BF00-ERROR-NOT-REPORTED"} <= res["lua_rules"]
+
+
+def _psm_later(rows_before, rows_after):
+    chk = Checker(T.make_cfg(compat=None, profile="generic"))
+    out, n = [], 0
+    for r in T.expand(rows_before):
+        sp, ac = T.parse(r, 81)
+        n += 1
+        out += chk.cycle(n, n * 1000, sp, ac)
+    learnt = (chk.cfg.compat, chk.cfg.sources["compat"])
+    chk.cfg.profile = "psm"   # what cyclic_axes._refine_profile does when a 0xFFFF write shows PS/PSM
+    chk.cfg.sources["profile"] = "record 0xFFFF written"
+    chk.reconfigure()
+    for r in T.expand(rows_after):
+        sp, ac = T.parse(r, 81)
+        n += 1
+        out += chk.cycle(n, n * 1000, sp, ac)
+    out += chk.finish()
+    return learnt, (chk.cfg.compat, chk.cfg.sources["compat"]), {e["rule"] for e in out if e["kind"] == "violation"}
+
+
+def test_mode_learnt_at_the_generic_bit_is_learnt_again_for_psm():
+    """PS/PSM's "control requested" is ZSW2_ENC bit 10 (behaviour.md §2.1): read at the generic bit 9 it looked
+    held at 0, i.e. V3.1; once the device is known as PS/PSM the mode is learnt again at bit 10."""
+    psm_v41 = ("0x0400 0x0000 | 0x0400 0x0000 5 0", 6)   # control by PLC, control requested at bit 10
+    (m0, s0), (m1, s1), rules = _psm_later([psm_v41], [psm_v41])
+    assert m0 == 0 and s0.startswith("learnt from the words")
+    assert m1 == 1 and s1.startswith("learnt from the words") and "CTRLREQ-SET-IN-COMPAT" not in rules
+
+
+@pytest.mark.skipif(shutil.which("lua5.2") is None, reason="lua5.2 not installed")
+def test_mode_learnt_again_lua_same():
+    from luachk.record import Recorder, replay
+    with Recorder() as rec:
+        test_mode_learnt_at_the_generic_bit_is_learnt_again_for_psm()
+    res = replay(rec)
+    assert not res["problems"], "\n".join(res["problems"][:20])

@@ -117,3 +117,21 @@ def test_oem100_plugin_same(oem100):
         assert n and not bad and lua_viol == viol
     n, bad, lua_viol, viol = compare(oem100[1], Settings(telegram=100), prefs=("pndiss.telegram:100",))
     assert n and not bad and lua_viol == viol
+
+
+def test_psm_86_length_guess_still_judged(tmp_path):
+    """PS/PSM's 86 and 860 have one layout (002_d69f444daf0f8af2.txt:729, 940): one candidate, so a length
+    guess of 4/8 bytes stays judged (the review found it unjudged after the OEM-100 change)."""
+    src = capedit.simulate(str(tmp_path / "t86.pcapng"), "--profile", "psm", "--telegram", "86", "--cycles", "300")
+    evs = []
+    analyze_file(src, Settings(fast_path=False), sink=evs.append)
+    drop = set()
+    for e in evs:
+        if e["kind"] in ("record", "record_result", "param") and e.get("index") in (0xB02E, 0xB02F):
+            drop |= {e["frame"], e.get("request_frame"), e.get("response_frame")}
+    dst = str(tmp_path / "t86-no-p922.pcapng")
+    capedit.rewrite(src, dst, lambda fn, _d: fn not in drop)
+    for fast in (False, True):
+        a, viol = _run(dst, fast_path=fast)
+        e, = a.summary()["cyclic"]["encoders"]
+        assert e["profile"] == "psm" and e.get("telegram_unsure") is None and e["cycles"] > 200 and not viol

@@ -45,7 +45,8 @@ class FakeAnalyzer:
                                      "on_write_result": lambda _s, ev: None,
                                      "on_reconnect": lambda _s, *args: None,
                                      "on_write_refused": lambda _s, ev: None,
-                                     "restart_gaps": lambda _s, keys: None})()
+                                     "restart_gaps": lambda _s, keys: None,
+                                     "on_new_ar": lambda _s, dev: None})()
         self.session = SessionTracker(self)
 
     def emit(self, ev):

@@ -80,7 +80,8 @@ def caps(tmp_path_factory):
     for p in (req, res):   # a new call: another sequence number
         p[42 + 64:42 + 68] = struct.pack("<I" if key[2] else ">I", 0x7000)
     req[BLOCKS + 64] &= ~0x02               # 0xBF00 byte 0 bit 1: class 4 functionality off
-    res[STUB:STUB + 4] = b"\xdf\x80\xb5\x00"   # PNIOStatus: write error, state conflict
+    # PNIOStatus write error / state conflict: the call's an NDR u32 (the stub's byte order), the header's bytes
+    res[STUB:STUB + 4] = struct.pack("<I" if key[2] else ">I", 0xDF80B500)
     res[BLOCKS + 8 + 36:BLOCKS + 8 + 40] = b"\xdf\x80\xb5\x00"
     first_preset = _first_preset_frame(src)
     dst = os.path.join(tmp, "refused.pcapng")
@@ -92,6 +93,28 @@ def caps(tmp_path_factory):
                 w.write(ts - 1_000, bytes(res))
             w.write(ts, bytes(d))
     out["refused"] = dst
+    # 2b. the same refusal as an error of the call alone (no IODWriteResHeader): the NDR header ends the PDU
+    bare = bytearray(res[:BLOCKS])
+    little = key[2]
+    u16, u32 = ("<H", "<I") if little else (">H", ">I")
+    bare[STUB + 4:STUB + 8] = bare[STUB + 16:STUB + 20] = struct.pack(u32, 0)   # ArgsLength, ActualCount
+    bare[42 + 74:42 + 76] = struct.pack(u16, 20)                                   # DCE/RPC fragment length
+    bare[16:18] = struct.pack(">H", len(bare) - 14)                                # IPv4 total length
+    bare[24:26] = b"\0\0"
+    csum = sum(struct.unpack(">10H", bytes(bare[14:34])))
+    while csum >> 16:
+        csum = (csum & 0xFFFF) + (csum >> 16)
+    bare[24:26] = struct.pack(">H", ~csum & 0xFFFF)
+    bare[38:40] = struct.pack(">H", len(bare) - 34)                                # UDP length
+    bare[40:42] = b"\0\0"                                                          # UDP checksum: none
+    out["refused_bare"] = os.path.join(tmp, "refused-bare.pcapng")
+    with open(out["refused_bare"], "wb") as f:
+        w = Writer(f)
+        for fn, ts, _lt, d in frames:
+            if fn == first_preset - 40:
+                w.write(ts - 2_000, bytes(req))
+                w.write(ts - 1_000, bytes(bare))
+            w.write(ts, bytes(d))
     out["accepted"] = os.path.join(tmp, "accepted.pcapng")   # the same write answered OK: class 4 is off
     ok = bytearray(res)
     ok[STUB:STUB + 4] = ok[BLOCKS + 8 + 36:BLOCKS + 8 + 40] = b"\0\0\0\0"
@@ -127,12 +150,14 @@ def test_a_refused_0xbf00_writes_nothing(caps):
     base, _k, _r = _events(caps["src"])
     got, _k, _r = _events(caps["refused"])
     assert {r for r, _f in got} == {r for r, _f in base}
+    got, _k, _r = _events(caps["refused_bare"])   # refused by the call's status alone
+    assert {r for r, _f in got} == {r for r, _f in base}
     accepted, _k, _r = _events(caps["accepted"])   # the negative: accepted, class 4 is off for the preset
     assert "PRESET-CLASS4-DISABLED" in {r for r, _f in accepted}
 
 
 @pytest.mark.skipif(shutil.which("tshark") is None, reason="tshark not installed")
-@pytest.mark.parametrize("name", ("resent", "refused", "accepted"))
+@pytest.mark.parametrize("name", ("resent", "refused", "refused_bare", "accepted"))
 def test_plugin_same(caps, name):
     from test_lua_plugin import compare
     path = caps[name][0] if name == "resent" else caps[name]

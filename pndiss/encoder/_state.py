@@ -25,7 +25,7 @@ from collections import deque
 from .. import rules as R_
 from .. import telegrams as tg
 from . import registry as REG
-from .config import EncoderConfig
+from .config import DEFAULT_SOURCE, EncoderConfig
 from .presets import PresetRules
 from .sign_of_life import SignOfLife
 from .steady import SteadyCycles
@@ -97,7 +97,12 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         self.D = c.d_preset
         self.lika = c.profile == "lika"
         self.psm = c.profile == "psm"
-        self.creq_bit = tg.bit_position("zsw2_enc", "control_requested", "psm" if self.psm else "generic")
+        creq = tg.bit_position("zsw2_enc", "control_requested", "psm" if self.psm else "generic")
+        if getattr(self, "creq_bit", creq) != creq and c.sources.get("compat", "").startswith("learnt from the words"):
+            # learnt at the other bit (a PS/PSM device judged generic until its 0xFFFF showed it): learn again
+            c.compat = c.defaults["compat"]
+            c.sources["compat"] = f"{c.profile} {DEFAULT_SOURCE}"
+        self.creq_bit = creq
         self.compat_open = c.compat_open()   # the mode is learnt from the words (words.py _learn_compat)
         self.res_stw2 = tg.reserved_mask("stw2_enc", c.profile)
         self.res_g1stw = tg.reserved_mask("g1_stw", c.profile)
