@@ -195,6 +195,7 @@ end
 -- N tolerated master sign-of-life failures: byte 17 in V3.1 mode, 1 in V4.1 (§3.3 R-SOLC-3)
 function C.n_sol(c)
   if c.compat == 0 then return c.max_master_sol_failures end
+  if truthy(c.p925) then return c.p925 end   -- P925 seen (written or read): V4.1's optional control
   return 1
 end
 
@@ -226,7 +227,7 @@ local function new_config(profile, telegram)
           direction = 0, mupr = nil, tmr = nil, st_phys = nil, mt_phys = nil, max_master_sol_failures = 1,
           velocity_unit = 0, shift = nil, iso = false, k = 1, l_max = 2, preset_deadline_ms = 10.0,
           cycle_ns = nil, sol_threshold_ge = false, sol_monitor_rt = false, max_position_step = nil, p65000 = nil,
-          sources = {}}
+          p925 = nil, sources = {}}
 end
 C.new_config = new_config
 
@@ -1640,6 +1641,15 @@ local function telegram_fits(chk, v, vfloat)
 end
 
 -- vfloat: the values are floats in Python (Float32/Float64 format), never isinstance(v, int)
+-- acyclic._p925: P925 tolerated master sign-of-life failures (V4.1 mode, behaviour.md §3.3 R-SOLC-3)
+local function p925(chk, v, how, frame)
+  if isint(v) and v > 0 and v < 0x10000 and v ~= chk.cfg.p925 then
+    chk.cfg.p925 = v
+    chk.cfg.sources.p925 = fmt("P925 %s (frame %s)", how, tostring(frame))
+    chk:apply_cfg()
+  end
+end
+
 local function read(chk, ev, p, pnu, sub, vals, frame, vfloat)
   local c = chk.cfg
   local v = vals[1]
@@ -1678,6 +1688,8 @@ local function read(chk, ev, p, pnu, sub, vals, frame, vfloat)
     c.shift = v
     c.sources.shift = "P979.3 read (frame " .. tostring(frame) .. ")"
     chk.shift_known = true
+  elseif pnu == 925 and vint then
+    p925(chk, v, "read", frame)
   elseif pnu == 980 then
     chk.p980 = chk.p980 or {}
     for i = 1, #vals do
@@ -1702,6 +1714,7 @@ local function change(chk, ev, p, pnu, sub, err, vals, frame, vfloat)
     vals = w.values
     vfloat = K.float_formats[w.format] == true
   end
+  if pnu == 925 and err == nil and #vals > 0 and not vfloat then p925(chk, vals[1], "written", frame) end
   if pnu == 65000 then
     local v = vals[1]
     local vint = not vfloat and isint(v)
@@ -1739,6 +1752,9 @@ local function param(chk, ev)
   if isint(ev.request_id) then is_change = ev.request_id == 2
   else is_change = find(tostring(ev.request_id_name or ev.request_id or "None"), "change", 1, true) ~= nil end
   local frame = ev.response_frame or ev.frame or 0
+  if ev.request_id == nil and ev.response_id == 2 then
+    chk.p65000 = nil   -- a change by a request the capture lost: P65000 may have changed (acyclic._param)
+  end
   for _, prob in ipairs(ev.pairing or {}) do
     local words = lower(tostring(prob))
     for _, pr in ipairs(K.pairing_rules) do
@@ -1891,7 +1907,7 @@ end
 function Checker:finish()
   self.out = nil
   local pre = self.pre
-  if pre ~= nil and not pre.done and pre.allowed and self.n - pre.n >= self.L then
+  if pre ~= nil and not pre.done and pre.allowed and self.n - pre.n >= self.D then   -- else #19's window is not over
     self:emit("PRESET-ACK-MISSING", pre.f, pre.ts,
               fmt("no G1_ZSW.12 in the %d cycles after the preset request (capture ended)", self.n - pre.n), self.f)
   end

@@ -213,6 +213,11 @@ def not_checked(summary: dict) -> list[str]:
         out.append(f"control by PLC (CTRLREQ-*, CMD-*-WITHOUT-CONTROL): not judged for {_names(open_)} "
                    "(compatibility mode unknown: no 0xBF00 in the capture, and the words never showed it): "
                    "--set compat=0 (V3.1) or compat=1 (V4.1)")
+    for e in encs:
+        if e.get("preset_open_at_end") is not None:
+            out.append(f"{e.get('station') or e.get('device_mac')} {e['slot']}/{e['subslot']}: the preset requested in "
+                       f"frame {e['preset_open_at_end']} was not acknowledged yet when the capture ended, before "
+                       "D_preset was over (PRESET-ACK-MISSING not judged)")
     filt = [e for e in encs if e.get("velocity_filter_frame") is not None]
     if filt:
         out.append(f"NIST sign against the motion (NIST-SIGN): not checked for {_names(filt)} (a SCANCON velocity "
@@ -222,7 +227,8 @@ def not_checked(summary: dict) -> list[str]:
     if unjudged:
         n = sum(e["presets_unjudged"] for e in unjudged)
         out.append(f"preset results: {n:,} preset(s) of {_names(unjudged)} not judged (P65000 unknown: no write in "
-                   "the capture, and a saved value survives power-up): --set p65000=N")
+                   "the capture -- a saved value survives power-up -- or a parameter change whose request the capture "
+                   "lost): --set p65000=N")
     for e in encs:
         if e.get("telegram_unsure"):
             cands = " or ".join(str(t) for t in e["telegram_unsure"])

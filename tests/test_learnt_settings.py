@@ -200,3 +200,88 @@ def test_mode_learnt_again_lua_same():
         test_mode_learnt_at_the_generic_bit_is_learnt_again_for_psm()
     res = replay(rec)
     assert not res["problems"], "\n".join(res["problems"][:20])
+
+
+# -- P925: the tolerated master sign-of-life failures in V4.1 mode (behaviour.md §3.3 R-SOLC-3) ------------
+
+def test_p925_sets_the_tolerated_failures():
+    from pndiss.encoder import EncoderConfig
+    c = T.make_cfg(profile="hohner")
+    assert c.n_sol == 1
+    chk = Checker(c)
+    ev = {"kind": "param", "request_id": 0x02, "response_id": 0x02, "frame": 7, "response_frame": 7,
+          "params": [{"pnu": 925, "subindex": 0, "values": [], "written": {"values": [3]}}]}
+    chk.on_record(ev)
+    assert chk.cfg.n_sol == 3 and chk.sol_limit == 30 and chk.cfg.sources["p925"] == "P925 written (frame 7)"
+    chk.cfg.compat = 0          # V3.1 mode: 0xBF00 byte 17 instead
+    assert chk.cfg.n_sol == chk.cfg.max_master_sol_failures
+    read = {"kind": "param", "request_id": 0x01, "response_id": 0x01, "frame": 9, "response_frame": 9,
+            "params": [{"pnu": 925, "subindex": 0, "values": [5]}]}
+    chk2 = Checker(T.make_cfg(profile="hohner"))
+    chk2.on_record(read)
+    assert chk2.cfg.n_sol == 5
+    assert isinstance(EncoderConfig().n_sol, int)
+
+
+@pytest.mark.skipif(shutil.which("lua5.2") is None, reason="lua5.2 not installed")
+def test_p925_lua_same():
+    """The port takes P925 the same way: a master sign-of-life stall of 3 cycles is tolerated with P925 = 3
+    (no SOL-FAULT-MISSING), and is a fault without it."""
+    from luachk.record import Recorder, replay
+    p925 = {"kind": "param", "request_id": 0x02, "response_id": 0x02, "frame": 0, "response_frame": 0,
+            "params": [{"pnu": 925, "subindex": 0, "values": [], "written": {"values": [3]}}]}
+    rows = []
+    ls = 1
+    for i in range(40):
+        if not 20 <= i < 23:   # the controller's sign-of-life stalls for 3 cycles
+            ls = ls % 15 + 1
+        rows.append("0x%X 0x2000 | 0x%X 0x2000 5 5" % (0x0400 | ls << 12, 0x0200 | (i % 15 + 1) << 12))
+    with Recorder() as rec:
+        with_p = T.rule_ids([dict(p925)] + rows, profile="hohner", iso=True)
+        without = T.rule_ids(rows, profile="hohner", iso=True)
+    res = replay(rec)
+    assert not res["problems"], "\n".join(res["problems"][:20])
+    assert "SOL-FAULT-MISSING" not in with_p and "SOL-FAULT-MISSING" in without
+
+
+# -- what the end of a capture or a lost request leaves open ----------------------------------------------
+
+def test_capture_ends_inside_the_preset_window():
+    """A capture that ends a few cycles after a preset request proves no missing acknowledgement: #19's
+    window is D_preset (behaviour.md §9.3); after it the fault stands (the audit's end-of-capture sweep)."""
+    from test_encoder_rules import G, REQ
+    chk = Checker(T.make_cfg())
+    rows = [G, (REQ, 5)]
+    out = []
+    for i, r in enumerate(T.expand(rows)):
+        sp, ac = T.parse(r, 81)
+        out += chk.cycle(i, i * 1000, sp, ac)
+    out += chk.finish()
+    assert "PRESET-ACK-MISSING" not in {e["rule"] for e in out if e["kind"] == "violation"}
+    assert chk.summary()["preset_open_at_end"] == 1
+    assert "PRESET-ACK-MISSING" in T.rule_ids([G, (REQ, 15)])
+
+
+def test_lost_change_request_makes_p65000_unknown():
+    """A change answered positively whose request the capture lost may have set P65000: presets after it
+    are not judged on their value (the audit's lost_p65000_change_req: four false PRESET-VALUE-WRONG)."""
+    lost = {"kind": "param", "request_id": None, "response_id": 0x02, "frame": 3, "response_frame": 3,
+            "params": [], "pairing": ["no request"]}
+    chk = Checker(T.make_cfg())
+    assert chk.p65000 == 0
+    chk.on_record(dict(lost))
+    assert chk.p65000 is None
+
+
+@pytest.mark.skipif(shutil.which("lua5.2") is None, reason="lua5.2 not installed")
+def test_open_ends_lua_same():
+    from test_encoder_rules import G, REQ
+    from luachk.record import Recorder, replay
+    lost = {"kind": "param", "request_id": None, "response_id": 0x02, "frame": 3, "response_frame": 3,
+            "params": [], "pairing": ["no request"]}
+    with Recorder() as rec:
+        T.run([G, (REQ, 5)])
+        T.run([G, (REQ, 15)])
+        T.run([dict(lost), G, G])
+    res = replay(rec)
+    assert not res["problems"], "\n".join(res["problems"][:20])

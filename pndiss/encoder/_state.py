@@ -69,6 +69,7 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         self.p65000 = cfg.p65000
         self.presets_unjudged = 0      # presets acknowledged while P65000 was unknown (their result not judged)
         self.velocity_filter = None    # frame of a SCANCON velocity filter write (0x1000): NIST-SIGN not judged
+        self.preset_open_at_end = None  # frame of a preset request the capture ended on before D_preset (not judged)
         self.bf00_seen = False
         self.bf00_invalid: str | None = None   # why the last 0xBF00 was invalid (#67-69)
         self.bf00_valid_frame: int | None = None
@@ -307,9 +308,13 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
     def finish(self) -> list[dict]:
         self.out = []
         pre = self.pre
-        if pre is not None and not pre["done"] and pre["allowed"] and self.n - pre["n"] >= self.L:
-            self._emit("PRESET-ACK-MISSING", pre["f"], pre["ts"],
-                       f"no G1_ZSW.12 in the {self.n - pre['n']} cycles after the preset request (capture ended)", last=self.f)
+        if pre is not None and not pre["done"] and pre["allowed"]:
+            if self.n - pre["n"] >= self.D:   # (judged in its cycle already: pre["allowed"] is then False)
+                self._emit("PRESET-ACK-MISSING", pre["f"], pre["ts"],
+                           f"no G1_ZSW.12 in the {self.n - pre['n']} cycles after the preset request (capture ended)",
+                           last=self.f)
+            else:   # 19's window W(n, 1, D_preset) is not over: the encoder may still acknowledge
+                self.preset_open_at_end = pre["f"]
         self._end_connection()
         self._flush_all()
         return self.out
@@ -344,4 +349,5 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         return {"cycles": self.n, "gated_cycles": self.gated, "lost_cycles": self.lost_cycles, "settings": self.cfg.in_force(),
                 "violations": self.counts, "state_changes": self.state_changes, "timeline": self.timeline[:50],
                 "p65000": self.p65000, "bf00_seen": self.bf00_seen,
-                "presets_unjudged": self.presets_unjudged, "velocity_filter_frame": self.velocity_filter}
+                "presets_unjudged": self.presets_unjudged, "velocity_filter_frame": self.velocity_filter,
+                "preset_open_at_end": self.preset_open_at_end}

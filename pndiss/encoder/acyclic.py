@@ -192,6 +192,10 @@ def _param(chk, ev: dict) -> None:
     qid = ev.get("request_id")  # the code (0x02 = change parameter); hand-made events may give the name
     change = qid == 0x02 if isinstance(qid, int) else "change" in str(ev.get("request_id_name") or qid or "")
     frame = ev.get("response_frame", ev.get("frame", 0))
+    if ev.get("request_id") is None and ev.get("response_id") == 0x02:
+        # a parameter changed by a request the capture lost: P65000 may be what changed, so the preset value
+        # is unknown from here (presets not judged on their result, docs/settings.md p65000)
+        chk.p65000 = None
     for prob in ev.get("pairing") or ():
         words = str(prob).lower()
         for key, rule in PAIRING_RULES:
@@ -248,9 +252,19 @@ def _param(chk, ev: dict) -> None:
             _v(chk, "BMP-PROFILE-PARAM-UNREADABLE", ev, f"read of P{pnu} refused with 0x11 after run-up", frame=frame)
 
 
+def _p925(chk, v, how: str, frame) -> None:
+    """P925 tolerated master sign-of-life failures (V4.1 mode, behaviour.md §3.3 R-SOLC-3)."""
+    if isinstance(v, int) and 0 < v < 0x10000 and v != chk.cfg.p925:
+        chk.cfg.p925 = v
+        chk.cfg.sources["p925"] = f"P925 {how} (frame {frame})"
+        chk.reconfigure()
+
+
 def _change(chk, ev, p, pnu, sub, err, vals, frame) -> None:
     c = chk.cfg
     vals = (p.get("written") or {}).get("values") or vals  # a positive change answer has no values
+    if pnu == 925 and err is None and vals:
+        _p925(chk, vals[0], "written", frame)
     if pnu == 65000:
         v = vals[0] if vals else None
         if not c.class4:
@@ -305,6 +319,8 @@ def _read(chk, ev, p, pnu, sub, vals, frame) -> None:
         c.shift = v
         c.sources["shift"] = f"P979.3 read (frame {frame})"
         chk.shift_known = True
+    elif pnu == 925:
+        _p925(chk, v, "read", frame)
     elif pnu == 980:
         chk.p980 = (chk.p980 or set()) | {x for x in vals if isinstance(x, int) and x}
     elif pnu == 971 and chk.p971_pending is not None:

@@ -47,6 +47,7 @@ class EncoderConfig:
     sol_monitor_rt: bool = False
     max_position_step: int | None = None
     p65000: int | None = None         # P65000 before a write is seen; None = unknown
+    p925: int | None = None           # tolerated master sign-of-life failures in V4.1 mode, when P925 is seen
     sources: dict = field(default_factory=dict)
 
     # -- derived (cheap properties; the checker copies what it needs into locals) --------------
@@ -86,8 +87,11 @@ class EncoderConfig:
 
     @property
     def n_sol(self) -> int:
-        """N tolerated master sign-of-life failures: byte 17 in V3.1 mode, 1 in V4.1 (§3.3 R-SOLC-3)."""
-        return self.max_master_sol_failures if self.compat == 0 else 1
+        """N tolerated master sign-of-life failures: byte 17 in V3.1 mode; in V4.1 P925 when the capture shows
+        it (written or read; "P925 may optionally control the monitoring"), else 1 (§3.3 R-SOLC-3)."""
+        if self.compat == 0:
+            return self.max_master_sol_failures
+        return self.p925 if self.p925 else 1
 
     @property
     def d_preset(self) -> int:

@@ -13,7 +13,7 @@ C.init(T)
 
 local CFG_FIELDS = {"profile", "telegram", "compat", "class4", "preset_control", "scaling", "direction", "mupr", "tmr",
   "st_phys", "mt_phys", "max_master_sol_failures", "velocity_unit", "shift", "iso", "k", "l_max", "preset_deadline_ms",
-  "cycle_ns", "sol_threshold_ge", "sol_monitor_rt", "max_position_step", "p65000", "sources"}
+  "cycle_ns", "sol_threshold_ge", "sol_monitor_rt", "max_position_step", "p65000", "p925", "sources"}
 
 local function num(v)
   if v == nil then return "nil" end
