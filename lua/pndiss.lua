@@ -238,17 +238,26 @@ local function telegrams_for_length(actual, setpoint)
     return out
 end
 
--- session.guess_telegram: both lengths must fit; 87 (4/4) and 86/860 (4/8) only on drive APIs
-local function guess_telegram(out_len, in_len, api)
+-- session.guess_telegram: both lengths must fit; 87 (4/4) and 86/860 (4/8) only on drive APIs, or on a device
+-- known as an encoder of a profile that has them (its own telegrams first)
+local function guess_telegram(out_len, in_len, api, profile)
     if out_len == nil or in_len == nil then return nil end
+    local first, mine = nil, nil
     for _, row in ipairs(T.telegram_lengths) do
         if row[2] == out_len and row[3] == in_len then
-            if not DRIVE_APIS[api] and ((out_len == 4 and in_len == 4) or (out_len == 4 and in_len == 8)) then
-                return nil
+            first = first or row[1]
+            if mine == nil and profile ~= nil and profile ~= "generic" then
+                for _, p in ipairs(T.telegrams[row[1]].profiles) do
+                    if p == profile then mine = row[1] end
+                end
             end
-            return row[1]
         end
     end
+    if first == nil then return nil end
+    if not DRIVE_APIS[api] and ((out_len == 4 and in_len == 4) or (out_len == 4 and in_len == 8)) then
+        return mine
+    end
+    return first
 end
 
 local function parse_usermap(s)
@@ -662,7 +671,7 @@ local function connect_response(key, pinfo)
                 if pt ~= nil then
                     obj.telegram, obj.telegram_source = pt, "P922"
                 elseif e.input and e.output then
-                    obj.telegram = guess_telegram(e.output[1], e.input[1], o.api)
+                    obj.telegram = guess_telegram(e.output[1], e.input[1], o.api, profile_for(device))
                     if obj.telegram then obj.telegram_source = "length" end
                 end
                 fm.objects[#fm.objects + 1] = obj

@@ -39,11 +39,13 @@ def _telegram_lengths() -> list[tuple[int, int, int]]:
 _TG_LENGTHS: list[tuple[int, int, int]] | None = None
 
 
-def guess_telegram(out_len: int, in_len: int, api: int) -> tuple[int | None, str | None]:
+def guess_telegram(out_len: int, in_len: int, api: int, profile: str = "generic") -> tuple[int | None, str | None]:
     """Telegram for a submodule with these output/input lengths (both directions must match).
 
-    Telegrams whose lengths also fit plain IO modules (87: 4/4, 86 and 860: 4/8) are only
-    guessed on the PROFIdrive or encoder API. Returns (telegram, note) or (None, None).
+    Telegrams whose lengths also fit plain IO modules (87: 4/4, 86 and 860: 4/8) are only guessed on
+    the PROFIdrive or encoder API, or on a device known as an encoder of a profile that has them (a
+    Hohner or SCANCON 860 on API 0, cyclic.md §2). A known profile's own telegrams come first.
+    Returns (telegram, note) or (None, None).
     """
     global _TG_LENGTHS
     if _TG_LENGTHS is None:
@@ -51,8 +53,12 @@ def guess_telegram(out_len: int, in_len: int, api: int) -> tuple[int | None, str
     hits = [t for t, o, i in _TG_LENGTHS if (o, i) == (out_len, in_len)]
     if not hits:
         return None, None
+    from . import telegrams as tg
+    mine = [t for t in hits if profile != "generic" and profile in tg.TELEGRAMS[t]["profiles"]]
     if api not in DRIVE_APIS and (out_len, in_len) in ((4, 4), (4, 8)):
-        return None, None
+        if not mine:
+            return None, None
+        hits = mine
     note = f"guessed from lengths out {out_len} / in {in_len}"
     if len(hits) > 1:
         note += f"; also fits {', '.join(map(str, hits[1:]))} (standard telegram preferred)"
@@ -234,7 +240,7 @@ class ArLayer:
                 do.telegram, do.telegram_source = t, "gsdml"
                 return None
         if "input" in e and "output" in e:
-            t, note = guess_telegram(e["output"][0], e["input"][0], do.api)
+            t, note = guess_telegram(e["output"][0], e["input"][0], do.api, self.profile_for(device)[0])
             if t is not None:
                 do.telegram, do.telegram_source = t, "length"
                 return note

@@ -135,3 +135,34 @@ def test_psm_86_length_guess_still_judged(tmp_path):
         a, viol = _run(dst, fast_path=fast)
         e, = a.summary()["cyclic"]["encoders"]
         assert e["profile"] == "psm" and e.get("telegram_unsure") is None and e["cycles"] > 200 and not viol
+
+
+def test_860_on_api_0_of_a_known_encoder(tmp_path):
+    """4/8 bytes fit plain IO modules too, so they are guessed only on the drive APIs -- or on a device DCP
+    names as a Hohner or SCANCON encoder, whose 4/8-byte telegram is 860 (cyclic.md §2; the audit's
+    hohner_t860_range: PRESET860-VALUE-OUT-OF-RANGE missed on API 0)."""
+    from pndiss.session_ar import guess_telegram
+    assert guess_telegram(4, 8, 0, "hohner")[0] == 860 and guess_telegram(4, 8, 0, "scancon")[0] == 860
+    assert guess_telegram(4, 8, 0, "psm")[0] == 86 and guess_telegram(4, 4, 0, "psm")[0] == 87
+    assert guess_telegram(4, 8, 0)[0] is None and guess_telegram(4, 4, 0, "hohner")[0] is None
+    assert guess_telegram(4, 8, 0x3D00)[0] in (86, 860)
+    src = capedit.simulate(str(tmp_path / "t860.pcapng"), "--profile", "hohner", "--telegram", "860", "--cycles", "300")
+    path = str(tmp_path / "t860-api0.pcapng")
+    from pndiss.capture import open_capture
+    from pndiss.sim.pcapng import Writer
+    with open(path, "wb") as f:   # every API 0x3D00 of the RPC stubs (Connect, records) becomes API 0
+        w = Writer(f)
+        for _fn, ts, _lt, d in open_capture(src):
+            d = bytes(d)
+            if d[12:14] == b"\x08\x00" and d[23] == 17:
+                d = d[:42] + d[42:].replace(b"\x00\x00\x3d\x00", b"\x00\x00\x00\x00").replace(
+                    b"\x00\x3d\x00\x00", b"\x00\x00\x00\x00")
+            w.write(ts, d)
+    for fast in (False, True):
+        a, viol = _run(path, fast_path=fast)
+        e, = a.summary()["cyclic"]["encoders"]
+        assert (e["api"], e["telegram"], e["profile"]) == (0, 860, "hohner") and e["cycles"] > 200 and not viol
+    if shutil.which("tshark"):
+        from test_lua_plugin import compare
+        n, bad, lua_viol, viol = compare(path)
+        assert n and not bad and lua_viol == viol
