@@ -169,6 +169,13 @@ def trust(summary: dict) -> list[str]:
         tsrc = _source(e, "telegram", e.get("telegram_source"))
         if "length" in str(tsrc) or "settings" in str(tsrc) or "default" in str(tsrc):
             out.append(f"assumed: {who} telegram {e.get('telegram')} ({tsrc})")
+        runs = {int(k): v for k, v in (e.get("controller_sol_runs") or {}).items()}
+        if runs and (e.get("violations") or {}).get("SOL-MASTER-STALL") and _value(e, "k") == 1:
+            j, n = max(runs.items(), key=lambda kv: kv[1])
+            if j > 1 and n >= 0.9 * sum(runs.values()):
+                out.append(f"assumed: {who} k = 1 (settings.master_cycle_ratio), but the controller holds {n:,} of its "
+                           f"{sum(runs.values()):,} sign-of-life values exactly {j} cycles: an application cycle of "
+                           f"{j} bus cycles (001_9461bb7bc8c2767b.txt:1671, 1677)? --set master_cycle_ratio={j}")
         csrc = _source(e, "compat", None)
         hit = sorted(r for r in (e.get("violations") or {}) if r in MODE_RULES)
         if hit and "default" in str(csrc):

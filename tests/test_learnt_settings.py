@@ -285,3 +285,33 @@ def test_open_ends_lua_same():
         T.run([dict(lost), G, G])
     res = replay(rec)
     assert not res["problems"], "\n".join(res["problems"][:20])
+
+
+def test_controller_holding_each_sign_of_life_k_cycles_is_named():
+    """An isochronous controller whose application cycle is 2 bus cycles holds every sign-of-life value 2
+    cycles: with k = 1 each hold is a stall (001_9461bb7bc8c2767b.txt:1671, 1677). The histogram of holds
+    names k = 2 in the Trust section (the audit's irt_k2: 1,956 errors and no hint)."""
+    from pndiss.verdict import trust
+    rows, ls = [], 1
+    for i in range(40):
+        if i % 2 == 0:
+            ls = ls % 15 + 1
+        rows.append("0x%X 0x2000 | 0x%X 0x2000 5 5" % (0x0400 | ls << 12, 0x0200 | (i % 15 + 1) << 12))
+    chk = Checker(T.make_cfg(profile="hohner", iso=True))
+    out = []
+    for i, r in enumerate(rows):
+        sp, ac = T.parse(r, 81)
+        out += chk.cycle(i, i * 1000, sp, ac)
+    out += chk.finish()
+    s = chk.summary()
+    assert "SOL-MASTER-STALL" in {e["rule"] for e in out if e["kind"] == "violation"}
+    assert s["controller_sol_runs"] == {"2": 19}
+    enc = dict(s, station="enc", device_mac="m", slot=1, subslot=2)
+    lines = trust({"cyclic": {"encoders": [enc]}, "accounting": {}})
+    assert any("--set master_cycle_ratio=2" in line for line in lines)
+    chk2 = Checker(T.make_cfg(profile="hohner", iso=True, k=2))   # with k = 2: no stall, no hint
+    out2 = []
+    for i, r in enumerate(rows):
+        sp, ac = T.parse(r, 81)
+        out2 += chk2.cycle(i, i * 1000, sp, ac)
+    assert "SOL-MASTER-STALL" not in {e["rule"] for e in out2 if e["kind"] == "violation"}

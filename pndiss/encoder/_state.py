@@ -70,6 +70,7 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         self.presets_unjudged = 0      # presets acknowledged while P65000 was unknown (their result not judged)
         self.velocity_filter = None    # frame of a SCANCON velocity filter write (0x1000): NIST-SIGN not judged
         self.preset_open_at_end = None  # frame of a preset request the capture ended on before D_preset (not judged)
+        self.cls_run_hist: dict = {}    # cycles a controller sign-of-life value was held -> how many values (monitored)
         self.bf00_seen = False
         self.bf00_invalid: str | None = None   # why the last 0xBF00 was invalid (#67-69)
         self.bf00_valid_frame: int | None = None
@@ -350,4 +351,5 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
                 "violations": self.counts, "state_changes": self.state_changes, "timeline": self.timeline[:50],
                 "p65000": self.p65000, "bf00_seen": self.bf00_seen,
                 "presets_unjudged": self.presets_unjudged, "velocity_filter_frame": self.velocity_filter,
-                "preset_open_at_end": self.preset_open_at_end}
+                "preset_open_at_end": self.preset_open_at_end,
+                "controller_sol_runs": {str(k): v for k, v in sorted(self.cls_run_hist.items())}}

@@ -45,6 +45,7 @@ class SignOfLife:
                     self._hit("SOL-MASTER-WINDOW", f"controller sign-of-life {pCLS} held {self.cls_run} cycles; expected k={k}",
                               controller=True)
                 self.cls_runs_done += 1
+                self._run_ended(self.cls_run, 1)
                 self.cls_run = 1
                 if CLS == 0 or (pCLS and CLS != next_ls(pCLS)):
                     self.C += 10
@@ -83,6 +84,14 @@ class SignOfLife:
             # 5: DLS 0 only with sync fault 0x0F04 (001_9461bb7bc8c2767b.txt:1802-1804)
             self._hit("SOL-DEVICE-ZERO", "encoder sign-of-life 0 after start without sync fault 0x0F04")
 
+    def _run_ended(self, length: int, n: int) -> None:
+        """``n`` controller sign-of-life values were held ``length`` cycles each (the summary's histogram: a
+        controller whose application cycle is k bus cycles holds every value k cycles, verdict.trust)."""
+        if n > 0:
+            h = self.cls_run_hist
+            if length in h or len(h) < 32:
+                h[length] = h.get(length, 0) + n
+
     # -- what a bulk engine may ask (pndiss/engine.py) -------------------------------------------
     def sol_bulk_ready(self) -> bool:
         """Sign-of-life monitoring can be advanced at once (advance_sign_of_life) when both counters run, each
@@ -94,6 +103,9 @@ class SignOfLife:
         was reported -- what the caller checked on its arrays: each is a new controller frame judged good,
         so the failure counter stays 0 and the values' runs are one cycle long (§3.3)."""
         self.cls_runs_done += cycles
+        if cycles:
+            self._run_ended(self.cls_run, 1)
+            self._run_ended(1, cycles - 1)
         self.cls_run = 1
         self.C_hist.extend([0] * min(cycles, self.C_hist.maxlen or cycles))
         self.sol_fault_seen = False
