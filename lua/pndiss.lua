@@ -257,7 +257,7 @@ local function guess_telegram(out_len, in_len, api, profile)
     if not DRIVE_APIS[api] and ((out_len == 4 and in_len == 4) or (out_len == 4 and in_len == 8)) then
         return mine
     end
-    return first
+    return mine or first
 end
 
 local function parse_usermap(s)
@@ -531,9 +531,9 @@ end
 local pending_connects   -- "act|seq" -> request summary
 
 -- session_ar._replaces: a Connect that takes over the cyclic data of the AR the controller holds with the device
--- (an IO controller AR with IOCRs; a supervisor / Device Access AR from the same MAC runs beside it)
+-- (an AR with IOCRs that is no supervisor AR; a supervisor / Device Access AR from the same MAC runs beside it)
 local function replaces(req)
-    return (req.ar_type == 0x0001 or req.ar_type == 0x0010) and #req.iocrs > 0
+    return req.ar_type ~= 0x0006 and #req.iocrs > 0
 end
 
 local function connect_request(key, pinfo)
@@ -671,7 +671,10 @@ local function connect_response(key, pinfo)
                 if pt ~= nil then
                     obj.telegram, obj.telegram_source = pt, "P922"
                 elseif e.input and e.output then
-                    obj.telegram = guess_telegram(e.output[1], e.input[1], o.api, profile_for(device))
+                    -- the device's identity, not the Device profile preference (any plain 4/8-byte IO module)
+                    local prof, why = profile_for(device)
+                    if tostring(why):sub(1, 6) == "set by" then prof = "generic" end
+                    obj.telegram = guess_telegram(e.output[1], e.input[1], o.api, prof)
                     if obj.telegram then obj.telegram_source = "length" end
                 end
                 fm.objects[#fm.objects + 1] = obj

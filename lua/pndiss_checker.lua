@@ -1346,6 +1346,13 @@ function Checker:continuity(pos, ppos, pre, PKA)
   end
 end
 
+-- v = 2^k - 1 (a binary hardware range's last position); v a number below 2^53
+local function is_pow2_minus1(v)
+  local x = v + 1
+  while x > 1 and x % 2 == 0 do x = x / 2 end
+  return x == 1
+end
+
 function Checker:nist_sign(pos, ppos, nist)
   if pos == nil or ppos == nil or nist == nil or nist == 0 then
     self.nist_bad = 0
@@ -1415,8 +1422,10 @@ function Checker:cycle_preset_telegram(sp, ac)
   local p = self.p860
   if p ~= nil then
     local m = self.R or (top == 63 and U64 or U32)
-    if n > p.n and pos ~= nil and abs(delta(p.exp, pos, m)) <= p.v * (n - p.n + 1) then
-      p.seen = true  -- within the motion since the trigger (§4.3 tolerance)
+    if n > p.n and pos ~= nil and (abs(delta(p.exp, pos, m)) <= p.v * (n - p.n + 1) or (self.R == nil
+        and num(pos) >= 4095 and num(pos) < num(p.exp) and is_pow2_minus1(num(pos)))) then
+      -- within the motion since the trigger (§4.3 tolerance); or, the range unknown, clamped to 2^k - 1 < PV
+      p.seen = true
     end
     p.last = pos
     if n - p.n >= self.D and not p.judged then

@@ -140,7 +140,8 @@ class CyclicTracker(AxisTracking):
             if not do.length:
                 continue
             telegram, source = do.telegram, do.telegram_source
-            if self.s.telegram and (telegram is None or (str(source).startswith("length") and all(
+            if self.s.telegram and (telegram is None or (str(source).startswith("length")
+                                                         and int(self.s.telegram) in tg.TELEGRAMS and all(
                     tg.length(int(self.s.telegram), d) == tg.length(telegram, d) for d in tg.DIRECTIONS))):
                 # beats a length guess of the same lengths (81 for OEM 100), not another device's telegram
                 telegram, source = int(self.s.telegram), "settings.telegram"

@@ -86,7 +86,7 @@ class Engine:
             ifid = ix.ifid[:m]
             ts = raw[:m].astype(np.int64) * mult[ifid] + off[ifid]
             return self._window(buf, n, ix.data[:m], ix.cap[:m], ts,
-                                ix.end if m == len(ix) else int(ix.block[m]))
+                                ix.end if m == len(ix) else int(ix.block[m]), ix.orig[:m])
         return take
 
     def pcap(self, bo: str, linktype: int, mult: int, conv=None):
@@ -99,17 +99,19 @@ class Engine:
             raw = ix.raw_ts
             ts = (raw >> np.uint64(32)).astype(np.int64) * 1_000_000_000 + \
                 (raw & np.uint64(0xFFFFFFFF)).astype(np.int64) * mult
-            return self._window(buf, n, ix.data, ix.cap, ts, ix.end)
+            return self._window(buf, n, ix.data, ix.cap, ts, ix.end, ix.orig)
         return take
 
     # -- one window --------------------------------------------------------------------------------
-    def _window(self, buf, n: int, data, cap, ts, stop: int):
+    def _window(self, buf, n: int, data, cap, ts, stop: int, orig):
         w = Window(self, buf, n, data, cap, ts)
         if w.unknown > MAX_NEW:
             # thousands of prefixes no stream has yet (a flood of random MACs, not a plant): learning them
             # window by window would cost O(frames) per new stream; the frame-by-frame path takes them
             return len(data)
         ro = self.a.reader   # time order, as fast.run keeps it frame by frame
+        for i in np.flatnonzero(cap < orig).tolist():   # frames the capture cut (snap length), as the readers count
+            ro.cut(n + 1 + i, int(cap[i]), int(orig[i]))
         back = np.empty_like(ts)
         back[0] = ro.last_ts - ts[0]
         np.subtract(ts[:-1], ts[1:], out=back[1:])

@@ -28,15 +28,16 @@ MIN_EPB = 32
 class Index:
     """Records of a window: parallel arrays, one entry per frame, in file order."""
 
-    __slots__ = ("block", "data", "cap", "ifid", "raw_ts", "end")
+    __slots__ = ("block", "data", "cap", "ifid", "raw_ts", "end", "orig")
 
-    def __init__(self, block, data, cap, ifid, raw_ts, end: int):
+    def __init__(self, block, data, cap, ifid, raw_ts, end: int, orig=None):
         self.block = block      # int64 offset of the record in the buffer
         self.data = data        # int64 offset of its packet data
         self.cap = cap          # int64 captured length
         self.ifid = ifid        # int64 interface id (pcapng), 0 for pcap
         self.raw_ts = raw_ts    # uint64 raw time stamp: pcapng (hi << 32 | lo) units, pcap (sec, frac) packed
         self.end = end          # buffer offset after the last indexed record
+        self.orig = cap if orig is None else orig   # int64 length on the wire (> cap: the capture cut it)
 
     def __len__(self) -> int:
         return len(self.block)
@@ -67,20 +68,13 @@ def pcapng(buf, pos: int, end: int, bo: str, nif: int) -> Index:
     ok = (W[c + nwb - 1] == blen) & (W[c + 2] < nif) & (cap <= MAX_PACKET) & (cap + MIN_EPB <= blen)
     c, nwb = c[ok], nwb[ok]
     c = _chain(c, c + nwb)
-    cut = W[c + 5] != W[c + 6]   # captured length < length on the wire: the reader counts those (ReadInfo.cut)
-    if cut.any():
-        k = int(np.argmax(cut))
-        stop = pos + (int(c[k]) << 2)
-        c = c[:k]
-        if not len(c):
-            return _empty(pos)
-    else:
-        if not len(c):
-            return _empty(pos)
-        last = int(c[-1])
-        stop = pos + ((last + int(W[last + 1] >> 2)) << 2)
+    if not len(c):
+        return _empty(pos)
+    last = int(c[-1])
+    stop = pos + ((last + int(W[last + 1] >> 2)) << 2)
     raw = (W[c + 3].astype(np.uint64) << np.uint64(32)) | W[c + 4].astype(np.uint64)
-    return Index(pos + (c << 2), pos + (c << 2) + 28, W[c + 5].astype(np.int64), W[c + 2].astype(np.int64), raw, stop)
+    return Index(pos + (c << 2), pos + (c << 2) + 28, W[c + 5].astype(np.int64), W[c + 2].astype(np.int64), raw, stop,
+                 W[c + 6].astype(np.int64))
 
 
 def _chain(c, nxt):
@@ -103,7 +97,7 @@ def _chain(c, nxt):
     return np.concatenate(keep_parts) if len(keep_parts) > 1 else (keep_parts[0] if keep_parts else c)
 
 
-_PCAP_HDR = {"<": struct.Struct("<II"), ">": struct.Struct(">II")}   # captured length, length on the wire
+_PCAP_HDR = {"<": struct.Struct("<I"), ">": struct.Struct(">I")}
 
 
 def pcap(buf, pos: int, end: int, bo: str, limit: int = 1 << 20) -> Index:
@@ -113,9 +107,9 @@ def pcap(buf, pos: int, end: int, bo: str, limit: int = 1 << 20) -> Index:
     add = offs.append
     p = pos
     while p + 16 <= end and len(offs) < limit:
-        incl, orig = unpack(buf, p + 8)
+        incl = unpack(buf, p + 8)[0]
         q = p + 16 + incl
-        if q > end or incl > MAX_RECORD or incl < orig:   # a frame the capture cut: the reader counts it
+        if q > end or incl > MAX_RECORD:
             break
         add(p)
         p = q
@@ -131,6 +125,6 @@ def pcap(buf, pos: int, end: int, bo: str, limit: int = 1 << 20) -> Index:
         idx = rel[:, None] + (k + np.arange(4))
         return u[idx].copy().view(dt).reshape(m).astype(np.int64)
 
-    sec, frac, incl = word(0), word(4), word(8)
+    sec, frac, incl, orig = word(0), word(4), word(8), word(12)
     raw = (sec.astype(np.uint64) << np.uint64(32)) | frac.astype(np.uint64)
-    return Index(b, b + 16, incl, np.zeros(m, dtype=np.int64), raw, p)
+    return Index(b, b + 16, incl, np.zeros(m, dtype=np.int64), raw, p, orig)

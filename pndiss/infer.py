@@ -21,7 +21,8 @@ Frames used for learning are counted, not judged.
 
 Nothing fitting is not final: a capture may start while the PLC is in STOP (IOPS bad, no sign of
 life), or in the AR's start-up, and the AR run later. A pair that fails is sampled again at once, then
-after a pause in frames of twice the span its samples took, doubling, RETRY_MAX_DOUBLINGS times at most
+after a pause in frames of twice the span its samples took, doubling (32 spans at most; RETRY_MAX_DOUBLINGS
+samplings after the first)
 (then never again: a stream of an ordinary IO device costs a few samplings per capture). The pause is counted in frame numbers, so the engine (which
 hands a waiting stream over in bulk until then, pndiss/engine.py) and the frame loop sample the
 same frames.
@@ -34,7 +35,7 @@ from .encoder.config import next_ls
 SAMPLES = 48          # C_SDUs per stream before a decision
 MAX_STREAMS = 256     # streams sampled at once (bounded memory)
 SOURCE = "inferred from content"
-RETRY_MAX_DOUBLINGS = 6   # the pause after a failed sampling: span x 2, 4, ... 64 at the most
+RETRY_MAX_DOUBLINGS = 6   # samplings after the first: at once, then pauses of span x 2, 4, ... 32
 
 _CI = tg.TABLE["content_inference"]
 IOPS_GOOD = _CI["iops_good"]
@@ -222,7 +223,7 @@ class Inference:
             return
         span = fn - s.frames[0] + 1 if s.frames else SAMPLES
         # the first failure samples again at once: a capture that starts in the AR's start-up has IOPS bad in
-        # its first samples (no pause of cycles learnt from nothing); then pauses of 2, 4 ... 64 spans
+        # its first samples (no pause of cycles learnt from nothing); then pauses of 2, 4 ... 32 spans
         pause = 0 if s.tries == 0 else span << min(s.tries, RETRY_MAX_DOUBLINGS)
         s.tries += 1
         s.retry_at = fn + 1 + pause

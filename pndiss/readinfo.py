@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 
+CUT_KEPT = 1 << 16   # cut frames remembered for their malformed reasons: more than one engine window holds
 TS_MAX = (1 << 63) - 1  # time stamps are clamped to [0, TS_MAX] ns: every sink (MCAP u64, datetime) shows them
 
 
@@ -73,7 +74,7 @@ class ReadInfo:
             self.cut_first = fn
         self.cut_to = max(self.cut_to, cap)
         self._cut_at[fn] = (cap, orig)
-        if len(self._cut_at) > 1024:
+        if len(self._cut_at) > CUT_KEPT:
             self._cut_at.pop(next(iter(self._cut_at)))
 
     def cut_of(self, fn: int):

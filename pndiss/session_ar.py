@@ -55,10 +55,9 @@ def guess_telegram(out_len: int, in_len: int, api: int, profile: str = "generic"
         return None, None
     from . import telegrams as tg
     mine = [t for t in hits if profile != "generic" and profile in tg.TELEGRAMS[t]["profiles"]]
-    if api not in DRIVE_APIS and (out_len, in_len) in ((4, 4), (4, 8)):
-        if not mine:
-            return None, None
-        hits = mine
+    if api not in DRIVE_APIS and (out_len, in_len) in ((4, 4), (4, 8)) and not mine:
+        return None, None
+    hits = mine or hits
     note = f"guessed from lengths out {out_len} / in {in_len}"
     if len(hits) > 1:
         note += f"; also fits {', '.join(map(str, hits[1:]))} (standard telegram preferred)"
@@ -240,7 +239,11 @@ class ArLayer:
                 do.telegram, do.telegram_source = t, "gsdml"
                 return None
         if "input" in e and "output" in e:
-            t, note = guess_telegram(e["output"][0], e["input"][0], do.api, self.profile_for(device)[0])
+            prof, why = self.profile_for(device)
+            # the device's identity (DCP, I&M0, 0xFFFF), not --profile: that would make every plain 4/8-byte
+            # IO module of a plant an encoder telegram
+            t, note = guess_telegram(e["output"][0], e["input"][0], do.api,
+                                     "generic" if why.startswith("set by --profile") else prof)
             if t is not None:
                 do.telegram, do.telegram_source = t, "length"
                 return note
@@ -294,14 +297,14 @@ class ArLayer:
         self.a.cyclic.on_phase(ar, phase, fn, ts)
 
 
-IO_CONTROLLER_AR_TYPES = (0x0001, 0x0010)   # IOCARSingle, and with RT_CLASS_3 (wire.md; tshark pn_io_ar_type)
+SUPERVISOR_AR_TYPE = 0x0006   # IOSAR (wire.md; tshark pn_io_ar_type): an engineering tool beside the controller
 
 
 def _replaces(arq: dict, iocrs) -> bool:
-    """A Connect that takes over the cyclic data of an AR the controller holds with the device: an IO
-    controller AR with IOCRs. A supervisor or Device Access AR from the same MAC (a SoftPLC's engineering
-    tool reading I&M0) runs beside it."""
-    return arq.get("artype_req") in IO_CONTROLLER_AR_TYPES and bool(iocrs)
+    """A Connect that takes over the cyclic data of an AR the controller holds with the device: an AR with
+    IOCRs that is no supervisor AR (IOCARSingle, IOCARCIR, RT_CLASS_3, system redundancy). A supervisor
+    or Device Access AR from the same MAC (a SoftPLC's engineering tool reading I&M0) runs beside it."""
+    return arq.get("artype_req") != SUPERVISOR_AR_TYPE and bool(iocrs)
 
 
 def _do_row(do: armap.DataObject) -> dict:

@@ -244,8 +244,8 @@ def not_checked(summary: dict) -> list[str]:
                        f"{e.get('profile')} (cyclic.md §14): --map FILE (per station), --gsdml FILE, a P922 read in the capture, "
                        "or --set telegram=N (for every submodule of those lengths)")
     cyc = summary.get("cyclic", {})
-    if cyc.get("frames_before_ar"):
-        n = cyc["frames_before_ar"]
+    n = cyc.get("frames_before_ar") or 0
+    if n >= 100 or (n and (cyc.get("content_inference") or {}).get("inferred")):   # not a start-up's few frames
         out.append(f"{n:,} cyclic frame{'s' if n != 1 else ''} came before {'their' if n != 1 else 'its'} AR was known "
                    "(before its Connect response, or before the telegram was inferred from the content): not judged")
     gated = sum(e.get("gated_cycles", 0) for e in encs if not e.get("telegram_unsure"))

@@ -92,7 +92,8 @@ def test_lua_checker_replays_the_new_connection(caps):
 
 # -- a power cycle: the device restarts without a Release, the controller connects again ---------------
 
-def test_power_cycle_is_no_capture_loss(caps, tmp_path):
+@pytest.mark.parametrize("ar_type", (None, 0x0003, 0x0020), ids=("iocar", "iocarcir", "iocarsr"))
+def test_power_cycle_is_no_capture_loss(caps, tmp_path, ar_type):
     """The restart with its Release lost (the encoder lost power; the link went down): the controller's new
     Connect ends the AR it held with the device (aborted at the response), and the device's streams, which
     may start the new AR's cycle counter before that response, are no capture loss (the helper audit's
@@ -101,8 +102,20 @@ def test_power_cycle_is_no_capture_loss(caps, tmp_path):
     release = {e["frame"] for e in evs if e.get("opnum") == 1}
     assert len(release) == 4   # two Releases: request and response each
     last_two = sorted(release)[:2]   # the first AR's Release
+    second = sorted(e["frame"] for e in evs if e.get("opnum") == 0)[2]   # the second Connect's request
     path = str(tmp_path / "power-cycle.pcapng")
     renum = capedit.rewrite(caps["two"], path, lambda fn, _d: fn not in last_two)
+    if ar_type is not None:   # the second AR of another AR type with IOCRs (CiR, system redundancy): it replaces too
+        import struct
+        src, path = path, str(tmp_path / "power-cycle-artype.pcapng")
+        with open(path, "wb") as f:
+            w = Writer(f)
+            for fn, ts, _lt, d in open_capture(src):
+                d = bytearray(d)
+                if fn == renum[second]:
+                    assert d[142:144] == b"\x01\x01"   # the ARBlockReq right after the NDR header
+                    d[148:150] = struct.pack(">H", ar_type)
+                w.write(ts, bytes(d))
     kinds = ("violation", "capture_gap", "ar_phase")
     for fast in (False, True):
         got = _events(path, fast, kinds)

@@ -164,9 +164,9 @@ def _run_file(path: str, batched: bool):
             streams: dict = {}
             one = fast.stepper(a, streams)
             eng = engine.Engine(a, streams, one)
-            fast.run(a, open_capture(path, batch=eng), streams, eng, one)
+            fast.run(a, open_capture(path, batch=eng, info=a.reader), streams, eng, one)
         else:
-            for f in open_capture(path):
+            for f in open_capture(path, info=a.reader):
                 a.reader.order(f[0], f[1])   # as pndiss.driver's reference path
                 a.feed(*f)
     except CaptureError as e:

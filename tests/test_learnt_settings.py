@@ -315,3 +315,28 @@ def test_controller_holding_each_sign_of_life_k_cycles_is_named():
         sp, ac = T.parse(r, 81)
         out2 += chk2.cycle(i, i * 1000, sp, ac)
     assert "SOL-MASTER-STALL" not in {e["rule"] for e in out2 if e["kind"] == "violation"}
+
+
+def _t860(after):
+    trig = 0x80000000 | 40_000_000                       # preset 40,000,000 above an unknown range
+    rows = [("%d | 1000 0" % 40_000_000, 3), ("%d | 1000 0" % trig, 1), ("%d | %d 0" % (trig, after), 14),
+            ("%d | %d 0" % (40_000_000, after), 3)]
+    return T.rule_ids(rows, profile="hohner", telegram=860, st_phys=None, mt_phys=None, p65000=None)
+
+
+def test_860_clamped_to_an_unknown_binary_range():
+    """Telegram 860 presets to min(PV, R - 1) (001_9461bb7bc8c2767b.txt:931). With R unknown (no scaling,
+    no st_phys/mt_phys) a steady 2^k - 1 below PV is that clamp (the audit's t860 on API 0: a false
+    PRESET860-WRONG); any other position is still wrong."""
+    assert "PRESET860-WRONG" not in _t860((1 << 25) - 1)
+    assert "PRESET860-WRONG" in _t860((1 << 25) - 2)
+
+
+@pytest.mark.skipif(shutil.which("lua5.2") is None, reason="lua5.2 not installed")
+def test_860_clamp_lua_same():
+    from luachk.record import Recorder, replay
+    with Recorder() as rec:
+        test_860_clamped_to_an_unknown_binary_range()
+    res = replay(rec)
+    assert not res["problems"], "\n".join(res["problems"][:20])
+    assert "PRESET860-WRONG" in res["lua_rules"]

@@ -145,7 +145,7 @@ def test_860_on_api_0_of_a_known_encoder(tmp_path):
     assert guess_telegram(4, 8, 0, "hohner")[0] == 860 and guess_telegram(4, 8, 0, "scancon")[0] == 860
     assert guess_telegram(4, 8, 0, "psm")[0] == 86 and guess_telegram(4, 4, 0, "psm")[0] == 87
     assert guess_telegram(4, 8, 0)[0] is None and guess_telegram(4, 4, 0, "hohner")[0] is None
-    assert guess_telegram(4, 8, 0x3D00)[0] in (86, 860)
+    assert guess_telegram(4, 8, 0x3D00, "hohner")[0] == 860 and guess_telegram(4, 8, 0x3D00, "psm")[0] == 86
     src = capedit.simulate(str(tmp_path / "t860.pcapng"), "--profile", "hohner", "--telegram", "860", "--cycles", "300")
     path = str(tmp_path / "t860-api0.pcapng")
     from pndiss.capture import open_capture

@@ -108,8 +108,11 @@ class PresetRules:
         p = self.p860
         if p is not None:
             m = self.R or (1 << (8 * tg.SIGNALS[sig]["size"]))
-            if n > p["n"] and pos is not None and abs(P.delta(p["exp"], pos, m)) <= p["v"] * (n - p["n"] + 1):
-                p["seen"] = True  # within the motion since the trigger (§4.3 tolerance)
+            if n > p["n"] and pos is not None and (abs(P.delta(p["exp"], pos, m)) <= p["v"] * (n - p["n"] + 1) or (
+                    self.R is None and 4095 <= pos < p["exp"] and pos & (pos + 1) == 0)):
+                # within the motion since the trigger (§4.3 tolerance); or, the range unknown (no scaling, no
+                # st_phys/mt_phys), clamped to a binary hardware range 2^k - 1 below PV (min(PV, R - 1), 001:931)
+                p["seen"] = True
             p["last"] = pos
             if n - p["n"] >= self.D and not p.get("judged"):
                 p["judged"] = True

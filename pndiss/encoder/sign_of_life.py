@@ -87,7 +87,7 @@ class SignOfLife:
     def _run_ended(self, length: int, n: int) -> None:
         """``n`` controller sign-of-life values were held ``length`` cycles each (the summary's histogram: a
         controller whose application cycle is k bus cycles holds every value k cycles, verdict.trust)."""
-        if n > 0:
+        if n > 0 and length > 0:   # (0: the run began on a frame whose setpoint was not new)
             h = self.cls_run_hist
             if length in h or len(h) < 32:
                 h[length] = h.get(length, 0) + n
