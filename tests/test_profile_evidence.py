@@ -74,6 +74,11 @@ def oem100(tmp_path_factory):
     (no P922 read: the telegram is only a length guess)."""
     tmp = str(tmp_path_factory.mktemp("t100"))
     src = capedit.simulate(os.path.join(tmp, "t100.pcapng"), "--profile", "psm", "--telegram", "100", "--cycles", "300")
+    return src, _without_parameter_access(src, os.path.join(tmp, "t100-no-p922.pcapng"))
+
+
+def _without_parameter_access(src: str, dst: str) -> str:
+    """src without its 0xB02E/0xB02F frames (no P922 read: the telegram is only a length guess)."""
     evs = []
     analyze_file(src, Settings(fast_path=False), sink=evs.append)
     drop = set()
@@ -81,9 +86,8 @@ def oem100(tmp_path_factory):
         if e["kind"] in ("record", "record_result", "param") and e.get("index") in (0xB02E, 0xB02F):
             drop |= {e["frame"], e.get("request_frame"), e.get("response_frame")}
     assert drop
-    dst = os.path.join(tmp, "t100-no-p922.pcapng")
     capedit.rewrite(src, dst, lambda fn, _d: fn not in drop)
-    return src, dst
+    return dst
 
 
 def test_oem100_judged_once_p922_names_it(oem100):
@@ -123,14 +127,7 @@ def test_psm_86_length_guess_still_judged(tmp_path):
     """PS/PSM's 86 and 860 have one layout (002_d69f444daf0f8af2.txt:729, 940): one candidate, so a length
     guess of 4/8 bytes stays judged (the review found it unjudged after the OEM-100 change)."""
     src = capedit.simulate(str(tmp_path / "t86.pcapng"), "--profile", "psm", "--telegram", "86", "--cycles", "300")
-    evs = []
-    analyze_file(src, Settings(fast_path=False), sink=evs.append)
-    drop = set()
-    for e in evs:
-        if e["kind"] in ("record", "record_result", "param") and e.get("index") in (0xB02E, 0xB02F):
-            drop |= {e["frame"], e.get("request_frame"), e.get("response_frame")}
-    dst = str(tmp_path / "t86-no-p922.pcapng")
-    capedit.rewrite(src, dst, lambda fn, _d: fn not in drop)
+    dst = _without_parameter_access(src, str(tmp_path / "t86-no-p922.pcapng"))
     for fast in (False, True):
         a, viol = _run(dst, fast_path=fast)
         e, = a.summary()["cyclic"]["encoders"]

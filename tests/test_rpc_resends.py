@@ -83,16 +83,20 @@ def caps(tmp_path_factory):
     # PNIOStatus write error / state conflict: the call's an NDR u32 (the stub's byte order), the header's bytes
     res[STUB:STUB + 4] = struct.pack("<I" if key[2] else ">I", 0xDF80B500)
     res[BLOCKS + 8 + 36:BLOCKS + 8 + 40] = b"\xdf\x80\xb5\x00"
-    first_preset = _first_preset_frame(src)
-    dst = os.path.join(tmp, "refused.pcapng")
-    with open(dst, "wb") as f:
-        w = Writer(f)
-        for fn, ts, _lt, d in frames:
-            if fn == first_preset - 40:
-                w.write(ts - 2_000, bytes(req))
-                w.write(ts - 1_000, bytes(res))
-            w.write(ts, bytes(d))
-    out["refused"] = dst
+    at = _first_preset_frame(src) - 40
+
+    def with_write(name, answer) -> str:
+        """The capture with the write and its answer just before frame ``at``."""
+        path = os.path.join(tmp, name + ".pcapng")
+        with open(path, "wb") as f:
+            w = Writer(f)
+            for fn, ts, _lt, d in frames:
+                if fn == at:
+                    w.write(ts - 2_000, bytes(req))
+                    w.write(ts - 1_000, bytes(answer))
+                w.write(ts, bytes(d))
+        return path
+    out["refused"] = with_write("refused", res)
     # 2b. the same refusal as an error of the call alone (no IODWriteResHeader): the NDR header ends the PDU
     bare = bytearray(res[:BLOCKS])
     little = key[2]
@@ -107,24 +111,10 @@ def caps(tmp_path_factory):
     bare[24:26] = struct.pack(">H", ~csum & 0xFFFF)
     bare[38:40] = struct.pack(">H", len(bare) - 34)                                # UDP length
     bare[40:42] = b"\0\0"                                                          # UDP checksum: none
-    out["refused_bare"] = os.path.join(tmp, "refused-bare.pcapng")
-    with open(out["refused_bare"], "wb") as f:
-        w = Writer(f)
-        for fn, ts, _lt, d in frames:
-            if fn == first_preset - 40:
-                w.write(ts - 2_000, bytes(req))
-                w.write(ts - 1_000, bytes(bare))
-            w.write(ts, bytes(d))
-    out["accepted"] = os.path.join(tmp, "accepted.pcapng")   # the same write answered OK: class 4 is off
-    ok = bytearray(res)
+    out["refused_bare"] = with_write("refused-bare", bare)
+    ok = bytearray(res)   # the same write answered OK: class 4 is off
     ok[STUB:STUB + 4] = ok[BLOCKS + 8 + 36:BLOCKS + 8 + 40] = b"\0\0\0\0"
-    with open(out["accepted"], "wb") as f:
-        w = Writer(f)
-        for fn, ts, _lt, d in frames:
-            if fn == first_preset - 40:
-                w.write(ts - 2_000, bytes(req))
-                w.write(ts - 1_000, bytes(ok))
-            w.write(ts, bytes(d))
+    out["accepted"] = with_write("accepted", ok)
     return out
 
 
