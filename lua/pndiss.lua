@@ -633,8 +633,10 @@ local function connect_response(key, pinfo)
     if station == nil then station = server_name ~= "" and server_name or nil end
     if station ~= nil then dcp_state.station[device] = station end
     if not ok then return end
-    for k in pairs(alarm_seq) do   -- cyclic_axes.on_new_ar: the new AR's alarms number afresh
-        if k:sub(1, #device + 1) == device .. "|" then alarm_seq[k] = nil end
+    if replaces(req) then   -- cyclic_axes.on_new_ar: the new AR's alarms number afresh (not a supervisor's beside it)
+        for k in pairs(alarm_seq) do
+            if k:sub(1, #device + 1) == device .. "|" then alarm_seq[k] = nil end
+        end
     end
     -- session_ar._superseded: the controller's new Connect ends the AR it held with this device (power lost,
     -- link down, an abort not captured), before the new maps take its streams
@@ -1804,8 +1806,8 @@ local function rta_alarm(pinfo)
     local key = src .. "|" .. tostring(ep and ep.value) .. "|" .. ((fid and fid.value == 0xFC01) and "high" or "low")
     local sq, now = seq and seq.value, tonumber(pinfo.abs_ts)
     local last = alarm_seq[key]
+    alarm_seq[key] = {sq, now}   -- the window slides with each resend
     if last ~= nil and last[1] == sq and now - last[2] <= 10 then return end   -- cyclic_axes.ALARM_RESEND_NS
-    alarm_seq[key] = {sq, now}
     local slot, sub = all("pn_io.slot_nr"), all("pn_io.subslot_nr")
     local items, spec = {}, all("pn_io.channel_properties.specifier")
     for i, c in ipairs(all("pn_io.channel_error_type")) do

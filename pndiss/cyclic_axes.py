@@ -258,9 +258,10 @@ class AxisTracking:
         key = (ev.get("src"), ev.get("alarm_src_endpoint"), ev.get("priority"))
         last = self.alarm_seq.get(key)
         ts = ev.get("ts_ns", 0)
-        if last is not None and last[0] == ev.get("send_seq_num") and ts - last[1] <= ALARM_RESEND_NS:
+        resend = last is not None and last[0] == ev.get("send_seq_num") and ts - last[1] <= ALARM_RESEND_NS
+        self.alarm_seq[key] = (ev.get("send_seq_num"), ts)   # the window slides with each resend
+        if resend:
             return
-        self.alarm_seq[key] = (ev.get("send_seq_num"), ts)
         if len(self.alarm_seq) > 256:
             self.alarm_seq.pop(next(iter(self.alarm_seq)))
         for ax in self.axes.values():

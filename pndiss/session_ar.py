@@ -185,8 +185,8 @@ class ArLayer:
         if dev_station:
             self.a.stations.update(device, name=dev_station)
         self.map_generation += 1
-        if ok:
-            self.a.cyclic.on_new_ar(device)
+        if ok and _replaces(arq, rb.get(0x0102)):
+            self.a.cyclic.on_new_ar(device)   # (a supervisor AR beside it leaves the IO AR's alarm numbers)
         self.a.emit(ar)
         if again:   # the AR UUID of an earlier connection (controllers may reuse it): a new connection
             self.a.cyclic.on_reconnect(rec, fn, ts)
