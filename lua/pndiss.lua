@@ -532,6 +532,28 @@ local pending_connects   -- "act|seq" -> request summary
 
 -- session_ar._replaces: a Connect that takes over the cyclic data of the AR the controller holds with the device
 -- (an AR with IOCRs that is no supervisor AR; a supervisor / Device Access AR from the same MAC runs beside it)
+-- session_ar._held: the ARs other than ar this controller holds with this device (up: not ended)
+local function held(controller, device, ar)
+    local out = {}
+    for _, a in ipairs(ar_order) do
+        local d = ar_devs[a]
+        if a ~= ar and d ~= nil and d[1] == device and d[2] == controller and ar_phase[a] ~= nil
+                and ar_phase[a] ~= "released" and ar_phase[a] ~= "aborted" then
+            out[#out + 1] = a
+        end
+    end
+    return out
+end
+
+-- gaps.restart of an AR's streams its maps still hold: the next frame starts a new cycle counter
+local function restart_gaps(ar)
+    for _, k in ipairs(ar_keys[ar]) do
+        local sk = k[1] .. "|" .. k[2] .. "|" .. k[3]
+        local st = gap_streams[sk]
+        if st ~= nil and maps[sk] == k[4] then st.cc, st.ts = nil, nil end
+    end
+end
+
 local function replaces(req)
     return req.ar_type ~= 0x0006 and #req.iocrs > 0
 end
@@ -578,17 +600,7 @@ local function connect_request(key, pinfo)
     if not replaces(req) then return end
     -- session_ar._connect_requested: the device may provide the new AR's frames before the response, so the
     -- streams of the AR the controller holds with it start their capture-loss tracking afresh
-    for _, a in ipairs(ar_order) do
-        local d = ar_devs[a]
-        if a ~= req.ar and d ~= nil and d[1] == req.dst and d[2] == req.controller and ar_phase[a] ~= nil
-                and ar_phase[a] ~= "released" and ar_phase[a] ~= "aborted" then
-            for _, k in ipairs(ar_keys[a]) do
-                local sk = k[1] .. "|" .. k[2] .. "|" .. k[3]
-                local st = gap_streams[sk]
-                if st ~= nil and maps[sk] == k[4] then st.cc, st.ts = nil, nil end
-            end
-        end
-    end
+    for _, a in ipairs(held(req.controller, req.dst, req.ar)) do restart_gaps(a) end
 end
 
 local on_reconnect     -- CyclicTracker.on_reconnect (section 7): an AR UUID connected again
@@ -640,12 +652,8 @@ local function connect_response(key, pinfo)
     end
     -- session_ar._superseded: the controller's new Connect ends the AR it held with this device (power lost,
     -- link down, an abort not captured), before the new maps take its streams
-    for _, a in ipairs(ar_order) do
-        local d = ar_devs[a]
-        if replaces(req) and a ~= req.ar and d ~= nil and d[1] == device and d[2] == req.controller
-                and ar_phase[a] ~= nil and ar_phase[a] ~= "released" and ar_phase[a] ~= "aborted" then
-            ar_moves(a, "aborted", pinfo.number)
-        end
+    if replaces(req) then
+        for _, a in ipairs(held(req.controller, device, req.ar)) do ar_moves(a, "aborted", pinfo.number) end
     end
     local keys = {}
     local again = req.ar ~= nil and ar_phase[req.ar] ~= nil   -- session_ar: controllers may reuse an AR UUID
@@ -1734,12 +1742,7 @@ function ar_moves(ar, phase, fn)
     if cur == nil or PHASE_RANK[to] <= PHASE_RANK[cur] then return end
     ar_phase[ar] = to
     for _, k in ipairs(ar_keys[ar]) do k[4].phase = to end
-    if to == "released" or to == "aborted" then   -- gaps.restart: a later AR on these streams is no capture loss
-        for _, k in ipairs(ar_keys[ar]) do
-            local st = gap_streams[k[1] .. "|" .. k[2] .. "|" .. k[3]]
-            if st ~= nil and maps[k[1] .. "|" .. k[2] .. "|" .. k[3]] == k[4] then st.cc, st.ts = nil, nil end
-        end
-    end
+    if to == "released" or to == "aborted" then restart_gaps(ar) end   -- a later AR on these streams: no capture loss
     if phase ~= "prm_end" then return end
     local list, seen = {}, {}
     for _, k in ipairs(ar_keys[ar]) do

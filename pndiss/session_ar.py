@@ -199,20 +199,22 @@ class ArLayer:
         arq = next((b for b in blocks if b.get("block_type") == 0x0101), None)
         if arq is None or not _replaces(arq, [b for b in blocks if b.get("block_type") == 0x0102]):
             return
-        for old in self.ars.values():
-            if old["ar_uuid"] != arq["ar_uuid"] and old["ok"] and old["controller_mac"] == arq["cminitiator_mac_add"] \
-                    and old["device_mac"] == device and old.get("phase") not in ("released", "aborted", "refused"):
-                self.a.cyclic.restart_gaps([key for key, _fm in self.frame_keys(old)])
+        for old in self._held(arq["cminitiator_mac_add"], device, arq["ar_uuid"]):
+            self.a.cyclic.restart_gaps([key for key, _fm in self.frame_keys(old)])
 
     def _superseded(self, controller: str, device: str, ar_uuid: str, fn: int, ts: int) -> None:
         """A controller holds one AR with a device: its new Connect (another AR UUID) means the AR that is
         up ended without a Release the capture holds (the device lost power, the link went down, the abort
         was not captured). It is aborted here, before the new AR's frame maps take its streams, so their
         cycle counters start afresh (no capture loss across the restart)."""
-        for old in list(self.ars.values()):
-            if old["ar_uuid"] != ar_uuid and old["ok"] and old["controller_mac"] == controller \
-                    and old["device_mac"] == device and old.get("phase") not in ("released", "aborted", "refused"):
-                self.set_phase(old, "aborted", fn, ts, f"a new Connect of the same controller (frame {fn})")
+        for old in self._held(controller, device, ar_uuid):
+            self.set_phase(old, "aborted", fn, ts, f"a new Connect of the same controller (frame {fn})")
+
+    def _held(self, controller: str, device: str, ar_uuid: str) -> list:
+        """The ARs other than ``ar_uuid`` this controller holds with this device (up: not ended or refused)."""
+        return [ar for ar in self.ars.values()
+                if ar["ar_uuid"] != ar_uuid and ar["ok"] and ar["controller_mac"] == controller
+                and ar["device_mac"] == device and ar.get("phase") not in ("released", "aborted", "refused")]
 
     def _forget_ar(self, _uuid, old: dict) -> None:
         """An AR evicted from the bounded table: drop its frame maps (those no newer AR replaced)."""

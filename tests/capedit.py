@@ -32,6 +32,16 @@ def rewrite(src: str, dst: str, keep) -> dict:
     return renum
 
 
+def insert(src: str, dst: str, after: dict) -> None:
+    """src with extra frames: ``after`` = {frame number: [frame bytes, ...]}, each written 1 us apart after it."""
+    with open(dst, "wb") as f:
+        w = Writer(f)
+        for fn, ts, _lt, data in open_capture(src):
+            w.write(ts, bytes(data))
+            for i, extra in enumerate(after.get(fn, ()), 1):
+                w.write(ts + 1000 * i, bytes(extra))
+
+
 def cyclic_streams(path: str) -> dict:
     """(frame_id, src MAC bytes) -> [frame numbers] of the cyclic PN-RT frames (untagged or one VLAN tag)."""
     out: dict = {}

@@ -153,9 +153,8 @@ def test_alarm_while_parked_in_a_capture(tmp_path):
     it twice (same sequence number); one of another subslot is not the encoder's. Both paths and the plugin."""
     import shutil
 
-    from pndiss.capture import open_capture
+    import capedit
     from pndiss.settings import Settings
-    from pndiss.sim.pcapng import Writer
     from synframes import eth
     from test_fastpath import _same_both_ways
     src = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "captures", "parking-t81-scancon.pcapng")
@@ -168,16 +167,9 @@ def test_alarm_while_parked_in_a_capture(tmp_path):
                                                           subslot=subslot))
         return eth(0x8892, struct.pack(">H", 0xFE01) + pdu, src=dev, dst=plc)
     path = str(tmp_path / "parked-alarm.pcapng")
-    with open(path, "wb") as f:
-        w = Writer(f)
-        for fn, ts, _lt, d in open_capture(src):
-            w.write(ts, bytes(d))
-            if fn == 800:
-                w.write(ts + 1000, alarm_frame(7, 2))      # the encoder submodule (slot 1 / subslot 2)
-            if fn == 850:
-                w.write(ts + 1000, alarm_frame(7, 2))      # the RTA's resend of it (not acknowledged yet)
-            if fn == 900:
-                w.write(ts + 1000, alarm_frame(8, 1))      # the next alarm: another submodule of the device
+    capedit.insert(src, path, {800: [alarm_frame(7, 2)],     # the encoder submodule (slot 1 / subslot 2)
+                               850: [alarm_frame(7, 2)],     # the RTA's resend of it (not acknowledged yet)
+                               900: [alarm_frame(8, 1)]})    # the next alarm: another submodule of the device
     _same_both_ways(path)
     evs = []
     analyze_file(path, Settings(), sink=lambda e: evs.append(e) if e["kind"] == "violation" else None)

@@ -160,13 +160,7 @@ def test_a_connect_beside_the_ar_does_not_end_it(tmp_path, ar_type, iocrs, abort
                   R.dcerpc(2, 0, R.ndr_response(R.ar_block_res(other) + R.alarmcr_res(), little=True), act=act,
                            little=True, flags1=0x0A))
     path = str(tmp_path / "beside.pcapng")
-    with open(path, "wb") as f:
-        w = Writer(f)
-        for fn, ts, _lt, d in open_capture(src):
-            w.write(ts, bytes(d))
-            if fn == 500:
-                w.write(ts + 1000, req)
-                w.write(ts + 2000, res)
+    capedit.insert(src, path, {500: [req, res]})
     want = analyze_file(src, Settings()).summary()["cyclic"]["encoders"][0]["cycles"]
     for fast in (False, True):
         evs = _events(path, fast, ("ar_phase", "ar"))
