@@ -1843,8 +1843,8 @@ local function param(chk, ev)
   end
 end
 
--- acyclic.check_alarm: a diagnosis alarm whose channel diagnosis appears: 0x9011 reports an invalid 0xBF00 (#70),
--- and none may come while parked (#48)
+-- acyclic.check_alarm: a diagnosis alarm whose channel diagnosis appears: 0x9011 reports an invalid 0xBF00 (#70)
+-- or rejects a valid one (#71), and none may come while parked (#48)
 function Checker:on_alarm(ev)
   self.out = nil
   if ev.alarm_type == 1 then
@@ -1857,8 +1857,20 @@ function Checker:on_alarm(ev)
       end
     end
     if n > 0 then
-      if self.bf00_due ~= nil and commissioning then self.bf00_due = nil end
-      local pa = self.prev_ac   -- the last cycle's actual values: G1_ZSW.14 parked
+      local pa = self.prev_ac   -- the last cycle's actual values: G1_ZSW.14 parked, SERR and G1_XIST2
+      if commissioning then
+        if self.bf00_due ~= nil then
+          self.bf00_due = nil
+        elseif self.bf00_valid_frame ~= nil and self.bf00_invalid == nil then
+          -- #71: a valid 0xBF00 rejected; once: the cyclic rule reports it when the data already shows it
+          local in_data = pa ~= nil and (pa.g1_zsw or 0) % 65536 >= 32768 and pa.g1_xist2 == K.e_param
+          if not in_data then
+            v_(self, "BF00-VALID-REJECTED", ev, fmt("commissioning diagnostic 0x9011 after a valid 0xBF00 (frame %s)",
+                                                    tostring(self.bf00_valid_frame)))
+            self.bf00_valid_frame = nil
+          end
+        end
+      end
       if pa ~= nil and (pa.g1_zsw or 0) % 32768 >= 16384 then
         -- #48: no error reports while parked (000_37bf2397999f1108.txt:1775-1777)
         v_(self, "PARK-ERROR-REPORTED", ev, "diagnosis alarm (channel error type " .. table.concat(codes, ", ") .. ") while parked")

@@ -40,7 +40,7 @@ def _run(rows, compat):
         sp, ac = T.parse(r, 81)
         out += chk.cycle(i, i * 1000, sp, ac)
     out += chk.finish()
-    return {e["rule"] for e in out if e["kind"] == "violation"}, chk
+    return [e["rule"] for e in out if e["kind"] == "violation"], chk
 
 
 @pytest.mark.parametrize("name,rows,open_rules,learnt,given_rules", CASES, ids=[c[0] for c in CASES])
@@ -111,6 +111,7 @@ def test_velocity_filter_lua_same():
 
 PARKED = [("0x1400 0x4000 | 0x1200 0x0000 5 0", 1), ("0x1400 0x4000 | 0x1200 0x4000 0 0", 6)]   # PARK -> PKA
 RUNNING = [("0x1400 0x2000 | 0x1200 0x2000 5 5", 6)]
+REJECTED = [("0x1400 0x2000 | 0x1200 0xA000 5 0x1002", 6)]   # SERR with the parameterisation fault 0x1002
 
 
 def _alarm(frame, cet=0x9000, specifier=1, alarm_type=1):
@@ -135,7 +136,7 @@ def _with_alarm(rows, alarm, compat=1, before=()):
         n += 1
         out += chk.cycle(n, n * 1000, sp, ac)
     out += chk.finish()
-    return {e["rule"] for e in out if e["kind"] == "violation"}
+    return [e["rule"] for e in out if e["kind"] == "violation"]
 
 
 BAD_BF00 = {"kind": "record", "op": "write", "index": 0xBF00, "frame": 0, "ts_ns": 0, "length": 31, "data": "00" * 31,
@@ -153,6 +154,12 @@ def test_alarm_while_parked_and_commissioning_diagnostic():
     assert "BF00-ERROR-NOT-REPORTED" in _with_alarm(RUNNING, None, before=[BAD_BF00])
     assert "BF00-ERROR-NOT-REPORTED" not in _with_alarm(RUNNING, _alarm(5, cet=0x9011), before=[BAD_BF00])
     assert "BF00-ERROR-NOT-REPORTED" in _with_alarm(RUNNING, _alarm(5, cet=0x9000), before=[BAD_BF00])
+    # 71: a valid 0xBF00 rejected by the commissioning diagnostic, reported once; not when the data shows it
+    good = dict(BAD_BF00, decoded={"compat": 1, "class4": 1, "mupr": 1})
+    assert _with_alarm(RUNNING, _alarm(5, cet=0x9011), before=[good]).count("BF00-VALID-REJECTED") == 1
+    assert "BF00-VALID-REJECTED" not in _with_alarm(RUNNING, _alarm(5, cet=0x9000), before=[good])
+    assert "BF00-VALID-REJECTED" not in _with_alarm(RUNNING, _alarm(5, cet=0x9011), before=[BAD_BF00])
+    assert _with_alarm(REJECTED, _alarm(5, cet=0x9011), before=[good]).count("BF00-VALID-REJECTED") == 1
 
 
 @pytest.mark.skipif(shutil.which("lua5.2") is None, reason="lua5.2 not installed")
@@ -162,7 +169,7 @@ def test_alarms_lua_same():
         test_alarm_while_parked_and_commissioning_diagnostic()
     res = replay(rec)
     assert not res["problems"], "\n".join(res["problems"][:20])
-    assert {"PARK-ERROR-REPORTED", "BF00-ERROR-NOT-REPORTED"} <= res["lua_rules"]
+    assert {"PARK-ERROR-REPORTED", "BF00-ERROR-NOT-REPORTED", "BF00-VALID-REJECTED"} <= res["lua_rules"]
 
 
 def _psm_later(rows_before, rows_after):

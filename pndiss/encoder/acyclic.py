@@ -7,6 +7,7 @@ configuration (0xBF00 values, P65000, P979 shift) and emits violations through t
 from __future__ import annotations
 
 from .. import telegrams as tg
+from .value_rules import E_PARAM
 
 BF00_LEN = 31                                    # 000_37bf2397999f1108.txt:2171, 002_d69f444daf0f8af2.txt:1020
 BF00_INDEXES = (0xBF00, 0xFFFF)                  # PS/PSM: 0xFFFF (behaviour.md §5.1)
@@ -14,6 +15,7 @@ BF00_INDEXES = (0xBF00, 0xFFFF)                  # PS/PSM: 0xFFFF (behaviour.md 
 READ_ONLY = {"lika": {922, 964, 965, 975, 979, 980, 61001, 65001},
              "psm": {922, 925, 964, 965, 975, 979, 980, 61001, 65001}}   # PS/PSM "Get" (002_d69f444daf0f8af2.txt:1089-1166)
 PROFILE_PNUS = {922, 964, 965, 975, 979, 980, 65000, 65001}    # profile parameters readable after run-up (#92)
+COMMISSIONING_DIAG = 0x9011   # channel error type: user parameter data assignment error (000_37bf2397999f1108.txt:2611-2615)
 ABORTING_ERRORS = {0x05, 0x16, 0x17, 0x18}       # 001_9461bb7bc8c2767b.txt:2089, 2099 (#85)
 # words of the ParamPairer's pairing problems -> rule (behaviour.md §9.10 #76, #81)
 PAIRING_RULES = (("overwritten", "BMP-PIPELINED"), ("response id mismatch", "BMP-RESPID-MISMATCH"),
@@ -102,9 +104,18 @@ def check_alarm(chk, ev: dict) -> None:
     if not appears:
         return
     codes = ", ".join(f"0x{it.get('channel_error_type', 0):04X}" for it in appears)
-    if chk.bf00_due is not None and any(it.get("channel_error_type") == 0x9011 for it in appears):
-        chk.bf00_due = None   # 70: reported as "user parameter data assignment error" (000_37bf2397999f1108.txt:2611-2615)
-    pa = chk.prev_ac   # the last cycle's actual values: G1_ZSW.14 parked
+    pa = chk.prev_ac   # the last cycle's actual values: G1_ZSW.14 parked, SERR and G1_XIST2
+    if any(it.get("channel_error_type") == COMMISSIONING_DIAG for it in appears):
+        if chk.bf00_due is not None:
+            chk.bf00_due = None   # 70: reported as "user parameter data assignment error" (000_37bf2397999f1108.txt:2611-2615)
+        elif chk.bf00_valid_frame is not None and chk.bf00_invalid is None:
+            # 71: a valid 0xBF00 rejected. Once per rejection: the cyclic rule reports the same fault when the
+            # data already shows it (SERR with 0x1002) and stands down after this report.
+            in_data = pa is not None and (pa.get("g1_zsw", 0) >> 15) & 1 and pa.get("g1_xist2") == E_PARAM
+            if not in_data:
+                _v(chk, "BF00-VALID-REJECTED", ev, f"commissioning diagnostic 0x9011 after a valid 0xBF00 "
+                                                   f"(frame {chk.bf00_valid_frame})")
+                chk.bf00_valid_frame = None
     if pa is not None and (pa.get("g1_zsw", 0) >> 14) & 1:
         # 48: no error reports while parked (000_37bf2397999f1108.txt:1775-1777)
         _v(chk, "PARK-ERROR-REPORTED", ev, f"diagnosis alarm (channel error type {codes}) while parked")
