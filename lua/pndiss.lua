@@ -469,7 +469,8 @@ for _, n in ipairs({"pn_io.opnum", "pn_io.block_type", "pn_io.ar_uuid", "pn_io.c
                     "pn_io.error_code", "pn_io.error_decode", "pn_io.error_code1", "pn_io.error_code2",
                     "pn_io.control_command", "pn_io.pdu_type.type", "pn_io.alarm_type", "pn_io.send_seq_num",
                     "pn_io.alarm_src_endpoint", "pn_io.channel_error_type", "pn_io.channel_properties.specifier", "pn_io.artype_req",
-                    "pn_dcp.service_id",
+                    "pn_dcp.service_id", "lldp.chassis.subtype", "lldp.chassis.id", "lldp.port.subtype", "lldp.port.id",
+                    "lldp.profinet.subtype",
                     "pn_dcp.suboption_vendor_id", "pn_dcp.suboption_device_id", "pn_dcp.suboption_device_devicevendorvalue"}) do
     X[n] = Field.new(n)
 end
@@ -2281,6 +2282,22 @@ local function write_refusals(pinfo, req_frame)
 end
 
 -- first pass of a non-cyclic frame: DCP identity and rules, Connects, records
+-- stations.from_lldp with lldp._station: an LLDPDU with a PROFINET TLV names its sender, from a locally
+-- assigned port ID "port-xxx.<NameOfStation>" (the older style) or else a locally assigned chassis ID
+local function on_lldp(pinfo)
+    local cs = X["lldp.chassis.subtype"]()
+    if cs == nil or X["lldp.profinet.subtype"]() == nil then return end
+    local ps, pid, cid = X["lldp.port.subtype"](), X["lldp.port.id"](), X["lldp.chassis.id"]()
+    local name
+    if ps and ps.value == 7 and pid then
+        local id = pid.range:raw()   -- the wire bytes: tshark 4.0 shows a chassis ID as bytes, a port ID as text
+        local dot = id:find(".", 1, true)
+        if dot then name = id:sub(dot + 1) end
+    end
+    if name == nil and cs.value == 7 and cid and cid.len > 0 then name = cid.range:raw() end
+    if name ~= nil then dcp_state.station[tostring(pinfo.dl_src)] = name end
+end
+
 local function first_pass(pinfo)
     local op = X["pn_io.opnum"]()
     if op == nil then
@@ -2293,6 +2310,7 @@ local function first_pass(pinfo)
             f.dcp = {v.value, dv and dv.value}
         end
         on_dcp(pinfo)
+        on_lldp(pinfo)
         rta_error(pinfo)
         rta_alarm(pinfo)
         return nil

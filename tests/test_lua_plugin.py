@@ -643,6 +643,33 @@ def test_station_from_ar_server_block(tmp_path):
     assert lua_viol == viol
 
 
+@pytest.mark.parametrize("chassis, port, want", [(b"enc-lldp", b"port-001", "enc-lldp"),            # chassis ID
+                                                 (b"ET200 SP", b"port-002.enc-old", "enc-old")])   # older port ID
+def test_station_from_lldp(tmp_path, chassis, port, want):
+    """No DCP and no Connect: the device's own LLDPDU (a PROFINET TLV in it) names it, as stations.from_lldp
+    does in the Python core; the maps inferred from content carry that name in both."""
+    from synframes import OUI_PN, lldpdu, org
+    src = os.path.join(ROOT, "captures", "startup-t81-lika.pcapng")
+    if not os.path.exists(src):
+        pytest.skip("captures/startup-t81-lika.pcapng is missing")
+    frames = _read_pcapng_frames(src)
+    rc, out, _ = tshark(src, "-Y", "(dcerpc.pkt_type == 0 && pn_io.opnum == 0) || pn_dcp", "-T", "fields",
+                        "-e", "frame.number", plugin=False, two_pass=False)
+    drop = {int(x) for x in out.split()}
+    rc2, dev, _ = tshark(src, "-Y", "dcerpc.pkt_type == 2 && pn_io.opnum == 0", "-T", "fields", "-e", "eth.src",
+                         plugin=False, two_pass=False)
+    assert rc == 0 and rc2 == 0 and drop
+    mac = bytes.fromhex(dev.split()[0].replace(":", ""))
+    lldp = bytes.fromhex("0180c200000e") + mac + b"\x88\xcc" + lldpdu(chassis, port, extra=org(OUI_PN, 2, bytes.fromhex("00023004")))
+    path = str(tmp_path / "lldp.pcap")
+    _write_pcap(path, [lldp] + [f for i, f in enumerate(frames, 1) if i not in drop])
+    want_py, _ = python_expect(path)
+    assert {s for d in want_py.values() for s in d.get("pndiss.station", [])} == {want}
+    n, bad, lua_viol, viol = compare(path)
+    assert n and not bad, bad[:5]
+    assert lua_viol == viol
+
+
 def test_station_of_content_inferred_map(tmp_path):
     """The Connect request lost (a capture started late, a dropped frame): the maps are inferred from the
     cyclic content (infer.py) and carry the NameOfStation DCP gave the device (session.add_inferred)."""
