@@ -36,9 +36,12 @@ class Group:
 
     @staticmethod
     def build(w, i: int, j: int, cats) -> list:
-        """The groups of segment [i, j) of window w."""
+        """The groups of segment [i, j) of window w. Streams whose data objects share an axis are one group:
+        a device with several encoders sends all their setpoints in one frame and all their actual values
+        in another, and the reference pairs them in capture order across both streams."""
         out = []
-        by_axis: dict = {}
+        of_axis: dict = {}    # axis key (_Obj.key) -> its group
+        keys: dict = {}       # id(group) -> the axis keys in it
         for k, c in cats.items():
             p = w.pos[k]
             a, b = np.searchsorted(p, (i, j))
@@ -50,21 +53,34 @@ class Group:
             if fr is None or not fr.objs:
                 out.append(Group("sample" if c[0] == "sample" else "count", [s], [p], [fr]))
                 continue
-            axes = {id(o.ax): o.ax for o in fr.objs}
-            if len(fr.objs) != 1 or fr.objs[0].ax is None or len(axes) != 1:
-                # several data objects / an axis not created yet: one by one (merged with any partner below)
-                key = ("multi", id(fr))
+            mine = {o.key for o in fr.objs}
+            met = {id(of_axis[x]): of_axis[x] for x in mine if x in of_axis}
+            if met:
+                g, *others = met.values()
+                for h in others:   # this stream joins groups so far apart: one group
+                    g.streams += h.streams
+                    g.pos += h.pos
+                    g.fr += h.fr
+                    mine |= keys.pop(id(h))
+                    out.remove(h)
+                mine |= keys[id(g)]
             else:
-                key = id(fr.objs[0].ax)
-            g = by_axis.get(key)
-            if g is None:
-                by_axis[key] = g = Group("axis", [], [], [], fr.objs[0].ax if key != ("multi", id(fr)) else None)
+                g = Group("axis", [], [], [])
                 out.append(g)
+            keys[id(g)] = mine
+            for x in mine:
+                of_axis[x] = g
             g.streams.append(s)
             g.pos.append(p)
             g.fr.append(fr)
         for g in out:
-            if g.kind == "axis" and (g.ax is None or len(g.fr) != 2 or g.fr[0].direction == g.fr[1].direction):
+            if g.kind != "axis":
+                continue
+            axes = {id(o.ax): o.ax for fr in g.fr for o in fr.objs}
+            one = len(g.fr) == 2 and g.fr[0].direction != g.fr[1].direction and len(axes) == 1 \
+                and all(len(fr.objs) == 1 for fr in g.fr)
+            g.ax = next(iter(axes.values())) if one else None
+            if g.ax is None:   # several data objects, an axis not created yet, or one direction only: one by one
                 g.kind = "single"
         return out
 

@@ -135,15 +135,17 @@ def rw_header(bt: int, index: int, length: int, *, seq: int = 1, api: int = 0x3D
 
 
 def connect_pair(subs, api: int = 0x3D00, in_fid: int = 0x8000, out_fid: int = 0x8001, rt_class: int = 1, **kw):
-    """(request frame, response frame) of a Connect with one slot-1 module and ``subs``."""
+    """(request frame, response frame) of a Connect with ``subs``: (subslot, ident, type, in_len, out_len) of a
+    slot-1 module, or (slot, subslot, ident, type, in_len, out_len) for modules in several slots."""
+    subs = [s if len(s) == 6 else (1, *s) for s in subs]
     in_objs, out_objs, in_iocs, out_iocs = [], [], [], []
     ioff = ooff = 0
-    for ss, _ident, typ, in_len, out_len in subs:
+    for slot, ss, _ident, typ, in_len, out_len in subs:
         if typ in (0, 1, 3):
-            in_objs.append((1, ss, ioff))
+            in_objs.append((slot, ss, ioff))
             ioff += (in_len if typ else 0) + 1
         if typ in (2, 3):
-            out_objs.append((1, ss, ooff))
+            out_objs.append((slot, ss, ooff))
             ooff += out_len + 1
     for s, ss, _ in out_objs:
         in_iocs.append((s, ss, ioff))
@@ -151,13 +153,28 @@ def connect_pair(subs, api: int = 0x3D00, in_fid: int = 0x8000, out_fid: int = 0
     for s, ss, _ in in_objs:
         out_iocs.append((s, ss, ooff))
         ooff += 1
+    exp = b""
+    for slot in dict.fromkeys(s[0] for s in subs):
+        exp += expected(api, slot, 0x100, [s[1:] for s in subs if s[0] == slot])
     req_blocks = (ar_block_req(**kw) + iocr_req(1, 1, in_fid, max(40, ioff), in_objs, in_iocs, api, rt_class)
-                  + iocr_req(2, 2, 0xFFFF, max(40, ooff), out_objs, out_iocs, api, rt_class) + alarmcr_req()
-                  + expected(api, 1, 0x100, subs))
+                  + iocr_req(2, 2, 0xFFFF, max(40, ooff), out_objs, out_iocs, api, rt_class) + alarmcr_req() + exp)
     res_blocks = ar_block_res() + iocr_res(1, 1, in_fid) + iocr_res(2, 2, out_fid) + alarmcr_res()
     act = "00000007-0000-1010-8000-000000000007"
     req = frame(CONTROLLER_MAC, DEVICE_MAC, CONTROLLER_IP, DEVICE_IP, 49153, 34964,
                 dcerpc(0, 0, ndr_request(req_blocks), act=act))
     res = frame(DEVICE_MAC, CONTROLLER_MAC, DEVICE_IP, CONTROLLER_IP, 49154, 49153,
                 dcerpc(2, 0, ndr_response(res_blocks, little=True), act=act, little=True, flags1=0x0A))
+    return req, res
+
+
+def prm_end_pair(seq: int = 1) -> tuple[bytes, bytes]:
+    """(request, response) of the controller's Control(PrmEnd): IODControlReq 0x0110, ControlCommand 0x0001, and
+    the device's IODControlRes 0x8110 with Done 0x0008 (wire.md §6.8)."""
+    act = "00000007-0000-1010-8000-000000000007"
+    def body(bt, cmd):
+        return block(bt, b"\0\0" + uuid_bytes(AR_UUID) + struct.pack(">HHHH", 1, 0, cmd, 0))
+    req = frame(CONTROLLER_MAC, DEVICE_MAC, CONTROLLER_IP, DEVICE_IP, 49153, 34964,
+                dcerpc(0, 4, ndr_request(body(0x0110, 0x0001)), act=act, seq=seq))
+    res = frame(DEVICE_MAC, CONTROLLER_MAC, DEVICE_IP, CONTROLLER_IP, 49154, 49153,
+                dcerpc(2, 4, ndr_response(body(0x8110, 0x0008)), act=act, seq=seq, flags1=0x0A))
     return req, res

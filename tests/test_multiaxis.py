@@ -1,0 +1,96 @@
+"""A device with several encoders in one AR (behaviour/network.md §1.7: one Encoder Object per module): all
+their setpoints travel in one output frame and all their actual values in one input frame. Each axis is
+judged on its own, by the reference path, the engine (which must pair across the two shared streams in
+capture order) and the plugin in real tshark."""
+from __future__ import annotations
+
+import shutil
+import struct
+
+import pytest
+
+import rpc_frames as R
+from pndiss.analyzer import analyze_file
+from pndiss.settings import Settings
+
+MAP_IDENT, T81_IDENT = 0xFFFF, 0x1051
+
+
+def _pcap(path, frames, step_us=500):
+    with open(path, "wb") as f:
+        f.write(struct.pack("<IHHiIII", 0xA1B2C3D4, 2, 4, 0, 0, 65535, 1))
+        for i, fr in enumerate(frames):
+            t = 1_700_000_000_000_000 + i * step_us
+            f.write(struct.pack("<IIII", t // 1_000_000, t % 1_000_000, len(fr), len(fr)) + fr)
+
+
+def multiaxis_capture(path, slots=(1, 2), cycles=300, fault_slot=None, fault_from=150, io_slot=None):
+    """A Connect of encoders in ``slots`` (telegram 81, 4 bytes out / 12 in, guessed from lengths on the
+    encoder API), optionally an ordinary 2-byte input module in ``io_slot``, PrmEnd, then ``cycles`` cycles
+    of a correct V4.1 encoder per slot; ``fault_slot`` holds control requested at 0 from ``fault_from``."""
+    subs = []
+    for s in slots:
+        subs += [(s, 1, MAP_IDENT, 0, 0, 0), (s, 2, T81_IDENT, 3, 12, 4)]
+    if io_slot is not None:
+        subs.append((io_slot, 1, 0x0321, 1, 2, 0))
+    req, res = R.connect_pair(subs)
+    frames = [req, res, *R.prm_end_pair()]
+    for i in range(cycles):
+        sol = i % 15 + 1
+        out, inp, iocs_in, iocs_out = b"", b"", b"", b""
+        for s in slots:
+            creq = 0 if (s == fault_slot and i >= fault_from) else 0x0200
+            out += struct.pack(">HH", 0x0400 | sol << 12, 0) + b"\x80"
+            inp += struct.pack(">HHII", creq | sol << 12, 0, 1000 * s + i, 0) + b"\x80"
+        if io_slot is not None:
+            inp += struct.pack(">H", i) + b"\x80"
+        in_bytes, out_bytes = _layout(subs, inp, out)
+        for src, dst, fid, sdu in ((R.CONTROLLER_MAC, R.DEVICE_MAC, 0x8001, out_bytes),
+                                   (R.DEVICE_MAC, R.CONTROLLER_MAC, 0x8000, in_bytes)):
+            frames.append(R.eth(src, dst, struct.pack(">H", fid) + sdu.ljust(40, b"\0")
+                                + struct.pack(">HBB", i * 32, 0x35, 0), 0x8892))
+    _pcap(path, frames)
+    return path
+
+
+def _layout(subs, inp, out):
+    """C_SDUs as connect_pair's offsets put them: the input frame holds each input submodule's data + IOPS in
+    the order of ``subs`` then an IOCS per output submodule; the output frame the reverse."""
+    in_b, out_b = b"", b""
+    ii = oi = 0
+    for _slot, _ss, _ident, typ, in_len, out_len in subs:
+        if typ in (0, 1, 3):
+            n = in_len if typ else 0
+            in_b += inp[ii:ii + n] + b"\x80"
+            ii += n + (1 if n else 0)
+        if typ in (2, 3):
+            out_b += out[oi:oi + out_len] + b"\x80"
+            oi += out_len + 1
+    n_out = sum(1 for s in subs if s[3] in (2, 3))
+    n_in = sum(1 for s in subs if s[3] in (0, 1, 3))
+    return in_b + b"\x80" * n_out, out_b + b"\x80" * n_in
+
+
+def _violations(path):
+    evs = []
+    a = analyze_file(path, Settings(), sink=lambda e: evs.append(e) if e["kind"] == "violation" else None)
+    return [(e["rule"], e.get("slot"), e["frame"]) for e in evs], a
+
+
+@pytest.mark.parametrize("fault_slot", [None, 1, 2])
+def test_each_axis_of_a_shared_frame_is_judged(tmp_path, fault_slot):
+    from test_fastpath import _same_both_ways
+    path = multiaxis_capture(str(tmp_path / "two.pcap"), fault_slot=fault_slot, io_slot=3)
+    viol, a = _violations(path)
+    axes = a.summary()["cyclic"]["encoders"]
+    # no 0xBF00 is written: each axis reports that at PrmEnd (frame 3)
+    want = [("STARTUP-NO-PARAM-RECORD", 1, 3), ("STARTUP-NO-PARAM-RECORD", 2, 3)]
+    if fault_slot is not None:
+        want.append(("CTRLREQ-MISMATCH", fault_slot, 5 + 2 * 150 + 1))
+    assert viol == want
+    assert [(x["slot"], x["cycles"], x["lost_cycles"]) for x in axes] == [(1, 300, 0), (2, 300, 0)]
+    _same_both_ways(path)   # the engine pairs both axes across the two shared streams
+    if shutil.which("tshark"):
+        from test_lua_plugin import compare as plugin_compare
+        n, bad, lua_viol, py_viol = plugin_compare(path)
+        assert n and not bad and lua_viol == py_viol, bad[:5]
