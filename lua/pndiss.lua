@@ -417,6 +417,15 @@ local function lookup(fid, src, dst)
         if misses[key] % RELOOKUP_EVERY ~= 0 then return nil end
     end
     local fm = maps[key]
+    if fm == nil and dst == "NONE" then
+        -- session.lookup: a Linux cooked capture has no destination address; the frame ID and the sender name
+        -- the stream when exactly one map has them
+        local pre, found, n = fid .. "|" .. src .. "|", nil, 0
+        for k, m in pairs(maps) do
+            if k:sub(1, #pre) == pre then found, n = m, n + 1 end
+        end
+        if n == 1 then fm = found end
+    end
     if fm == nil and usermap[fid] then
         local u = usermap[fid]
         local inp = u.direction == "input"

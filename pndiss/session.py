@@ -17,6 +17,7 @@ from .session_ar import ArLayer, ar_summary
 from .session_records import MAX_CALLS, RecordLayer, param_pairer
 from .session_rpc import PORT_RT_UDP, RpcLayer
 
+NO_DST = "00:00:00:00:00:00"   # proto/eth.py: a Linux cooked header carries no destination address
 RESEND_WINDOW_NS = 10_000_000_000   # a client resends an unanswered DCE/RPC request within seconds (wire.md §5.1)
 
 
@@ -128,7 +129,14 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
         k = (frame_id, src, dst)
         if k in self._fallback:
             return self._fallback[k]
-        fm = self.usermap.frame_map(frame_id, src, dst) if self.usermap is not None else None
+        fm = None
+        if dst == NO_DST:
+            # a Linux cooked capture (SLL/SLL2, tcpdump -i any) has no destination address: the frame ID and
+            # its sender name the stream when exactly one map in force has them
+            found = [m for (f, s, _d), m in self.maps.items() if f == frame_id and s == src]
+            fm = found[0] if len(found) == 1 else None
+        if fm is None and self.usermap is not None:
+            fm = self.usermap.frame_map(frame_id, src, dst)
         if len(self._fallback) >= MAX_CALLS:
             self._fallback.clear()
         self._fallback[k] = fm

@@ -1,0 +1,63 @@
+"""Linux cooked captures (tcpdump -i any on a soft PLC or an edge box): SLL (linktype 113) and SLL2 (276)
+carry the sender's address but no destination. The Connect still names both ends, so the AR's cyclic frames
+are tied to it by frame ID and sender (session.lookup), in the Python core, the engine and the plugin."""
+from __future__ import annotations
+
+import shutil
+import struct
+
+import pytest
+
+from pndiss.analyzer import analyze_file
+from pndiss.settings import Settings
+from test_multiaxis import multiaxis_capture
+
+
+def _frames(path):
+    data = open(path, "rb").read()
+    off, out = 24, []
+    while off < len(data):
+        sec, usec, n, _orig = struct.unpack_from("<IIII", data, off)
+        out.append((sec, usec, data[off + 16:off + 16 + n]))
+        off += 16 + n
+    return out
+
+
+def _cooked(eth: bytes, linktype: int, outgoing: bool) -> bytes:
+    src, etype, payload = eth[6:12], eth[12:14], eth[14:]
+    ptype = 4 if outgoing else 0   # sent by this host / addressed to it
+    if linktype == 113:
+        return struct.pack(">HHH", ptype, 1, 6) + src + b"\0\0" + etype + payload
+    return etype + b"\0\0" + struct.pack(">IHBB", 3, 1, ptype, 6) + src + b"\0\0" + payload
+
+
+def _as_cooked(src_path, dst_path, linktype):
+    plc = bytes.fromhex("020000000001")
+    with open(dst_path, "wb") as f:
+        f.write(struct.pack("<IHHiIII", 0xA1B2C3D4, 2, 4, 0, 0, 65535, linktype))
+        for sec, usec, fr in _frames(src_path):
+            c = _cooked(fr, linktype, fr[6:12] == plc)
+            f.write(struct.pack("<IIII", sec, usec, len(c), len(c)) + c)
+    return dst_path
+
+
+def _violations(path):
+    evs = []
+    a = analyze_file(path, Settings(), sink=lambda e: evs.append(e) if e["kind"] == "violation" else None)
+    return [(e["rule"], e.get("slot"), e["frame"]) for e in evs], a.summary()
+
+
+@pytest.mark.parametrize("linktype", [113, 276])
+def test_cooked_capture_maps_the_ar_from_its_connect(tmp_path, linktype):
+    from test_fastpath import _same_both_ways
+    eth = multiaxis_capture(str(tmp_path / "eth.pcap"), fault_slot=2)
+    cooked = _as_cooked(eth, str(tmp_path / f"ll{linktype}.pcap"), linktype)
+    want, s_eth = _violations(eth)
+    got, s = _violations(cooked)
+    assert ("CTRLREQ-MISMATCH", 2, 306) in got and got == want
+    assert s["cyclic"]["frames_mapped"] == s_eth["cyclic"]["frames_mapped"] == 600
+    _same_both_ways(cooked)
+    if shutil.which("tshark"):
+        from test_lua_plugin import compare as plugin_compare
+        n, bad, lua_viol, py_viol = plugin_compare(cooked)
+        assert n and not bad and lua_viol == py_viol, bad[:5]
