@@ -352,12 +352,12 @@ local function gcd(a, b)
 end
 local GAP_UNIT_NS, GAP_HALF_WRAP_NS = 31250, 0x10000 * 31250 / 2
 local GAP_DUP_NS = 125000
--- a mirror port's copy of the stream's previous frame: same counter and (DataStatus, C_SDU) within half a
+-- a mirror port's copy of the stream's previous frame: same counter and (DataStatus, C_SDU) within 3/4 of a
 -- cycle (pndiss/gaps.py duplicate); returns the frame it copies
 local function gap_duplicate(key, cc, ts, last)
     local st = gap_streams[key]
     if st == nil or st.cc ~= cc or st.ts == nil then return nil end
-    local window = st.step > 0 and math.floor(st.step * GAP_UNIT_NS / 2) or GAP_DUP_NS
+    local window = st.step > 0 and math.floor(st.step * GAP_UNIT_NS * 3 / 4) or GAP_DUP_NS
     if math.abs(ts - st.ts) >= window or st.last ~= last then return nil end
     return st.fn
 end

@@ -74,11 +74,13 @@ class GapTracker:
 
     def duplicate(self, key, fn: int, ts: int, cc: int, last: tuple) -> bool:
         """Frame ``fn`` is a copy of the stream's previous captured frame: the same counter and ``last``
-        (DataStatus, C_SDU) within half a cycle (DUP_NS while the step is unknown). Counted here."""
+        (DataStatus, C_SDU) within 3/4 of a cycle (DUP_NS while the step is unknown). A mirror port queues
+        its copy behind other traffic (past half a 250 us cycle in plant captures); a frozen provider sends
+        the same frame again a whole cycle later, give or take its jitter. Counted here."""
         st = self.streams.get(key)
         if st is None or st.cc != cc or st.ts is None:
             return False
-        if abs(ts - st.ts) >= (st.step * UNIT_NS // 2 if st.step else DUP_NS) or st.last != last:
+        if abs(ts - st.ts) >= (st.step * UNIT_NS * 3 // 4 if st.step else DUP_NS) or st.last != last:
             return False
         self.duplicates += 1
         if self.first_duplicate is None or fn < self.first_duplicate[0]:  # the engine visits streams in bulk

@@ -222,9 +222,10 @@ def test_pause_longer_than_the_counter_wraps():
 
 # -- a mirror port's copies: every cyclic frame captured twice, 5 us apart -------------------------
 
-@pytest.fixture(scope="module")
-def doubled(tmp_path_factory):
-    """A preset session with a fault (so handshake deadlines matter), each frame followed by its copy.
+@pytest.fixture(scope="module", params=[5_000, 600_000], ids=["copy-5us", "copy-600us"])
+def doubled(tmp_path_factory, request):
+    """A preset session with a fault (so handshake deadlines matter), each frame followed by its copy, 5 us
+    later or -- a mirror port's queue -- 0.6 of the 1 ms cycle later (behind the next frames of other streams).
     Returns (path, the original's violations [(rule, frame)] renumbered, number of cyclic copies)."""
     from pndiss.capture import open_capture
     from pndiss.sim.pcapng import Writer
@@ -232,14 +233,22 @@ def doubled(tmp_path_factory):
     src = capedit.simulate(os.path.join(tmp, "full.pcapng"), "--scenario", "preset", "--cycles", "300",
                            "--inject", "PRESET-ACK-MISSING")
     cyc = {f for fns in capedit.cyclic_streams(src).values() for f in fns}
-    ren, n = {}, 0
+    rows = []
+    for fn, ts, _lt, d in open_capture(src):
+        # every frame: DCP, LLDP, RPC (a retransmission to DCE/RPC) and cyclic
+        # (until its stream's step is known from the Connect, a copy must come within 125 us: gaps.DUP_NS)
+        lag = request.param if fn > 30 else 5_000
+        rows += [(ts, 0, fn, bytes(d)), (ts + lag, 1, None, bytes(d))]
+    rows.sort(key=lambda r: (r[0], r[1]))
+    ren = {}
+    n = len(cyc)
     dst = os.path.join(tmp, "doubled.pcapng")
     with open(dst, "wb") as f:
         w = Writer(f)
-        for fn, ts, _lt, d in open_capture(src):
-            ren[fn] = w.write(ts, bytes(d))
-            w.write(ts + 5000, bytes(d))   # every frame: DCP, LLDP, RPC (a retransmission to DCE/RPC) and cyclic
-            n += fn in cyc
+        for ts, _o, fn, d in rows:
+            got = w.write(ts, d)
+            if fn is not None:
+                ren[fn] = got
     evs = []
     analyze_file(src, Settings(fast_path=False), sink=lambda e: evs.append(e) if e["kind"] == "violation" else None)
     want = [(e["rule"], ren[e["frame"]]) for e in evs]
@@ -285,7 +294,9 @@ def test_a_repeated_frame_a_cycle_later_is_a_cycle():
     assert not g.duplicate(key, 3, 5_000, 100, (0x35, b"\x01" + b"\x00" * 39))   # other data
     assert not g.duplicate(key, 4, 5_000, 132, last)                              # the next counter
     assert not g.duplicate(key, 5, 1_000_000, 100, last)                          # a cycle (1 ms) later
-    assert g.summary()["duplicates"] == 1 and g.summary()["first_duplicate"] == [2, 1]
+    assert g.duplicate(key, 6, 700_000, 100, last)      # a mirror port's copy queued past half a cycle
+    assert not g.duplicate(key, 7, 760_000, 100, last)  # 3/4 of a cycle: a frozen provider's early resend
+    assert g.summary()["duplicates"] == 2 and g.summary()["first_duplicate"] == [2, 1]
 
 
 @pytest.mark.skipif(shutil.which("tshark") is None, reason="tshark not installed")
