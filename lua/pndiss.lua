@@ -474,7 +474,7 @@ for _, n in ipairs({"pn_io.opnum", "pn_io.block_type", "pn_io.ar_uuid", "pn_io.c
                     "pn_io.module_ident_number", "pn_io.submodule_ident_number", "pn_io.iocr_multicast_mac_add",
                     "pn_io.index", "pn_io.im_profile_id", "pn_io.vendor_id_high", "pn_io.vendor_id_low",
                     "pn_io.order_id", "dcerpc.pkt_type", "dcerpc.dg_act_id", "dcerpc.dg_seqnum", "dcerpc.dg_frag_len",
-                    "pn_rt.frame_id", "pn_rt.ds", "pn_rt.cycle_counter", "pn_io.send_clock_factor", "pn_io.reduction_ratio",
+                    "pn_rt.frame_id", "pn_rt.ds", "pn_rt.transfer_status", "pn_rt.cycle_counter", "pn_io.send_clock_factor", "pn_io.reduction_ratio",
                     "pn_io.error_code", "pn_io.error_decode", "pn_io.error_code1", "pn_io.error_code2",
                     "pn_io.control_command", "pn_io.pdu_type.type", "pn_io.alarm_type", "pn_io.send_seq_num",
                     "pn_io.alarm_src_endpoint", "pn_io.channel_error_type", "pn_io.channel_properties.specifier", "pn_io.artype_req",
@@ -2108,8 +2108,9 @@ local function heuristic(tvb, pinfo, tree)
         local fr = lookup(fi.value, src, dst)
         if fr == nil then infer_offer(key, fi.value, src, dst, pinfo.number, tvb) end   -- mid-session capture
         if fr == nil or #fr.objs == 0 then return false end
-        -- DataStatus: DataValid (bit 2) and ProviderState RUN (bit 4), wire.md §2.3
-        local ok_ds = ds ~= nil and bit.band(ds.value, 0x14) == 0x14
+        -- rt.judgeable: DataValid (bit 2), ProviderState RUN (bit 4) and TransferStatus 0, wire.md §2.3
+        local xs = X["pn_rt.transfer_status"]()
+        local ok_ds = ds ~= nil and bit.band(ds.value, 0x14) == 0x14 and (xs == nil or xs.value == 0)
         local ph = fr.fm.phase   -- before PrmEnd or after the AR's end: not judged (cyclic.py NOT_JUDGED_PHASES)
         if ph == "parameterisation" or ph == "released" or ph == "aborted" then ok_ds = false end
         if ph == "released" or ph == "aborted" then   -- gaps.restart: a later AR here is no capture loss

@@ -27,6 +27,7 @@ from .encoder.acyclic import tg_length_problem
 from .gaps import GapTracker
 from .infer import Inference
 from .proto.common import Malformed
+from .proto.rt import judgeable
 
 IOPS_GOOD = 0x80          # IOxS DataState bit (wire.md §2.3, IEC 61158-6-10)
 RELOOKUP_EVERY = 1024     # frames between lookups of a still unmapped frame ID
@@ -157,9 +158,8 @@ class CyclicTracker(AxisTracking):
 
     # -- per frame ---------------------------------------------------------------------------------
     def on_frame(self, rt_ev: dict, pdu: bytes, csdu_off: int) -> None:
-        # DataValid and provider in RUN (wire.md §2.3)
         self.on_cyclic((rt_ev["frame_id"], rt_ev["src"], rt_ev["dst"]), rt_ev["frame"], rt_ev["ts_ns"],
-                       bool(rt_ev["ds_valid"] and rt_ev["ds_operate"]), pdu, csdu_off, rt_ev)
+                       judgeable(rt_ev["ds"], rt_ev["transfer_status"]), pdu, csdu_off, rt_ev)
 
     def on_cyclic(self, key: tuple, fn: int, ts: int, ds_ok: bool, pdu: bytes, csdu_off: int,
                   rt_ev: dict | None = None) -> None:

@@ -30,6 +30,7 @@ from . import frameindex
 from .cyclic import RELOOKUP_EVERY
 from .pairing import Group, walk_group
 from .proto.common import Malformed
+from .proto.rt import judgeable
 
 ETH_PNRT = 0x8892
 K2 = np.uint64(0x9E3779B97F4A7C15)
@@ -363,7 +364,7 @@ class Window:
         s.n += 1
         try:
             off = 18 if data[12] == 0x81 else 14
-            self.e.t.on_cyclic(s.key, fn, ts, data[-2] & 0x14 == 0x14, data, off + 2)
+            self.e.t.on_cyclic(s.key, fn, ts, judgeable(data[-2], data[-1]), data, off + 2)
         except Malformed as e:
             s.bad += 1
             a.add_malformed(fn, ts, e.layer, e.reason)

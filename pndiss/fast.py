@@ -113,7 +113,7 @@ def stepper(a, streams: dict):
                 a.cur_frame = fn   # the frame being processed: what emitted events belong to (Analyzer.at)
                 try:
                     # DataStatus: DataValid (0x04) and ProviderState RUN (0x10), wire.md §2.3
-                    on_cyclic(s.key, fn, ts, data[-2] & 0x14 == 0x14, data, off + 2)
+                    on_cyclic(s.key, fn, ts, rt.judgeable(data[-2], data[-1]), data, off + 2)
                 except Malformed as e:
                     s.bad += 1
                     a.add_malformed(fn, ts, e.layer, e.reason)

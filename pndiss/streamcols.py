@@ -10,6 +10,7 @@ import numpy as np
 
 from . import telegrams as tg
 from .gaps import LEARN, WRAP
+from .proto.rt import DS_JUDGED
 
 BLOCK = 4096         # pairs judged per vectorised pass
 RETRY_MAX = 64       # frames one by one after a failed attempt before the next (backoff)
@@ -32,7 +33,7 @@ class Cols:
         self.capbad = cap != self.cap0
         end = d + cap   # each row's own end: a shorter frame may end the buffer (its APDU status is its last 4 bytes)
         self.cc = (u8[end - 4].astype(np.int64) << 8) | u8[end - 3]
-        self.ds = (u8[end - 2] & 0x14) == 0x14          # DataValid and provider RUN (wire.md §2.3)
+        self.ds = ((u8[end - 2] & DS_JUDGED) == DS_JUDGED) & (u8[end - 1] == 0)   # rt.judgeable, vectorised
         self.off = 18 if w.tagged[p[0]] else 14
         self.L = self.cap0 - self.off - 6                # C_SDU length (up to the APDU status)
         self.M = None

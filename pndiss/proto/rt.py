@@ -84,6 +84,15 @@ def data_status_words(ds: int) -> str:
     ))
 
 
+DS_JUDGED = 0x14   # DataValid + ProviderState RUN (wire.md §2.3)
+
+
+def judgeable(ds: int, transfer_status: int) -> bool:
+    """A cyclic frame whose data a consumer takes: DataValid, provider in RUN and TransferStatus 0 (any other
+    value marks a frame the network damaged; tshark: "ignore this frame", wire.md §2.3)."""
+    return ds & DS_JUDGED == DS_JUDGED and transfer_status == 0
+
+
 def decode_apdu_status(pdu: bytes, off: int) -> dict:
     """APDU status of a cyclic PDU that starts at ``off`` (the FrameID) and runs to the end."""
     n = len(pdu) - off
