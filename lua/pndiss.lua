@@ -238,9 +238,9 @@ local function telegrams_for_length(actual, setpoint)
     return out
 end
 
--- session.guess_telegram: both lengths must fit; 87 (4/4) and 86/860 (4/8) only on drive APIs, or on a device
--- known as an encoder of a profile that has them (its own telegrams first)
-local function guess_telegram(out_len, in_len, api, profile)
+-- session.guess_telegram: both lengths must fit; 87 (4/4) and 86/860 (4/8), and any telegram in subslot 1, only on
+-- drive APIs, or on a device known as an encoder of a profile that has them (its own telegrams first)
+local function guess_telegram(out_len, in_len, api, profile, subslot)
     if out_len == nil or in_len == nil then return nil end
     local first, mine = nil, nil
     for _, row in ipairs(T.telegram_lengths) do
@@ -254,7 +254,7 @@ local function guess_telegram(out_len, in_len, api, profile)
         end
     end
     if first == nil then return nil end
-    if not DRIVE_APIS[api] and ((out_len == 4 and in_len == 4) or (out_len == 4 and in_len == 8)) then
+    if not DRIVE_APIS[api] and ((out_len == 4 and in_len == 4) or (out_len == 4 and in_len == 8) or subslot == 1) then
         return mine
     end
     return mine or first
@@ -694,7 +694,7 @@ local function connect_response(key, pinfo)
                     -- the device's identity, not the Device profile preference (any plain 4/8-byte IO module)
                     local prof, why = profile_for(device)
                     if tostring(why):sub(1, 6) == "set by" then prof = "generic" end
-                    obj.telegram = guess_telegram(e.output[1], e.input[1], o.api, prof)
+                    obj.telegram = guess_telegram(e.output[1], e.input[1], o.api, prof, o.subslot)
                     if obj.telegram then obj.telegram_source = "length" end
                 end
                 fm.objects[#fm.objects + 1] = obj

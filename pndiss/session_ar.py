@@ -39,12 +39,16 @@ def _telegram_lengths() -> list[tuple[int, int, int]]:
 _TG_LENGTHS: list[tuple[int, int, int]] | None = None
 
 
-def guess_telegram(out_len: int, in_len: int, api: int, profile: str = "generic") -> tuple[int | None, str | None]:
+def guess_telegram(out_len: int, in_len: int, api: int, profile: str = "generic",
+                   subslot: int | None = None) -> tuple[int | None, str | None]:
     """Telegram for a submodule with these output/input lengths (both directions must match).
 
     Telegrams whose lengths also fit plain IO modules (87: 4/4, 86 and 860: 4/8) are only guessed on
     the PROFIdrive or encoder API, or on a device known as an encoder of a profile that has them (a
-    Hohner or SCANCON 860 on API 0, cyclic.md §2). A known profile's own telegrams come first.
+    Hohner or SCANCON 860 on API 0, cyclic.md §2). Off those APIs, data in subslot 1 is no telegram
+    either, unless the device is known as an encoder of a profile that has it: an encoder module has its
+    access point there and the telegram in subslot 2 (000_37bf2397999f1108.txt:1444-1458, 2756), where a
+    plain IO module keeps its data. A known profile's own telegrams come first.
     Returns (telegram, note) or (None, None).
     """
     global _TG_LENGTHS
@@ -55,7 +59,7 @@ def guess_telegram(out_len: int, in_len: int, api: int, profile: str = "generic"
         return None, None
     from . import telegrams as tg
     mine = [t for t in hits if profile != "generic" and profile in tg.TELEGRAMS[t]["profiles"]]
-    if api not in DRIVE_APIS and (out_len, in_len) in ((4, 4), (4, 8)) and not mine:
+    if api not in DRIVE_APIS and ((out_len, in_len) in ((4, 4), (4, 8)) or subslot == 1) and not mine:
         return None, None
     hits = mine or hits
     note = f"guessed from lengths out {out_len} / in {in_len}"
@@ -245,7 +249,7 @@ class ArLayer:
             # the device's identity (DCP, I&M0, 0xFFFF), not --profile: that would make every plain 4/8-byte
             # IO module of a plant an encoder telegram
             t, note = guess_telegram(e["output"][0], e["input"][0], do.api,
-                                     "generic" if why.startswith("set by --profile") else prof)
+                                     "generic" if why.startswith("set by --profile") else prof, do.subslot)
             if t is not None:
                 do.telegram, do.telegram_source = t, "length"
                 return note

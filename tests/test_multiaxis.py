@@ -24,16 +24,18 @@ def _pcap(path, frames, step_us=500):
             f.write(struct.pack("<IIII", t // 1_000_000, t % 1_000_000, len(fr), len(fr)) + fr)
 
 
-def multiaxis_capture(path, slots=(1, 2), cycles=300, fault_slot=None, fault_from=150, io_slot=None):
+def multiaxis_capture(path, slots=(1, 2), cycles=300, fault_slot=None, fault_from=150, io_slot=None, api=0x3D00,
+                      tel_subslot=2):
     """A Connect of encoders in ``slots`` (telegram 81, 4 bytes out / 12 in, guessed from lengths on the
     encoder API), optionally an ordinary 2-byte input module in ``io_slot``, PrmEnd, then ``cycles`` cycles
     of a correct V4.1 encoder per slot; ``fault_slot`` holds control requested at 0 from ``fault_from``."""
     subs = []
     for s in slots:
-        subs += [(s, 1, MAP_IDENT, 0, 0, 0), (s, 2, T81_IDENT, 3, 12, 4)]
+        subs += [(s, 1, MAP_IDENT, 0, 0, 0)] if tel_subslot != 1 else []
+        subs += [(s, tel_subslot, T81_IDENT, 3, 12, 4)]
     if io_slot is not None:
         subs.append((io_slot, 1, 0x0321, 1, 2, 0))
-    req, res = R.connect_pair(subs)
+    req, res = R.connect_pair(subs, api=api)
     frames = [req, res, *R.prm_end_pair()]
     for i in range(cycles):
         sol = i % 15 + 1
@@ -94,3 +96,20 @@ def test_each_axis_of_a_shared_frame_is_judged(tmp_path, fault_slot):
         from test_lua_plugin import compare as plugin_compare
         n, bad, lua_viol, py_viol = plugin_compare(path)
         assert n and not bad and lua_viol == py_viol, bad[:5]
+
+
+@pytest.mark.parametrize("tel_subslot, judged", [(2, True), (1, False)])
+def test_length_guess_off_the_encoder_api(tmp_path, tel_subslot, judged):
+    """On API 0 a 4/12-byte submodule behind an access point (subslot 2) is guessed telegram 81; one in subslot 1
+    is a plain IO module's data (an analog module of an IO device), not an encoder -- in the core and the plugin."""
+    path = multiaxis_capture(str(tmp_path / "api0.pcap"), slots=(1,), fault_slot=1, api=0, tel_subslot=tel_subslot)
+    viol, a = _violations(path)
+    cyc = a.summary()["cyclic"]
+    if judged:
+        assert ("CTRLREQ-MISMATCH", 1, 306) in viol and len(cyc["encoders"]) == 1
+    else:
+        assert viol == [] and cyc["encoders"] == [] and cyc["frames_no_telegram"] == 600
+    if shutil.which("tshark"):
+        from test_lua_plugin import compare as plugin_compare
+        n, bad, lua_viol, py_viol = plugin_compare(path)
+        assert (n > 0) == judged and not bad and lua_viol == py_viol, bad[:5]

@@ -77,6 +77,15 @@ def test_guess_telegram(out_len, in_len, api, want):
     assert guess_telegram(out_len, in_len, api)[0] == want
 
 
+def test_guess_telegram_subslot_one_off_the_drive_apis():
+    # a PROFIdrive module keeps its access point in subslot 1 and the telegram in subslot 2; a plain IO module
+    # keeps its data in subslot 1 (000_37bf2397999f1108.txt:1444-1458)
+    assert guess_telegram(4, 12, 0, subslot=1)[0] is None
+    assert guess_telegram(4, 12, 0, subslot=2)[0] == 81
+    assert guess_telegram(4, 12, ENC, subslot=1)[0] == 81          # the encoder API says it
+    assert guess_telegram(4, 12, 0, "lika", subslot=1)[0] == 81     # a device known as a Lika encoder
+
+
 def test_ambiguous_length_says_so():
     t, note = guess_telegram(4, 12, ENC)
     assert t == 81 and "100" in note  # OEM 100 has the same lengths; the standard one wins
