@@ -1571,6 +1571,17 @@ end
 -- one is PS/PSM (a length guess proves it only when no other telegram fits), and so is one the session
 -- saw written at record 0xFFFF (profile_for); PS/PSM keeps its
 -- parameters at 0xFFFF, so the device's 0xFFFF records are given to the checker again
+-- cyclic_axes.addressed_to: a record or parameter access addressed to another encoder module of the device is that
+-- module's (one Encoder Object per module and slot); one addressed elsewhere is every axis' of the device
+local function addressed_to(ax, ev)
+    local slot = ev.slot
+    if slot == nil or slot == ax.info.slot or ax.fm == nil then return true end
+    for _, d in ipairs(ax.fm.objects or {}) do
+        if d.slot == slot and d.telegram ~= nil then return false end
+    end
+    return true
+end
+
 local function refine_profile(ax, fn)
     local t = ax.telegram
     local chk = ax.checker
@@ -1597,7 +1608,7 @@ local function refine_profile(ax, fn)
         chk.cfg.sources.profile = ax.reason
         chk:apply_cfg()
         for _, ev in ipairs(dev_records[ax.info.device_mac or ""] or {}) do
-            if ev.kind == "record" and ev.index == 0xFFFF then note(chk:on_record(ev), fn) end
+            if ev.kind == "record" and ev.index == 0xFFFF and addressed_to(ax, ev) then note(chk:on_record(ev), fn) end
         end
     end
 end
@@ -1639,7 +1650,9 @@ local function new_axis(o, fr, fn)
     axes[o.key] = ax
     axis_list[#axis_list + 1] = ax
     for _, ev in ipairs(dev_records[fm.device or ""] or {}) do
-        if ev.ar_uuid == nil or fm.ar == nil or ev.ar_uuid == fm.ar then note(ax.checker:on_record(ev), fn) end
+        if (ev.ar_uuid == nil or fm.ar == nil or ev.ar_uuid == fm.ar) and addressed_to(ax, ev) then
+            note(ax.checker:on_record(ev), fn)
+        end
     end
     return ax
 end
@@ -1682,7 +1695,8 @@ function on_record(ev, fn)
     if kept then lst[#lst + 1] = ev end
     for _, ax in ipairs(axis_list) do
         if (ax.info.device_mac or "") == dev and (ev.ar_uuid == nil or ax.fm.ar == nil or ev.ar_uuid == ax.fm.ar
-                or (ev.kind == "param" and ax.fm.phase ~= "released" and ax.fm.phase ~= "aborted")) then
+                or (ev.kind == "param" and ax.fm.phase ~= "released" and ax.fm.phase ~= "aborted"))
+                and addressed_to(ax, ev) then
             -- any AR's parameter access while the axis' AR is up
             -- an axis of a restarted AR seen before its own 0xBF00 (#31)
             if ax.checker.prev_bf00 == nil then ax.checker.prev_bf00 = prev_bf00[dev] end

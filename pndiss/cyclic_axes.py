@@ -72,7 +72,7 @@ class AxisTracking:
         ax.checker.prev_bf00 = self.prev_bf00.get(fm.device_mac)
         self.axes[o.key] = ax
         for ev in self.records.get(fm.device_mac, ()):  # records seen before the first cyclic frame, in order
-            if ev.get("ar_uuid") is None or fm.ar_uuid is None or ev.get("ar_uuid") == fm.ar_uuid:
+            if (ev.get("ar_uuid") is None or fm.ar_uuid is None or ev.get("ar_uuid") == fm.ar_uuid) and addressed_to(ax, ev):
                 self._out(ax.checker.on_record(ev))  # a 0xBF00 among them configures the checker
         return ax
 
@@ -146,7 +146,7 @@ class AxisTracking:
             ax.checker.cfg.sources["profile"] = ax.reason
             ax.checker.reconfigure()
             for ev in self.records.get(ax.info["device_mac"], ()):  # PS/PSM keeps its parameters at 0xFFFF
-                if ev.get("kind") == "record" and ev.get("index") == 0xFFFF:
+                if ev.get("kind") == "record" and ev.get("index") == 0xFFFF and addressed_to(ax, ev):
                     self._out(ax.checker.on_record(ev))
 
     # -- AR phases (SessionTracker.set_phase, session_ar.py) --------------------------------------------
@@ -324,7 +324,8 @@ class AxisTracking:
             # its answers are the device's
             if ax.info["device_mac"] == dev and (ev.get("ar_uuid") is None or ax.fm is None or ax.fm.ar_uuid is None
                                                   or ev.get("ar_uuid") == ax.fm.ar_uuid
-                                                  or (ev.get("kind") == "param" and ax.fm.phase not in ENDED)):
+                                                  or (ev.get("kind") == "param" and ax.fm.phase not in ENDED)) \
+                    and addressed_to(ax, ev):
                 if ax.checker.prev_bf00 is None:  # an axis of a restarted AR seen before its own 0xBF00 (#31)
                     ax.checker.prev_bf00 = self.prev_bf00.get(dev)
                 if ax.profile == "generic" and ev.get("index") == 0xFFFF and ev.get("profile") == "psm":
@@ -332,6 +333,17 @@ class AxisTracking:
                     if kept:
                         continue
                 self._out(ax.checker.on_record(ev))
+
+
+def addressed_to(ax: Axis, ev: dict) -> bool:
+    """A record or parameter access for this axis: one addressed to another encoder module of the device is that
+    module's (one Encoder Object per module and slot, network.md §1.7; its parameter channel is its own); one
+    addressed elsewhere (the DAP, a slot the AR's telegrams do not name, an axis inferred from content) is every
+    axis' of the device."""
+    slot = ev.get("slot")
+    if slot is None or slot == ax.info.get("slot") or ax.fm is None:
+        return True
+    return all(do.slot != slot or do.telegram is None for do in ax.fm.objects)
 
 
 def tg_is_irt(frame_id: int) -> bool:

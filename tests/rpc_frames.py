@@ -178,3 +178,15 @@ def prm_end_pair(seq: int = 1) -> tuple[bytes, bytes]:
     res = frame(DEVICE_MAC, CONTROLLER_MAC, DEVICE_IP, CONTROLLER_IP, 49154, 49153,
                 dcerpc(2, 4, ndr_response(body(0x8110, 0x0008)), act=act, seq=seq, flags1=0x0A))
     return req, res
+
+
+def write_pair(index: int, data: bytes, *, seq: int = 2, api: int = 0x3D00, slot: int = 1, subslot: int = 1):
+    """(request, positive response) of a record write from the controller to the device."""
+    act = "00000007-0000-1010-8000-000000000007"
+    req = frame(CONTROLLER_MAC, DEVICE_MAC, CONTROLLER_IP, DEVICE_IP, 49153, 34964,
+                dcerpc(0, 3, ndr_request(rw_header(0x0008, index, len(data), seq=seq, api=api, slot=slot,
+                                                   subslot=subslot) + data), act=act, seq=seq))
+    res = frame(DEVICE_MAC, CONTROLLER_MAC, DEVICE_IP, CONTROLLER_IP, 49154, 49153,
+                dcerpc(2, 3, ndr_response(rw_header(0x8008, index, len(data), seq=seq, api=api, slot=slot,
+                                                    subslot=subslot)), act=act, seq=seq, flags1=0x0A))
+    return req, res

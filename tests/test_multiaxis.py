@@ -25,10 +25,12 @@ def _pcap(path, frames, step_us=500):
 
 
 def multiaxis_capture(path, slots=(1, 2), cycles=300, fault_slot=None, fault_from=150, io_slot=None, api=0x3D00,
-                      tel_subslot=2):
+                      tel_subslot=2, bf00=None, param_fault_slot=None):
     """A Connect of encoders in ``slots`` (telegram 81, 4 bytes out / 12 in, guessed from lengths on the
     encoder API), optionally an ordinary 2-byte input module in ``io_slot``, PrmEnd, then ``cycles`` cycles
-    of a correct V4.1 encoder per slot; ``fault_slot`` holds control requested at 0 from ``fault_from``."""
+    of a correct V4.1 encoder per slot; ``fault_slot`` holds control requested at 0 from ``fault_from``; ``bf00``:
+    slot -> the 0xBF00 record written to that module before PrmEnd; ``param_fault_slot`` reports a
+    parameterisation fault (G1_ZSW.15 with G1_XIST2 0x1002, cyclic.md §9) all along."""
     subs = []
     for s in slots:
         subs += [(s, 1, MAP_IDENT, 0, 0, 0)] if tel_subslot != 1 else []
@@ -36,14 +38,18 @@ def multiaxis_capture(path, slots=(1, 2), cycles=300, fault_slot=None, fault_fro
     if io_slot is not None:
         subs.append((io_slot, 1, 0x0321, 1, 2, 0))
     req, res = R.connect_pair(subs, api=api)
-    frames = [req, res, *R.prm_end_pair()]
+    frames = [req, res]
+    for k, (slot, data) in enumerate((bf00 or {}).items()):   # each module's user parameters (0xBF00)
+        frames += R.write_pair(0xBF00, data, seq=2 + k, api=api, slot=slot)
+    frames += R.prm_end_pair(seq=10)
     for i in range(cycles):
         sol = i % 15 + 1
         out, inp, iocs_in, iocs_out = b"", b"", b"", b""
         for s in slots:
             creq = 0 if (s == fault_slot and i >= fault_from) else 0x0200
             out += struct.pack(">HH", 0x0400 | sol << 12, 0) + b"\x80"
-            inp += struct.pack(">HHII", creq | sol << 12, 0, 1000 * s + i, 0) + b"\x80"
+            g1zsw, x2 = (0x8000, 0x1002) if s == param_fault_slot else (0, 0)
+            inp += struct.pack(">HHII", creq | sol << 12, g1zsw, 1000 * s + i, x2) + b"\x80"
         if io_slot is not None:
             inp += struct.pack(">H", i) + b"\x80"
         in_bytes, out_bytes = _layout(subs, inp, out)
@@ -113,3 +119,45 @@ def test_length_guess_off_the_encoder_api(tmp_path, tel_subslot, judged):
         from test_lua_plugin import compare as plugin_compare
         n, bad, lua_viol, py_viol = plugin_compare(path)
         assert (n > 0) == judged and not bad and lua_viol == py_viol, bad[:5]
+
+
+def _bf00(flags, mupr, tmr):
+    """A valid 0xBF00 (V4.1: compat bit 5 set; one tolerated master sign-of-life failure; rpm)."""
+    return bytes([flags | 0x20]) + struct.pack(">QQ", mupr, tmr) + bytes([1, 0]) + bytes(12)
+
+
+def test_each_module_takes_its_own_user_parameters(tmp_path):
+    """0xBF00 written per module with different settings: each axis is configured by its own slot's record (one
+    Encoder Object per module, network.md §1.7), in the core and the plugin."""
+    records = {1: _bf00(0x0A, 4096, 4096 * 8), 2: _bf00(0x01, 1000, 2000)}   # class 4 + scaling / CCW, no scaling
+    path = multiaxis_capture(str(tmp_path / "bf00.pcap"), bf00=records)
+    viol, a = _violations(path)
+    assert viol == []
+    got = {e["slot"]: {k: e["settings"][k] for k in ("class4", "scaling", "direction", "mupr", "tmr")}
+           for e in a.summary()["cyclic"]["encoders"]}
+    assert {s: {k: v["value"] for k, v in d.items()} for s, d in got.items()} == {
+        1: {"class4": 1, "scaling": 1, "direction": 0, "mupr": 4096, "tmr": 32768},
+        2: {"class4": 0, "scaling": 0, "direction": 1, "mupr": 1000, "tmr": 2000}}
+    assert got[1]["mupr"]["source"] == "captured 0xBF00 (frame 3)" and got[2]["mupr"]["source"] == "captured 0xBF00 (frame 5)"
+    from test_fastpath import _same_both_ways
+    _same_both_ways(path)
+    if shutil.which("tshark"):
+        from test_lua_plugin import compare as plugin_compare
+        n, bad, lua_viol, py_viol = plugin_compare(path)
+        assert n and not bad and lua_viol == py_viol, bad[:5]
+
+
+@pytest.mark.parametrize("reported", [False, True])
+def test_an_invalid_record_of_one_module_is_that_axis_fault(tmp_path, reported):
+    """Slot 2's 0xBF00 is invalid (MUPR 0). Its encoder runs on without reporting it: BF00-ERROR-NOT-REPORTED for
+    that axis only; or it reports the fault (0x1002): nothing more. Slot 1's valid record stays in force for
+    slot 1 either way: it is not blamed for slot 2's record (the plugin too)."""
+    records = {1: _bf00(0x0A, 4096, 4096 * 8), 2: _bf00(0x00, 0, 2000)}
+    path = multiaxis_capture(str(tmp_path / "bad2.pcap"), bf00=records, param_fault_slot=2 if reported else None)
+    viol, _a = _violations(path)
+    want = {("BF00-VALUE-OUT-OF-RANGE", 2)} | (set() if reported else {("BF00-ERROR-NOT-REPORTED", 2)})
+    assert {(r, s) for r, s, _f in viol} == want
+    if shutil.which("tshark"):
+        from test_lua_plugin import compare as plugin_compare
+        n, bad, lua_viol, py_viol = plugin_compare(path)
+        assert n and not bad and lua_viol == py_viol, (bad[:5], lua_viol, py_viol)
