@@ -4,9 +4,6 @@ from __future__ import annotations
 
 from collections import Counter
 
-from rich.table import Table
-
-from .report import row
 
 MAX_ROWS = 50
 
@@ -56,6 +53,9 @@ class Activity:
         }
 
     def report_sections(self) -> list:
+        from rich.table import Table   # the renderer only for a terminal report (-q prints one plain line)
+
+        from .report import row
         out = []
         if self.dcp:
             t = Table(title="DCP activity")

@@ -4,10 +4,6 @@ Built from ``CyclicTracker.summary()`` only, so the report shows exactly what th
 """
 from __future__ import annotations
 
-from rich.table import Table
-from rich.text import Text
-
-from .report import row
 from .session_report import profile_reason, telegram_source
 from .textsafe import visible
 
@@ -18,6 +14,10 @@ SHOWN_SETTINGS = ("profile", "telegram", "compat", "class4", "preset_control", "
 
 
 def sections(summary: dict) -> list:
+    from rich.table import Table   # the renderer only for a terminal report (-q prints one plain line)
+    from rich.text import Text
+
+    from .report import row
     out = []
     encs = summary.get("encoders", [])
     if not encs:

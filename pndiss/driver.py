@@ -98,8 +98,8 @@ def analyze(paths, settings=None, sinks=(), progress=None, verdict_hooks: dict |
         paths = [paths]
     sinks = _as_sinks(sinks)
     a = Analyzer(settings)
-    if known_sha256:
-        a.reader = ReadInfo(known_sha256)
+    # the input's digest only for a sink that shows it (an MCAP file's metadata), or as the caller took it
+    a.reader = ReadInfo(known_sha256, digest=any(s.digest for s in sinks))
     a.sink = _dispatch(a, sinks)
     a.frame_events = frame_events(sinks)
     hooks = dict(verdict_hooks or {})

@@ -208,12 +208,11 @@ class McapExporter(Topics):
         if self.capture_path:
             meta["capture"] = os.path.basename(self.capture_path)
             meta["capture_path"] = self.capture_path
-            if self.reader_info is not None:   # hashed while it was read: never a second pass
-                meta["capture_sha256"] = self.reader_info.sha256()
-                if self.reader_info.ts_clamped:   # log times of these messages are clamped to [0, 2^63) ns
-                    meta["timestamps_clamped"] = str(self.reader_info.ts_clamped)
-            else:
-                meta["capture_sha256"] = _sha256(self.capture_path)
+            digest = self.reader_info.sha256() if self.reader_info is not None else None
+            # hashed while it was read (the engine's run: the sink asked for it); else one more pass
+            meta["capture_sha256"] = _sha256(self.capture_path) if digest is None else digest
+            if self.reader_info is not None and self.reader_info.ts_clamped:   # log times clamped to [0, 2^63) ns
+                meta["timestamps_clamped"] = str(self.reader_info.ts_clamped)
         if self.settings is not None:
             s = self.settings.as_dict() if hasattr(self.settings, "as_dict") else dict(self.settings)
             meta["settings"] = json.dumps(s, sort_keys=True, default=default)

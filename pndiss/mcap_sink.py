@@ -53,6 +53,7 @@ class McapSink(colrows.HeldSink):
     kinds = None      # every event kind; cyclic frames' rt / telegram events come as rows
     cycles = True
     streams = True
+    digest = True     # the file's metadata names the capture's SHA-256
 
     def __init__(self, path: str | None = None, capture_path: str | None = None, settings=None, *,
                  on_change: bool = False, decimate: int = 1, keyframe_ns: int = 1_000_000_000,

@@ -5,9 +5,6 @@ from __future__ import annotations
 import json
 import os
 
-from rich.table import Table
-
-from .report import row
 from .textsafe import text
 
 with open(os.path.join(os.path.dirname(__file__), "data", "labels.json"), encoding="utf-8") as _f:
@@ -124,6 +121,9 @@ def profile_reason(e: dict) -> str:
 
 
 def sections(tracker) -> list:
+    from rich.table import Table   # the renderer only for a terminal report (-q prints one plain line)
+
+    from .report import row
     out = []
     encs = encoder_views(tracker)
     refused = [ar for ar in tracker.ar_list if not ar["ok"]]

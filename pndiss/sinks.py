@@ -66,6 +66,7 @@ class Sink:
     kinds: frozenset | None = frozenset()
     cycles: bool = False
     streams: bool = False
+    digest: bool = False    # the input's SHA-256 (ReadInfo.sha256): hashed while read only when a sink says so
 
     def wants(self, kind: str) -> bool:
         return self.kinds is None or kind in self.kinds

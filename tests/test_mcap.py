@@ -229,6 +229,20 @@ def test_capture_roundtrip(cap, exports):
         assert node["metadata"]["pndiss"]["capture_sha256"] == md["capture_sha256"]
 
 
+def test_input_digest_only_for_a_sink_that_shows_it(tmp_path):
+    """The SHA-256 of the input (~0.8 s of CPU per GB) is taken while reading only when a sink declares it needs
+    it (the MCAP file's metadata): a plain analysis does not pay for it."""
+    from pndiss.driver import analyze
+    from pndiss.mcap_sink import McapSink
+    cap = CAPTURES[0]
+    assert analyze(cap).reader.sha256() is None
+    sink = McapSink(str(tmp_path / "d.mcap"), cap, None)
+    a = analyze(cap, None, [sink])
+    sink.close()
+    with open(cap, "rb") as f:
+        assert a.reader.sha256() == hashlib.sha256(f.read()).hexdigest()
+
+
 # -- synthetic streams -----------------------------------------------------------------------
 DEV, CTRL = "00:0e:cf:00:00:01", "00:1b:1b:00:00:02"
 

@@ -56,7 +56,7 @@ def multiaxis_capture(path, slots=(1, 2), cycles=300, fault_slot=None, fault_fro
         for src, dst, fid, sdu in ((R.CONTROLLER_MAC, R.DEVICE_MAC, 0x8001, out_bytes),
                                    (R.DEVICE_MAC, R.CONTROLLER_MAC, 0x8000, in_bytes)):
             frames.append(R.eth(src, dst, struct.pack(">H", fid) + sdu.ljust(40, b"\0")
-                                + struct.pack(">HBB", i * 32, 0x35, 0), 0x8892))
+                                + struct.pack(">HBB", i * 32 % 65536, 0x35, 0), 0x8892))
     _pcap(path, frames)
     return path
 

@@ -170,7 +170,6 @@ def run(args) -> int:
     from ..driver import analyze
     from ..errors import UsageError
     from ..events import FrameTimes, Scope, json_default
-    from ..report import ProgressReporter, render_report, render_violation
     from ..sinks import FRAME_KINDS
     from ..verdict import one_line
 
@@ -226,6 +225,9 @@ def run(args) -> int:
 
     # the terminal report goes to stderr when stdout carries data
     to_stderr = args.jsonl == "-" or args.summary_json == "-"
+    # the terminal renderer (rich) only for a report, a progress bar or --follow: -q prints one plain line
+    if not args.quiet or args.follow:
+        from ..report import ProgressReporter, render_report, render_violation
     progress = None if args.no_progress or args.quiet or args.follow else ProgressReporter(args.capture, to_stderr)
     report_out = sys.stderr if to_stderr else sys.stdout
     hooks = {}
