@@ -351,15 +351,16 @@ local function gcd(a, b)
     return a
 end
 local GAP_UNIT_NS, GAP_HALF_WRAP_NS = 31250, 0x10000 * 31250 / 2
-local GAP_DUP_NS = 125000
--- a mirror port's copy of the stream's previous frame: same counter and (DataStatus, C_SDU) within 3/4 of a
--- cycle (pndiss/gaps.py duplicate); returns the frame it copies
+local GAP_NEWER_MAX = 61440
+-- pndiss/gaps.py duplicate: a frame whose counter is not newer than the stream's previous frame's (the consumer's
+-- cycle-counter check: (now - last) mod 2^16 in 1..61440), less than half a wrap later, is discarded: returns
+-- (that frame, true) for a copy of it (same counter, DataStatus and C_SDU), (that frame, false) for a stale one
 local function gap_duplicate(key, cc, ts, last)
     local st = gap_streams[key]
-    if st == nil or st.cc ~= cc or st.ts == nil then return nil end
-    local window = st.step > 0 and math.floor(st.step * GAP_UNIT_NS * 3 / 4) or GAP_DUP_NS
-    if math.abs(ts - st.ts) >= window or st.last ~= last then return nil end
-    return st.fn
+    if st == nil or st.cc == nil or st.ts == nil or ts - st.ts >= GAP_HALF_WRAP_NS then return nil end
+    local d = (cc - st.cc) % 0x10000
+    if d >= 1 and d <= GAP_NEWER_MAX then return nil end
+    return st.fn, d == 0 and st.last == last
 end
 local function gap_advance(key, cc, ts, last, fn)
     local st = gap_stream(key)
@@ -2113,9 +2114,10 @@ local function heuristic(tvb, pinfo, tree)
         local cc = X["pn_rt.cycle_counter"]()
         local ds = X["pn_rt.ds"]()
         local last = tostring(ds and ds.value) .. "|" .. tvb:raw()
-        local copy_of = cc and gap_duplicate(key, cc.value, ts_ns(pinfo), last)
+        local copy_of, is_copy = nil, false
+        if cc then copy_of, is_copy = gap_duplicate(key, cc.value, ts_ns(pinfo), last) end
         if copy_of then
-            cyc_cache[pinfo.number] = {objs = {}, copy_of = copy_of}
+            cyc_cache[pinfo.number] = {objs = {}, copy_of = copy_of, stale = not is_copy}
             return false
         end
         local miss = cc and gap_advance(key, cc.value, ts_ns(pinfo), last, pinfo.number) or 0
@@ -2135,7 +2137,10 @@ local function heuristic(tvb, pinfo, tree)
         cyc_cache[pinfo.number] = cached
     end
     if tree then
-        if cached.copy_of then
+        if cached.copy_of and cached.stale then
+            tree:add(pndiss, tvb(0, 0), "PROFINET encoder: cycle counter not newer than frame " .. cached.copy_of
+                     .. "'s (a late copy, or a repeated counter): a consumer discards it, not a cycle")
+        elseif cached.copy_of then
             tree:add(pndiss, tvb(0, 0), "PROFINET encoder: copy of frame " .. cached.copy_of
                      .. " (same cycle counter, status and data: a mirror port saw it twice), not a cycle")
         end

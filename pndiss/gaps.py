@@ -9,9 +9,12 @@ whose counter does not advance in multiples of its step (a provider with a free-
 is marked non-uniform and judged without gap detection. The two directions of an AR have their own
 counters (RT: independent clocks), so each stream is followed on its own.
 
-The opposite of loss: a mirror port that sees a frame on two ports captures it twice. A copy has the
-same CycleCounter, DataStatus and C_SDU as the stream's previous captured frame and comes within half
-a cycle: the provider sent one frame, so the copy is no cycle (``duplicate``), only counted.
+The opposite of loss: a mirror port that sees a frame on two ports captures it twice, sometimes a
+cycle or more late (its queue holds the copy behind other traffic). A consumer takes a frame only when
+its CycleCounter is newer than the last one it took: (now - last) mod 2^16 in 1..61440 (PROFINET IO
+2.4 §4.7.2.1.2, as the p-net device stack checks it); a frame with the same or an up to 4,095 units
+older counter is discarded. So is it here (``duplicate``): no cycle, only counted -- as a copy when
+it repeats the stream's previous frame (same CycleCounter, DataStatus and C_SDU), else as stale.
 """
 from __future__ import annotations
 
@@ -23,7 +26,7 @@ HALF_WRAP_NS = WRAP * UNIT_NS // 2
 LEARN = 4            # advances seen before a learnt step is trusted
 IRREGULAR_MAX = 3    # advances off the step before the stream counts as non-uniform
 MAX_EVENTS = 1000    # gaps kept for the summary/report (events carry all of them)
-DUP_NS = 125_000     # a copy's distance while the stream's step is unknown: half the shortest RT cycle (250 us)
+NEWER_MAX = 61440    # the consumer's cycle-counter check: (now - last) mod 2^16 in 1..61440 is a newer frame
 
 
 class Stream:
@@ -56,6 +59,8 @@ class GapTracker:
         self.prev = None      # the stream's previous captured frame, set by advance()
         self.duplicates = 0   # copies of frames (``duplicate``)
         self.first_duplicate = None   # (frame, the frame it copies)
+        self.stale = 0        # other frames whose counter is not newer (``duplicate``)
+        self.first_stale = None       # (frame, the frame it is not newer than)
 
     def step_from(self, key, step: int | None) -> None:
         """The stream's cycle step from its IOCR (SendClockFactor x ReductionRatio), when the Connect says it."""
@@ -73,18 +78,24 @@ class GapTracker:
             st.cc = st.frame = st.ts = st.last = None
 
     def duplicate(self, key, fn: int, ts: int, cc: int, last: tuple) -> bool:
-        """Frame ``fn`` is a copy of the stream's previous captured frame: the same counter and ``last``
-        (DataStatus, C_SDU) within 3/4 of a cycle (DUP_NS while the step is unknown). A mirror port queues
-        its copy behind other traffic (past half a 250 us cycle in plant captures); a frozen provider sends
-        the same frame again a whole cycle later, give or take its jitter. Counted here."""
+        """Frame ``fn`` is one a consumer discards: its counter is not newer than the stream's previous captured
+        frame's (the cycle-counter check, NEWER_MAX), which came less than half a counter wrap (1.024 s)
+        before. A copy when it repeats that frame's ``last`` (DataStatus, C_SDU) and counter, else stale
+        (a late copy of an earlier frame, or a provider repeating its counter). Counted here."""
         st = self.streams.get(key)
-        if st is None or st.cc != cc or st.ts is None:
+        if st is None or st.cc is None or st.ts is None or ts - st.ts >= HALF_WRAP_NS:
             return False
-        if abs(ts - st.ts) >= (st.step * UNIT_NS * 3 // 4 if st.step else DUP_NS) or st.last != last:
+        d = (cc - st.cc) % WRAP
+        if 1 <= d <= NEWER_MAX:
             return False
-        self.duplicates += 1
-        if self.first_duplicate is None or fn < self.first_duplicate[0]:  # the engine visits streams in bulk
-            self.first_duplicate = (fn, st.frame)
+        if d == 0 and st.last == last:
+            self.duplicates += 1
+            if self.first_duplicate is None or fn < self.first_duplicate[0]:  # the engine visits streams in bulk
+                self.first_duplicate = (fn, st.frame)
+        else:
+            self.stale += 1
+            if self.first_stale is None or fn < self.first_stale[0]:
+                self.first_stale = (fn, st.frame)
         return True
 
     def advance(self, key, fn: int, ts: int, cc: int, last: tuple | None = None) -> int:
@@ -171,4 +182,5 @@ class GapTracker:
                                 "uniform": st.uniform})
         return {"count": self.count, "cycles_missing": self.missing, "streams": streams,
                 "checked": self.enabled, "gaps": self.kept(), "duplicates": self.duplicates,
-                "first_duplicate": list(self.first_duplicate) if self.first_duplicate else None}
+                "first_duplicate": list(self.first_duplicate) if self.first_duplicate else None,
+                "stale": self.stale, "first_stale": list(self.first_stale) if self.first_stale else None}

@@ -144,8 +144,14 @@ def trust(summary: dict) -> list[str]:
     if gaps.get("duplicates"):
         fd = gaps.get("first_duplicate") or [None, None]
         out.append(f"duplicate frames: {gaps['duplicates']:,} cyclic frames are copies of the frame before them "
-                   f"(same cycle counter, status and data within half a cycle; first: frame {fd[0]} of frame {fd[1]}): "
+                   f"(same cycle counter, status and data; first: frame {fd[0]} of frame {fd[1]}): "
                    "a mirror port seeing them twice; counted once as a cycle")
+    if gaps.get("stale"):
+        fs = gaps.get("first_stale") or [None, None]
+        out.append(f"stale frames: {gaps['stale']:,} cyclic frames carry a cycle counter that is not newer than their "
+                   f"stream's frame before them (first: frame {fs[0]}, after frame {fs[1]}): late copies of a mirror port "
+                   "or a provider repeating its counter; a consumer discards them (PROFINET cycle-counter check), "
+                   "so they are no cycles here either")
     inp = summary.get("input") or {}
     if inp.get("frames_cut"):
         out.append(f"{inp['frames_cut']:,} frame(s) cut by the capture's snap length (kept {inp['frames_cut_to_bytes']:,} "

@@ -222,10 +222,11 @@ def test_pause_longer_than_the_counter_wraps():
 
 # -- a mirror port's copies: every cyclic frame captured twice, 5 us apart -------------------------
 
-@pytest.fixture(scope="module", params=[5_000, 600_000], ids=["copy-5us", "copy-600us"])
+@pytest.fixture(scope="module", params=[5_000, 600_000, 1_500_000], ids=["copy-5us", "copy-600us", "copy-1.5ms"])
 def doubled(tmp_path_factory, request):
     """A preset session with a fault (so handshake deadlines matter), each frame followed by its copy, 5 us
-    later or -- a mirror port's queue -- 0.6 of the 1 ms cycle later (behind the next frames of other streams).
+    later or -- a mirror port's queue -- 0.6 of the 1 ms cycle later (behind the next frames of other streams)
+    or 1.5 cycles later (behind its own stream's next frame: its counter is older then).
     Returns (path, the original's violations [(rule, frame)] renumbered, number of cyclic copies)."""
     from pndiss.capture import open_capture
     from pndiss.sim.pcapng import Writer
@@ -236,9 +237,7 @@ def doubled(tmp_path_factory, request):
     rows = []
     for fn, ts, _lt, d in open_capture(src):
         # every frame: DCP, LLDP, RPC (a retransmission to DCE/RPC) and cyclic
-        # (until its stream's step is known from the Connect, a copy must come within 125 us: gaps.DUP_NS)
-        lag = request.param if fn > 30 else 5_000
-        rows += [(ts, 0, fn, bytes(d)), (ts + lag, 1, None, bytes(d))]
+        rows += [(ts, 0, fn, bytes(d)), (ts + request.param, 1, None, bytes(d))]
     rows.sort(key=lambda r: (r[0], r[1]))
     ren = {}
     n = len(cyc)
@@ -263,7 +262,8 @@ def test_copies_of_frames_are_no_cycles(doubled):
     a = analyze_file(path, Settings(fast_path=False), sink=lambda e: evs.append(e) if e["kind"] == "violation" else None)
     assert [(e["rule"], e["frame"]) for e in evs] == want
     s = a.summary()
-    assert s["cyclic"]["capture_gaps"]["duplicates"] == n and s["cyclic"]["capture_gaps"]["count"] == 0
+    g = s["cyclic"]["capture_gaps"]
+    assert g["duplicates"] + g["stale"] == n and g["count"] == 0
     ref, fast = analyze_file(path, Settings(fast_path=False)).summary(), analyze_file(path).summary()
     ref.pop("settings"), fast.pop("settings")
     assert json.dumps(ref, sort_keys=True, default=str) == json.dumps(fast, sort_keys=True, default=str)
@@ -284,19 +284,24 @@ def test_copies_of_rpc_responses_run_once(doubled):
     assert count(path) == orig
 
 
-def test_a_repeated_frame_a_cycle_later_is_a_cycle():
-    """Same counter and data a whole cycle later: the provider sent it again (a frozen device), not a copy."""
+def test_a_frame_whose_counter_is_not_newer_is_discarded():
+    """The consumer's cycle-counter check (PROFINET IO 2.4 §4.7.2.1.2: newer when (now - last) mod 2^16 is in
+    1..61440): a frame repeating the counter, however late, or carrying an up to 4,095 units older one is no
+    cycle -- a copy when it repeats the previous frame, else stale."""
     g = GapTracker()
     key, last = (1, "a", "b"), (0x35, b"\x00" * 40)
     g.step_from(key, 32)
     g.advance(key, 1, 0, 100, last)
-    assert g.duplicate(key, 2, 5_000, 100, last)
-    assert not g.duplicate(key, 3, 5_000, 100, (0x35, b"\x01" + b"\x00" * 39))   # other data
+    assert g.duplicate(key, 2, 5_000, 100, last)                                  # a copy, 5 us later
+    assert g.duplicate(key, 3, 900_000, 100, last)                                # 0.9 of a cycle later
     assert not g.duplicate(key, 4, 5_000, 132, last)                              # the next counter
-    assert not g.duplicate(key, 5, 1_000_000, 100, last)                          # a cycle (1 ms) later
-    assert g.duplicate(key, 6, 700_000, 100, last)      # a mirror port's copy queued past half a cycle
-    assert not g.duplicate(key, 7, 760_000, 100, last)  # 3/4 of a cycle: a frozen provider's early resend
-    assert g.summary()["duplicates"] == 2 and g.summary()["first_duplicate"] == [2, 1]
+    assert not g.duplicate(key, 5, 5_000, 100 + 61440, last)                      # newest still newer
+    assert g.duplicate(key, 6, 5_000, 100 + 61441, last)                          # 4,095 units older
+    assert g.duplicate(key, 7, 5_000, 68, last)                                   # the frame before: stale
+    assert g.duplicate(key, 8, 5_000, 100, (0x35, b"\x01" + b"\x00" * 39))      # same counter, other data
+    assert not g.duplicate(key, 9, 1_100_000_000, 100, last)   # more than half a wrap (1.024 s) later: it wrapped
+    s = g.summary()
+    assert (s["duplicates"], s["first_duplicate"], s["stale"], s["first_stale"]) == (2, [2, 1], 3, [6, 1])
 
 
 @pytest.mark.skipif(shutil.which("tshark") is None, reason="tshark not installed")

@@ -40,7 +40,7 @@ def _run(rows, compat):
         sp, ac = T.parse(r, 81)
         out += chk.cycle(i, i * 1000, sp, ac)
     out += chk.finish()
-    return [e["rule"] for e in out if e["kind"] == "violation"], chk
+    return {e["rule"] for e in out if e["kind"] == "violation"}, chk
 
 
 @pytest.mark.parametrize("name,rows,open_rules,learnt,given_rules", CASES, ids=[c[0] for c in CASES])

@@ -26,7 +26,7 @@ PARTIAL = {
                            "inferred from the cyclic content has no slot/subslot, so its alarms are not correlated",
     "BF00-ERROR-NOT-REPORTED": "0x1002 in G1_XIST2, or a 0x9011 diagnosis alarm of the axis' submodule, within D_preset "
                                "cycles",
-    "BF00-VALID-REJECTED": "checks 0x1002 in G1_XIST2 after a valid record; 0x9011 alarms are not correlated",
+    "BF00-VALID-REJECTED": "0x1002 in G1_XIST2 or a 0x9011 diagnosis alarm after a valid record (an AR inferred from content has no slot: its alarms are not correlated)",
     "SOL-MASTER-ZERO": "only with SOLMON (iso from the RT class, or settings.iso / sol_monitor_rt)",
     "POSITION-DISCONTINUITY": "plausible step = settings.max_position_step, else R/8 [INFERENCE]; LIKA red-zone jumps not modelled",
     "POSITION-OUT-OF-RANGE": "needs R: 0xBF00 TMR with scaling, or settings st_phys/mt_phys",
