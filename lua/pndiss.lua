@@ -238,8 +238,9 @@ local function telegrams_for_length(actual, setpoint)
     return out
 end
 
--- session.guess_telegram: both lengths must fit; 87 (4/4) and 86/860 (4/8), and any telegram in subslot 1, only on
--- drive APIs, or on a device known as an encoder of a profile that has them (its own telegrams first)
+-- session.guess_telegram: both lengths must fit; 87 (4/4) and 86/860 (4/8) only on the encoder API 0x3D00, any
+-- telegram in subslot 1 only on drive APIs, or on a device known as an encoder of a profile that has them (its own
+-- telegrams first)
 local function guess_telegram(out_len, in_len, api, profile, subslot)
     if out_len == nil or in_len == nil then return nil end
     local first, mine = nil, nil
@@ -254,7 +255,8 @@ local function guess_telegram(out_len, in_len, api, profile, subslot)
         end
     end
     if first == nil then return nil end
-    if not DRIVE_APIS[api] and ((out_len == 4 and in_len == 4) or (out_len == 4 and in_len == 8) or subslot == 1) then
+    if (api ~= 0x3D00 and ((out_len == 4 and in_len == 4) or (out_len == 4 and in_len == 8)))
+            or (not DRIVE_APIS[api] and subslot == 1) then
         return mine
     end
     return mine or first

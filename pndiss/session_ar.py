@@ -44,8 +44,9 @@ def guess_telegram(out_len: int, in_len: int, api: int, profile: str = "generic"
     """Telegram for a submodule with these output/input lengths (both directions must match).
 
     Telegrams whose lengths also fit plain IO modules (87: 4/4, 86 and 860: 4/8) are only guessed on
-    the PROFIdrive or encoder API, or on a device known as an encoder of a profile that has them (a
-    Hohner or SCANCON 860 on API 0, cyclic.md §2). Off those APIs, data in subslot 1 is no telegram
+    the encoder API 0x3D00 (PS/PSM's encoder object, network.md §1.7; on the PROFIdrive API 0x3A00 4/4 is
+    drive telegram 1), or on a device known as an encoder of a profile that has them (a Hohner or SCANCON
+    860 on API 0, cyclic.md §2). Off those APIs, data in subslot 1 is no telegram
     either, unless the device is known as an encoder of a profile that has it: an encoder module has its
     access point there and the telegram in subslot 2 (000_37bf2397999f1108.txt:1444-1458, 2756), where a
     plain IO module keeps its data. A known profile's own telegrams come first.
@@ -59,7 +60,8 @@ def guess_telegram(out_len: int, in_len: int, api: int, profile: str = "generic"
         return None, None
     from . import telegrams as tg
     mine = [t for t in hits if profile != "generic" and profile in tg.TELEGRAMS[t]["profiles"]]
-    if api not in DRIVE_APIS and ((out_len, in_len) in ((4, 4), (4, 8)) or subslot == 1) and not mine:
+    if not mine and ((api != API_ENCODER and (out_len, in_len) in ((4, 4), (4, 8)))
+                     or (api not in DRIVE_APIS and subslot == 1)):
         return None, None
     hits = mine or hits
     note = f"guessed from lengths out {out_len} / in {in_len}"

@@ -25,16 +25,17 @@ def _pcap(path, frames, step_us=500):
 
 
 def multiaxis_capture(path, slots=(1, 2), cycles=300, fault_slot=None, fault_from=150, io_slot=None, api=0x3D00,
-                      tel_subslot=2, bf00=None, param_fault_slot=None):
+                      tel_subslot=2, bf00=None, param_fault_slot=None, lengths=(12, 4)):
     """A Connect of encoders in ``slots`` (telegram 81, 4 bytes out / 12 in, guessed from lengths on the
     encoder API), optionally an ordinary 2-byte input module in ``io_slot``, PrmEnd, then ``cycles`` cycles
     of a correct V4.1 encoder per slot; ``fault_slot`` holds control requested at 0 from ``fault_from``; ``bf00``:
     slot -> the 0xBF00 record written to that module before PrmEnd; ``param_fault_slot`` reports a
-    parameterisation fault (G1_ZSW.15 with G1_XIST2 0x1002, cyclic.md §9) all along."""
+    parameterisation fault (G1_ZSW.15 with G1_XIST2 0x1002, cyclic.md §9) all along; ``lengths``: (in, out)
+    bytes of each telegram submodule (the telegram 81 words cut or zero-padded to them)."""
     subs = []
     for s in slots:
         subs += [(s, 1, MAP_IDENT, 0, 0, 0)] if tel_subslot != 1 else []
-        subs += [(s, tel_subslot, T81_IDENT, 3, 12, 4)]
+        subs += [(s, tel_subslot, T81_IDENT, 3, *lengths)]
     if io_slot is not None:
         subs.append((io_slot, 1, 0x0321, 1, 2, 0))
     req, res = R.connect_pair(subs, api=api)
@@ -47,9 +48,9 @@ def multiaxis_capture(path, slots=(1, 2), cycles=300, fault_slot=None, fault_fro
         out, inp, iocs_in, iocs_out = b"", b"", b"", b""
         for s in slots:
             creq = 0 if (s == fault_slot and i >= fault_from) else 0x0200
-            out += struct.pack(">HH", 0x0400 | sol << 12, 0) + b"\x80"
+            out += struct.pack(">HH", 0x0400 | sol << 12, 0)[:lengths[1]].ljust(lengths[1], b"\0") + b"\x80"
             g1zsw, x2 = (0x8000, 0x1002) if s == param_fault_slot else (0, 0)
-            inp += struct.pack(">HHII", creq | sol << 12, g1zsw, 1000 * s + i, x2) + b"\x80"
+            inp += struct.pack(">HHII", creq | sol << 12, g1zsw, 1000 * s + i, x2)[:lengths[0]].ljust(lengths[0], b"\0") + b"\x80"
         if io_slot is not None:
             inp += struct.pack(">H", i) + b"\x80"
         in_bytes, out_bytes = _layout(subs, inp, out)
@@ -104,14 +105,19 @@ def test_each_axis_of_a_shared_frame_is_judged(tmp_path, fault_slot):
         assert n and not bad and lua_viol == py_viol, bad[:5]
 
 
-@pytest.mark.parametrize("tel_subslot, judged", [(2, True), (1, False)])
-def test_length_guess_off_the_encoder_api(tmp_path, tel_subslot, judged):
+@pytest.mark.parametrize("api, tel_subslot, lengths, judged", [(0, 2, (12, 4), True), (0, 1, (12, 4), False),
+                                                             (0x3A00, 2, (4, 4), False), (0x3D00, 2, (4, 4), True)])
+def test_length_guess_off_the_encoder_api(tmp_path, api, tel_subslot, lengths, judged):
     """On API 0 a 4/12-byte submodule behind an access point (subslot 2) is guessed telegram 81; one in subslot 1
-    is a plain IO module's data (an analog module of an IO device), not an encoder -- in the core and the plugin."""
-    path = multiaxis_capture(str(tmp_path / "api0.pcap"), slots=(1,), fault_slot=1, api=0, tel_subslot=tel_subslot)
+    is a plain IO module's data (an analog module of an IO device), not an encoder. 4/4 bytes are PS/PSM's
+    telegram 87 on the encoder API, drive telegram 1 on the PROFIdrive API -- in the core and the plugin."""
+    path = multiaxis_capture(str(tmp_path / "api0.pcap"), slots=(1,), fault_slot=1, api=api, tel_subslot=tel_subslot,
+                             lengths=lengths)
     viol, a = _violations(path)
     cyc = a.summary()["cyclic"]
-    if judged:
+    if judged and lengths == (4, 4):
+        assert [e["telegram"] for e in cyc["encoders"]] == [87]
+    elif judged:
         assert ("CTRLREQ-MISMATCH", 1, 306) in viol and len(cyc["encoders"]) == 1
     else:
         assert viol == [] and cyc["encoders"] == [] and cyc["frames_no_telegram"] == 600

@@ -70,7 +70,8 @@ def test_refused_connect_builds_no_map():
 # ---------------------------------------------------------------- telegram by length
 @pytest.mark.parametrize("out_len,in_len,api,want", [
     (4, 12, ENC, 81), (4, 14, ENC, 82), (4, 16, ENC, 83), (4, 20, ENC, 84), (4, 12, 0, 81),
-    (4, 4, 0, None), (4, 4, ENC, 87), (4, 8, 0, None), (4, 8, 0x3A00, 86), (12, 12, 0x3A00, None),
+    (4, 4, 0, None), (4, 4, ENC, 87), (4, 8, 0, None), (4, 8, 0x3A00, None), (4, 4, 0x3A00, None), (4, 8, ENC, 86),
+    (4, 12, 0x3A00, 81), (12, 12, 0x3A00, None),
     (8, 12, 0, 88), (6, 10, 0, 89),
 ])
 def test_guess_telegram(out_len, in_len, api, want):
