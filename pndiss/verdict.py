@@ -166,8 +166,9 @@ def trust(summary: dict) -> list[str]:
                    "`reordercap IN OUT` (Wireshark) and analyse that")
     if cyc.get("frames_unmapped"):
         out.append(f"unmapped streams: {cyc['frames_unmapped']:,} cyclic frames of no AR the capture shows "
-                   "(no Connect in the capture, nothing inferred from the content): give them with --map or "
-                   "--set telegram=N")
+                   "(no Connect in the capture maps them -- or, in a Linux cooked capture without destination "
+                   "addresses, several ARs of one sender share their frame ID -- and nothing was inferred from the "
+                   "content): give them with --map or --set telegram=N")
     if acc.get("malformed"):
         out.append(f"malformed frames: {acc['malformed']:,} (listed below)")
     for e in cyc.get("encoders", []):
