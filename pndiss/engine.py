@@ -51,6 +51,7 @@ class Engine:
         self.col = collector        # pndiss/batches.py: column batches for sinks of cycles / frames (or None)
         self.last_fn = 0
         self.last_ts = None
+        self.hashes = np.empty(0, dtype=np.uint64)   # sorted prefix hashes of earlier windows (Window._sid)
         self.frames_bulk = 0        # diagnostics (bench/NOTES.md)
         self.frames_single = 0
         self.frames_global = 0
@@ -130,6 +131,32 @@ class Engine:
         return stop, n + m
 
 
+HASHES_MAX = 4096   # prefix hashes remembered across windows (a plant's streams; a flood starts afresh)
+
+
+def _distinct(h, eng):
+    """np.unique(h, return_index=True, return_inverse=True), except that ``first`` names any frame of each
+    value (a representative: every use only needs one). When every value is one an earlier window had -- a
+    capture's streams go on -- it is a lookup in the engine's sorted table, not a sort of the window."""
+    kh = eng.hashes
+    if len(kh):
+        pos = np.searchsorted(kh, h)
+        np.minimum(pos, len(kh) - 1, out=pos)
+        if (kh[pos] == h).all():
+            rep = np.empty(len(kh), dtype=np.int64)
+            rep[pos] = np.arange(len(h))
+            present = np.zeros(len(kh), dtype=bool)
+            present[pos] = True
+            idx = np.flatnonzero(present)
+            remap = np.empty(len(kh), dtype=np.int64)
+            remap[idx] = np.arange(len(idx))
+            return kh[idx], rep[idx], remap[pos]
+    uh, first, inv = np.unique(h, return_index=True, return_inverse=True)
+    merged = np.union1d(kh, uh)
+    eng.hashes = merged if len(merged) <= HASHES_MAX else uh
+    return uh, first, inv
+
+
 class Window:
     """The frames of one window: stream ids, and the walk over segments and global frames."""
 
@@ -178,7 +205,7 @@ class Window:
         h ^= (w[2].astype(np.uint64) | (w[3].astype(np.uint64) << np.uint64(32))) * K3
         h ^= w4.astype(np.uint64)
         h = np.where(cand, h, np.uint64(0))
-        uh, first, inv = np.unique(h, return_index=True, return_inverse=True)
+        uh, first, inv = _distinct(h, self.e)
         same = (w[0] == w[0][first][inv]) & (w[1] == w[1][first][inv]) & (w[2] == w[2][first][inv]) \
             & (w[3] == w[3][first][inv]) & (w4 == w4[first][inv])
         if not (same | ~cand).all():

@@ -427,3 +427,21 @@ def test_full_jsonl_mutated_sessions(sessions, tmp_path, name, muts):
     path = str(tmp_path / "j.pcapng")
     _write(path, _mutate(sessions[name], muts)[:4000], "pcapng-le")
     assert _engine_lines(path) == _reference_lines(path)
+
+
+@given(st.lists(st.lists(st.integers(0, 12), min_size=1, max_size=300), min_size=1, max_size=6))
+@hsettings(max_examples=60, deadline=None)
+def test_distinct_prefix_hashes_as_unique(windows):
+    """engine._distinct answers as np.unique for window after window (the engine's table of earlier windows'
+    hashes only replaces the sort): the same distinct values and inverse, a representative frame of each."""
+    import numpy as np
+
+    class Eng:
+        hashes = np.empty(0, dtype=np.uint64)
+    eng = Eng()
+    for w in windows:
+        h = (np.array(w, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15))
+        uh, first, inv = engine._distinct(h, eng)
+        want_u, want_inv = np.unique(h, return_inverse=True)
+        assert (uh == want_u).all() and (inv == want_inv).all()
+        assert (h[first] == uh).all()
