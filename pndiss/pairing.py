@@ -1,8 +1,9 @@
 """One group of cyclic streams within a segment (pndiss/engine.py): counted, or paired and judged.
 
 A group is what the reference path's state ties together: an encoder axis' setpoint and actual
-streams (cyclic.py pairs them), or a stream alone (an IO device's, an unmapped one). Groups share no
-state inside a segment, so each is walked on its own.
+streams (cyclic.py pairs them), the two streams of a device with several encoders (every axis has a
+data object in both: its frames go one by one, in capture order), or a stream alone (an IO device's,
+an unmapped one). Groups share no state inside a segment, so each is walked on its own.
 
 An axis walk works on *pairs*. From a clean state (the last setpoint paired, nothing pending) the
 reference pairs the next two frames of the axis whenever one is a setpoint and one an actual value,
