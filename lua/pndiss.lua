@@ -683,6 +683,7 @@ local function connect_response(key, pinfo)
             if cr.type == 3 and cr.mcast then d = tostring(cr.mcast) end
             local fm = {direction = direction, device = device, controller = req.controller, ar = req.ar, frame_id = fid,
                         station = station, source = "connect", objects = {}, phase = "parameterisation",
+                        primary_only = req.ar_type == 0x0020,   -- armap.FrameMap.primary_only: system redundancy
                         -- armap.FrameMap.cycle_time_ns: SendClockFactor x ReductionRatio x 31.25 us
                         cycle_ns = (cr.scf and cr.scf > 0 and cr.rr and cr.rr > 0) and cr.scf * cr.rr * 31250 or nil}
             for _, o in ipairs(cr.objects) do
@@ -2131,6 +2132,8 @@ local function heuristic(tvb, pinfo, tree)
         local ok_ds = ds ~= nil and bit.band(ds.value, 0x14) == 0x14 and (xs == nil or xs.value == 0)
         local ph = fr.fm.phase   -- before PrmEnd or after the AR's end: not judged (cyclic.py NOT_JUDGED_PHASES)
         if ph == "parameterisation" or ph == "released" or ph == "aborted" then ok_ds = false end
+        -- a system redundancy AR's frame that says Backup (DataStatus.State, bit 0): the device acts on the primary
+        if fr.fm.primary_only and ds ~= nil and ds.value % 2 == 0 then ok_ds = false end
         if ph == "released" or ph == "aborted" then   -- gaps.restart: a later AR here is no capture loss
             local st = gap_streams[key]
             if st ~= nil then st.cc, st.ts, st.last = nil, nil, nil end

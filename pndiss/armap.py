@@ -57,6 +57,9 @@ class FrameMap:
     # the AR's phase (pndiss.session_ar PHASES); None = no Connect seen (map, mid-session): judged as data
     # exchange. Cycles of an AR still in 'parameterisation' (Connect seen, no PrmEnd yet) are not judged.
     phase: str | None = None
+    # a system redundancy AR (ARType 0x0020, S2/R1): the device acts on the AR its controller holds as primary;
+    # a frame of it whose DataStatus.State says Backup (bit 0 clear, wire.md §2.3) carries no cycle it acts on
+    primary_only: bool = False
 
     @property
     def cycle_time_ns(self) -> int | None:

@@ -41,7 +41,8 @@ class AxisWalk:
         iops = c.iops(o)
         if iops is None or fr.fm.phase in NOT_JUDGED_PHASES:
             return np.zeros(len(c.p), dtype=bool)
-        return c.ds & ((iops & IOPS_GOOD) != 0)
+        ok = c.ds & ((iops & IOPS_GOOD) != 0)
+        return ok & c.primary() if fr.fm.primary_only else ok   # cyclic.py: a backup AR's frames not judged
 
     def _columns(self) -> bool:
         if self.sigS is None:

@@ -201,6 +201,8 @@ class CyclicTracker(AxisTracking):
         self.mapped += 1
         if fr.fm.phase in NOT_JUDGED_PHASES:
             ds_ok = False   # before PrmEnd or after the AR's end: reported, not judged
+        elif fr.fm.primary_only and not pdu[-2] & 1:
+            ds_ok = False   # the backup AR of a redundant system: the device acts on the primary's outputs
             if fr.fm.phase != "parameterisation":
                 self.gaps.restart(key)   # the AR ended: a later AR on this stream is no capture loss
         csdu = pdu[csdu_off:len(pdu) - 4]

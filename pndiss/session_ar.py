@@ -124,7 +124,8 @@ class ArLayer:
                 fm = armap.FrameMap(frame_id=fid, direction=direction, controller_mac=controller, device_mac=device,
                                     station=dev_station, ar_uuid=ar_uuid, data_length=cr["data_length"],
                                     send_clock_factor=cr["send_clock_factor"],
-                                    reduction_ratio=cr["reduction_ratio"], watchdog_factor=cr["watchdog_factor"])
+                                    reduction_ratio=cr["reduction_ratio"], watchdog_factor=cr["watchdog_factor"],
+                                    primary_only=arq.get("artype_req") == SYSRED_AR_TYPE)
             other = "output" if direction == "input" else "input"
             for a in cr["apis"]:
                 for o in a["io_data_objects"]:
@@ -305,6 +306,7 @@ class ArLayer:
         self.a.cyclic.on_phase(ar, phase, fn, ts)
 
 
+SYSRED_AR_TYPE = 0x0020       # IOCARSR: system redundancy (S2/R1), one AR per controller of the H system
 SUPERVISOR_AR_TYPE = 0x0006   # IOSAR (wire.md; tshark pn_io_ar_type): an engineering tool beside the controller
 
 

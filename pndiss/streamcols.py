@@ -34,10 +34,15 @@ class Cols:
         end = d + cap   # each row's own end: a shorter frame may end the buffer (its APDU status is its last 4 bytes)
         self.cc = (u8[end - 4].astype(np.int64) << 8) | u8[end - 3]
         self.ds = ((u8[end - 2] & DS_JUDGED) == DS_JUDGED) & (u8[end - 1] == 0)   # rt.judgeable, vectorised
+        self._end = end
         self.off = 18 if w.tagged[p[0]] else 14
         self.L = self.cap0 - self.off - 6                # C_SDU length (up to the APDU status)
         self.M = None
         self.start = 0
+
+    def primary(self):
+        """DataStatus.State per frame: Primary (wire.md §2.3; a system redundancy AR judges only those)."""
+        return (self.w.u8[self._end - 2] & 1) == 1
 
     def obj(self, o) -> bool:
         """Gather the bytes of data object ``o`` (its IOPS byte included when the C_SDU has it)."""

@@ -73,9 +73,9 @@ def block(bt: int, body: bytes, vlow: int = 0) -> bytes:
     return struct.pack(">HHBB", bt, len(body) + 2, 1, vlow) + body
 
 
-def ar_block_req(station: str = "plc", ar_uuid: str = AR_UUID, udp_port: int = 0x8892) -> bytes:
+def ar_block_req(station: str = "plc", ar_uuid: str = AR_UUID, udp_port: int = 0x8892, ar_type: int = 1) -> bytes:
     name = station.encode()
-    body = struct.pack(">H", 1) + uuid_bytes(ar_uuid) + struct.pack(">H", 1) + mac_bytes(CONTROLLER_MAC)
+    body = struct.pack(">H", ar_type) + uuid_bytes(ar_uuid) + struct.pack(">H", 1) + mac_bytes(CONTROLLER_MAC)
     body += uuid_bytes("dea00000-6c97-11d1-8271-000100010279") + struct.pack(">IHHH", 0x11, 600, udp_port, len(name))
     return block(0x0101, body + name)
 

@@ -25,20 +25,23 @@ def _pcap(path, frames, step_us=500):
 
 
 def multiaxis_capture(path, slots=(1, 2), cycles=300, fault_slot=None, fault_from=150, io_slot=None, api=0x3D00,
-                      tel_subslot=2, bf00=None, param_fault_slot=None, lengths=(12, 4)):
+                      tel_subslot=2, bf00=None, param_fault_slot=None, lengths=(12, 4), ar_type=1, backup=None,
+                      backup_zero=True):
     """A Connect of encoders in ``slots`` (telegram 81, 4 bytes out / 12 in, guessed from lengths on the
     encoder API), optionally an ordinary 2-byte input module in ``io_slot``, PrmEnd, then ``cycles`` cycles
     of a correct V4.1 encoder per slot; ``fault_slot`` holds control requested at 0 from ``fault_from``; ``bf00``:
     slot -> the 0xBF00 record written to that module before PrmEnd; ``param_fault_slot`` reports a
     parameterisation fault (G1_ZSW.15 with G1_XIST2 0x1002, cyclic.md §9) all along; ``lengths``: (in, out)
-    bytes of each telegram submodule (the telegram 81 words cut or zero-padded to them)."""
+    bytes of each telegram submodule (the telegram 81 words cut or zero-padded to them); ``ar_type`` of the
+    Connect; ``backup``: (first, end) cycles whose output frames say Backup (DataStatus 0x34), with zero setpoints
+    unless not ``backup_zero``."""
     subs = []
     for s in slots:
         subs += [(s, 1, MAP_IDENT, 0, 0, 0)] if tel_subslot != 1 else []
         subs += [(s, tel_subslot, T81_IDENT, 3, *lengths)]
     if io_slot is not None:
         subs.append((io_slot, 1, 0x0321, 1, 2, 0))
-    req, res = R.connect_pair(subs, api=api)
+    req, res = R.connect_pair(subs, api=api, ar_type=ar_type)
     frames = [req, res]
     for k, (slot, data) in enumerate((bf00 or {}).items()):   # each module's user parameters (0xBF00)
         frames += R.write_pair(0xBF00, data, seq=2 + k, api=api, slot=slot)
@@ -48,16 +51,19 @@ def multiaxis_capture(path, slots=(1, 2), cycles=300, fault_slot=None, fault_fro
         out, inp, iocs_in, iocs_out = b"", b"", b"", b""
         for s in slots:
             creq = 0 if (s == fault_slot and i >= fault_from) else 0x0200
-            out += struct.pack(">HH", 0x0400 | sol << 12, 0)[:lengths[1]].ljust(lengths[1], b"\0") + b"\x80"
+            held = backup_zero and backup is not None and backup[0] <= i < backup[1]
+            sp = bytes(4) if held else struct.pack(">HH", 0x0400 | sol << 12, 0)
+            out += sp[:lengths[1]].ljust(lengths[1], b"\0") + b"\x80"
             g1zsw, x2 = (0x8000, 0x1002) if s == param_fault_slot else (0, 0)
             inp += struct.pack(">HHII", creq | sol << 12, g1zsw, 1000 * s + i, x2)[:lengths[0]].ljust(lengths[0], b"\0") + b"\x80"
         if io_slot is not None:
             inp += struct.pack(">H", i) + b"\x80"
         in_bytes, out_bytes = _layout(subs, inp, out)
-        for src, dst, fid, sdu in ((R.CONTROLLER_MAC, R.DEVICE_MAC, 0x8001, out_bytes),
-                                   (R.DEVICE_MAC, R.CONTROLLER_MAC, 0x8000, in_bytes)):
+        out_ds = 0x34 if backup is not None and backup[0] <= i < backup[1] else 0x35
+        for src, dst, fid, sdu, ds in ((R.CONTROLLER_MAC, R.DEVICE_MAC, 0x8001, out_bytes, out_ds),
+                                       (R.DEVICE_MAC, R.CONTROLLER_MAC, 0x8000, in_bytes, 0x35)):
             frames.append(R.eth(src, dst, struct.pack(">H", fid) + sdu.ljust(40, b"\0")
-                                + struct.pack(">HBB", i * 32 % 65536, 0x35, 0), 0x8892))
+                                + struct.pack(">HBB", i * 32 % 65536, ds, 0), 0x8892))
     _pcap(path, frames)
     return path
 
@@ -167,3 +173,24 @@ def test_an_invalid_record_of_one_module_is_that_axis_fault(tmp_path, reported):
         from test_lua_plugin import compare as plugin_compare
         n, bad, lua_viol, py_viol = plugin_compare(path)
         assert n and not bad and lua_viol == py_viol, (bad[:5], lua_viol, py_viol)
+
+
+@pytest.mark.parametrize("ar_type, zero, judged", [(0x0020, True, False), (0x0001, True, True), (0x0020, False, False)])
+def test_backup_frames_of_a_redundant_ar_are_not_judged(tmp_path, ar_type, zero, judged):
+    """System redundancy (ARType 0x0020): while its controller holds the AR as backup, the output frames say
+    Backup (DataStatus.State 0, wire.md §2.3) and the device acts on the primary's: zero setpoints there are no
+    cycles of the encoder. An ordinary AR's State bit is not looked at: the same frames are judged. Backup frames
+    with the primary's setpoints (steady: the engine's vectorised mask) are not judged either."""
+    from test_fastpath import _same_both_ways
+    path = multiaxis_capture(str(tmp_path / "sr.pcap"), slots=(1,), ar_type=ar_type, backup=(100, 160),
+                             backup_zero=zero, cycles=2000)
+    viol, a = _violations(path)
+    rules = {r for r, _s, _f in viol} - {"STARTUP-NO-PARAM-RECORD"}
+    assert bool(rules) == judged, viol
+    enc = a.summary()["cyclic"]["encoders"][0]
+    assert enc["gated_cycles"] == (0 if judged else 60)
+    _same_both_ways(path)
+    if shutil.which("tshark"):
+        from test_lua_plugin import compare as plugin_compare
+        n, bad, lua_viol, py_viol = plugin_compare(path)
+        assert n and not bad and lua_viol == py_viol, bad[:5]
