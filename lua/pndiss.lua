@@ -406,6 +406,12 @@ local function gap_same_step(a, b)
     return sa ~= nil and sb ~= nil and sa.step == sb.step and sa.uniform and sb.uniform
         and (sa.known or sa.seen >= GAP_LEARN) and (sb.known or sb.seen >= GAP_LEARN)
 end
+-- gaps.faster: stream a at a confirmed smaller step than stream b (an output CR faster than the input CR)
+local function gap_faster(a, b)
+    local sa, sb = gap_streams[a or ""], gap_streams[b or ""]
+    return sa ~= nil and sb ~= nil and sa.step > 0 and sa.step < sb.step and sa.uniform and sb.uniform
+        and (sa.known or sa.seen >= GAP_LEARN) and (sb.known or sb.seen >= GAP_LEARN)
+end
 local map_generation, cache_generation
 local function lookup(fid, src, dst)
     if cache_generation ~= map_generation then
@@ -1937,7 +1943,8 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok, miss, key)
             if dir == "setpoint" then
                 if ax.sp_ok then ax.sp_before = ax.sp else ax.sp_before = nil end
                 -- setpoint cycles lost, or one never paired: no edge across (cyclic.py)
-                if miss > 0 or ax.sp_new then ax.sp_break = true end
+                -- (an output CR faster than the input CR leaves setpoints unpaired by design: the device acts on the latest)
+                if miss > 0 or (ax.sp_new and not gap_faster(key, ax.ac_key)) then ax.sp_break = true end
                 ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, ok
                 ax.sp_new, ax.sp_key = true, key
                 local pend = ax.pend
@@ -1952,6 +1959,7 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok, miss, key)
                     end
                 end
             else
+                ax.ac_key = key
                 if ax.ambiguous == nil then ax.ambiguous = ambiguous(ax, o) end
                 if ax.sp ~= nil then
                     if ax.pend ~= nil then   -- two actual values, no setpoint between: the first one's is lost

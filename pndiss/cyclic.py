@@ -201,10 +201,10 @@ class CyclicTracker(AxisTracking):
         self.mapped += 1
         if fr.fm.phase in NOT_JUDGED_PHASES:
             ds_ok = False   # before PrmEnd or after the AR's end: reported, not judged
-        elif fr.fm.primary_only and not pdu[-2] & 1:
-            ds_ok = False   # the backup AR of a redundant system: the device acts on the primary's outputs
             if fr.fm.phase != "parameterisation":
                 self.gaps.restart(key)   # the AR ended: a later AR on this stream is no capture loss
+        elif fr.fm.primary_only and not pdu[-2] & 1:
+            ds_ok = False   # the backup AR of a redundant system: the device acts on the primary's outputs
         csdu = pdu[csdu_off:len(pdu) - 4]
         same = csdu == fr.last_csdu
         fr.last_csdu = csdu
@@ -251,8 +251,10 @@ class CyclicTracker(AxisTracking):
                     self.telegram_sink(o, fr, key[0], fn, ts, iops, bool(ok))
             if direction == "setpoint":
                 ax.sp_before = ax.sp if ax.sp_ok else None
-                if miss or ax.sp_new:
-                    ax.sp_break = True  # setpoint cycles lost, or one was never paired: no edge across
+                if miss or (ax.sp_new and not self.gaps.faster(key, ax.ac_key)):
+                    # setpoint cycles lost, or one was never paired: no edge across (an output CR faster than
+                    # the input CR leaves setpoints unpaired by design: the device acts on the latest)
+                    ax.sp_break = True
                 ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, bool(ok)
                 ax.sp_new, ax.sp_key = True, key
                 pend = ax.pend
@@ -265,6 +267,7 @@ class CyclicTracker(AxisTracking):
                         ax.sp_new = False
                         self._judge(ax, *pend)
                 continue
+            ax.ac_key = key
             if ax.ambiguous is None:
                 ax.ambiguous = self._ambiguous(ax, o)
             if ax.sp is None:

@@ -25,7 +25,7 @@ class Axis:
     """One encoder (AR/submodule): its checker, latest setpoint and identity."""
 
     __slots__ = ("key", "info", "checker", "sp", "sp_frame", "sp_ok", "telegram", "source", "profile", "reason",
-                 "fm", "ambiguous", "sp_before", "sp_new", "sp_break", "sp_key", "pend")
+                 "fm", "ambiguous", "sp_before", "sp_new", "sp_break", "sp_key", "ac_key", "pend")
 
     def __init__(self, key, info):
         self.key = key
@@ -44,6 +44,7 @@ class Axis:
         self.sp_new = False       # the latest setpoint is not paired with an actual value yet
         self.sp_break = False     # setpoint cycles lost (or one never paired) since the last paired cycle
         self.sp_key = None        # the setpoint's stream key
+        self.ac_key = None        # the actual value's stream key
         self.pend = None          # (signals, frame, ts, ok) of an actual value waiting for its setpoint
 
 

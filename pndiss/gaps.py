@@ -172,6 +172,13 @@ class GapTracker:
         return (sa is not None and sb is not None and sa.step == sb.step and sa.uniform and sb.uniform
                 and (sa.known or sa.seen >= LEARN) and (sb.known or sb.seen >= LEARN))
 
+    def faster(self, a, b) -> bool:
+        """Stream a runs at a confirmed smaller step than stream b (an output CR at a smaller reduction ratio
+        than the input CR): several setpoints per actual value, the device acting on the latest."""
+        sa, sb = self.streams.get(a), self.streams.get(b)
+        return (sa is not None and sb is not None and 0 < sa.step < sb.step and sa.uniform and sb.uniform
+                and (sa.known or sa.seen >= LEARN) and (sb.known or sb.seen >= LEARN))
+
     def summary(self) -> dict:
         streams = []
         for key, st in self.streams.items():

@@ -86,8 +86,8 @@ def ar_block_res(ar_uuid: str = AR_UUID) -> bytes:
 
 
 def iocr_req(iocr_type: int, ref: int, frame_id: int, data_len: int, objects, iocs, api: int = 0,
-             rt_class: int = 1) -> bytes:
-    body = struct.pack(">HHHIHHHHHHIHHH", iocr_type, ref, 0x8892, rt_class, data_len, frame_id, 32, 2, 1, 0,
+             rt_class: int = 1, rr: int = 2) -> bytes:
+    body = struct.pack(">HHHIHHHHHHIHHH", iocr_type, ref, 0x8892, rt_class, data_len, frame_id, 32, rr, 1, 0,
                        0xFFFFFFFF, 3, 3, 0xC000)
     body += b"\0" * 6 + struct.pack(">H", 1) + struct.pack(">IH", api, len(objects))
     for s, ss, off in objects:
@@ -134,7 +134,8 @@ def rw_header(bt: int, index: int, length: int, *, seq: int = 1, api: int = 0x3D
     return block(bt, body)
 
 
-def connect_pair(subs, api: int = 0x3D00, in_fid: int = 0x8000, out_fid: int = 0x8001, rt_class: int = 1, **kw):
+def connect_pair(subs, api: int = 0x3D00, in_fid: int = 0x8000, out_fid: int = 0x8001, rt_class: int = 1,
+                 rr: tuple = (2, 2), **kw):
     """(request frame, response frame) of a Connect with ``subs``: (subslot, ident, type, in_len, out_len) of a
     slot-1 module, or (slot, subslot, ident, type, in_len, out_len) for modules in several slots."""
     subs = [s if len(s) == 6 else (1, *s) for s in subs]
@@ -156,8 +157,9 @@ def connect_pair(subs, api: int = 0x3D00, in_fid: int = 0x8000, out_fid: int = 0
     exp = b""
     for slot in dict.fromkeys(s[0] for s in subs):
         exp += expected(api, slot, 0x100, [s[1:] for s in subs if s[0] == slot])
-    req_blocks = (ar_block_req(**kw) + iocr_req(1, 1, in_fid, max(40, ioff), in_objs, in_iocs, api, rt_class)
-                  + iocr_req(2, 2, 0xFFFF, max(40, ooff), out_objs, out_iocs, api, rt_class) + alarmcr_req() + exp)
+    req_blocks = (ar_block_req(**kw) + iocr_req(1, 1, in_fid, max(40, ioff), in_objs, in_iocs, api, rt_class, rr[0])
+                  + iocr_req(2, 2, 0xFFFF, max(40, ooff), out_objs, out_iocs, api, rt_class, rr[1]) + alarmcr_req()
+                  + exp)
     res_blocks = ar_block_res() + iocr_res(1, 1, in_fid) + iocr_res(2, 2, out_fid) + alarmcr_res()
     act = "00000007-0000-1010-8000-000000000007"
     req = frame(CONTROLLER_MAC, DEVICE_MAC, CONTROLLER_IP, DEVICE_IP, 49153, 34964,

@@ -26,7 +26,7 @@ def _pcap(path, frames, step_us=500):
 
 def multiaxis_capture(path, slots=(1, 2), cycles=300, fault_slot=None, fault_from=150, io_slot=None, api=0x3D00,
                       tel_subslot=2, bf00=None, param_fault_slot=None, lengths=(12, 4), ar_type=1, backup=None,
-                      backup_zero=True):
+                      backup_zero=True, in_every=1):
     """A Connect of encoders in ``slots`` (telegram 81, 4 bytes out / 12 in, guessed from lengths on the
     encoder API), optionally an ordinary 2-byte input module in ``io_slot``, PrmEnd, then ``cycles`` cycles
     of a correct V4.1 encoder per slot; ``fault_slot`` holds control requested at 0 from ``fault_from``; ``bf00``:
@@ -34,14 +34,15 @@ def multiaxis_capture(path, slots=(1, 2), cycles=300, fault_slot=None, fault_fro
     parameterisation fault (G1_ZSW.15 with G1_XIST2 0x1002, cyclic.md §9) all along; ``lengths``: (in, out)
     bytes of each telegram submodule (the telegram 81 words cut or zero-padded to them); ``ar_type`` of the
     Connect; ``backup``: (first, end) cycles whose output frames say Backup (DataStatus 0x34), with zero setpoints
-    unless not ``backup_zero``."""
+    unless not ``backup_zero``; ``in_every``: the input CR's reduction ratio against the output CR's 1 (an input
+    frame every that many cycles)."""
     subs = []
     for s in slots:
         subs += [(s, 1, MAP_IDENT, 0, 0, 0)] if tel_subslot != 1 else []
         subs += [(s, tel_subslot, T81_IDENT, 3, *lengths)]
     if io_slot is not None:
         subs.append((io_slot, 1, 0x0321, 1, 2, 0))
-    req, res = R.connect_pair(subs, api=api, ar_type=ar_type)
+    req, res = R.connect_pair(subs, api=api, ar_type=ar_type, rr=(in_every, 1))
     frames = [req, res]
     for k, (slot, data) in enumerate((bf00 or {}).items()):   # each module's user parameters (0xBF00)
         frames += R.write_pair(0xBF00, data, seq=2 + k, api=api, slot=slot)
@@ -60,8 +61,10 @@ def multiaxis_capture(path, slots=(1, 2), cycles=300, fault_slot=None, fault_fro
             inp += struct.pack(">H", i) + b"\x80"
         in_bytes, out_bytes = _layout(subs, inp, out)
         out_ds = 0x34 if backup is not None and backup[0] <= i < backup[1] else 0x35
-        for src, dst, fid, sdu, ds in ((R.CONTROLLER_MAC, R.DEVICE_MAC, 0x8001, out_bytes, out_ds),
-                                       (R.DEVICE_MAC, R.CONTROLLER_MAC, 0x8000, in_bytes, 0x35)):
+        streams = [(R.CONTROLLER_MAC, R.DEVICE_MAC, 0x8001, out_bytes, out_ds)]
+        if i % in_every == 0:
+            streams.append((R.DEVICE_MAC, R.CONTROLLER_MAC, 0x8000, in_bytes, 0x35))
+        for src, dst, fid, sdu, ds in streams:
             frames.append(R.eth(src, dst, struct.pack(">H", fid) + sdu.ljust(40, b"\0")
                                 + struct.pack(">HBB", i * 32 % 65536, ds, 0), 0x8892))
     _pcap(path, frames)
@@ -189,6 +192,25 @@ def test_backup_frames_of_a_redundant_ar_are_not_judged(tmp_path, ar_type, zero,
     assert bool(rules) == judged, viol
     enc = a.summary()["cyclic"]["encoders"][0]
     assert enc["gated_cycles"] == (0 if judged else 60)
+    _same_both_ways(path)
+    if shutil.which("tshark"):
+        from test_lua_plugin import compare as plugin_compare
+        n, bad, lua_viol, py_viol = plugin_compare(path)
+        assert n and not bad and lua_viol == py_viol, bad[:5]
+
+
+@pytest.mark.parametrize("in_every", [2, 4])
+def test_input_cr_slower_than_the_output_cr(tmp_path, in_every):
+    """Input ReductionRatio 2 or 4 against the outputs' 1: several setpoints per actual value, the device acting on
+    the latest; that is no lost cycle, and the windowed rules (CTRLREQ-MISMATCH here) still see their windows."""
+    from test_fastpath import _same_both_ways
+    path = multiaxis_capture(str(tmp_path / "rr.pcap"), slots=(1,), fault_slot=1, fault_from=300, cycles=1200,
+                             in_every=in_every)
+    viol, a = _violations(path)
+    assert "CTRLREQ-MISMATCH" in {r for r, _s, _f in viol}, viol
+    assert a.summary()["cyclic"]["encoders"][0]["lost_cycles"] == 0
+    clean = multiaxis_capture(str(tmp_path / "rr-ok.pcap"), slots=(1,), cycles=1200, in_every=in_every)
+    assert {r for r, _s, _f in _violations(clean)[0]} == {"STARTUP-NO-PARAM-RECORD"}
     _same_both_ways(path)
     if shutil.which("tshark"):
         from test_lua_plugin import compare as plugin_compare
