@@ -1628,6 +1628,20 @@ local function as_int(v)
   return sign * tonumber(s, 16)
 end
 
+-- acyclic.p965_version: subindex 1, or byte 1 of the whole octet string 2 at subindex 0; 0x31/0x41 count as 31/41
+local function p965_version(sub, v)
+  local x
+  if sub == 1 then
+    x = as_int(v)
+  elseif sub == 0 and type(v) == "string" and #v == 4 then
+    x = as_int(v:sub(3))
+  else
+    return nil
+  end
+  if x == 0x31 then return 31 elseif x == 0x41 then return 41 end
+  return x
+end
+
 -- #89: a read response states the parameter's own data type (001_9461bb7bc8c2767b.txt:2029, 2081-2083)
 local function datatype(chk, ev, p, pnu, frame)
   if pnu == nil then return end
@@ -1681,8 +1695,8 @@ local function read(chk, ev, p, pnu, sub, vals, frame, vfloat)
     -- #65: P922 names the configured telegram (000_37bf2397999f1108.txt:1953-1956)
     v_(chk, "TELEGRAM-SELECTION-MISMATCH", ev, fmt("P922 reads %d; the AR runs telegram %d", v, c.telegram)
        .. (#lens > 0 and (" (data lengths {" .. table.concat(lens, ", ") .. "})") or ""), frame)
-  elseif pnu == 965 and sub == 1 and c.profile ~= "psm" and not vfloat and as_int(v) ~= nil then
-    v = as_int(v)
+  elseif pnu == 965 and c.profile ~= "psm" and not vfloat and p965_version(sub, v) ~= nil then
+    v = p965_version(sub, v)
     local exp = c.compat == 0 and 31 or 41
     if chk.compat_open and (v == 31 or v == 41) then  -- the profile version tells the mode (behaviour.md §2.2)
       c.compat = v == 31 and 0 or 1

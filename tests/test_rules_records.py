@@ -32,6 +32,9 @@ CASES = [
     ("TELEGRAM-SELECTION-MISMATCH", {}, [param(922, [83]), G], [param(922, [81]), G]),
     ("P965-VERSION-MISMATCH", {}, [param(965, ["001f"], sub=1), G], [param(965, ["0029"], sub=1), G]),
     ("P965-VERSION-MISMATCH", dict(compat=0), [param(965, [41], sub=1), G], [param(965, [31], sub=1), G]),
+    # the whole octet string 2 at subindex 0: byte 1 is the version (records.md §4.3), as 0x1F/0x29 or as hex digits
+    ("P965-VERSION-MISMATCH", {}, [param(965, ["3d1f"], sub=0), G], [param(965, ["3d29"], sub=0), G]),
+    ("P965-VERSION-MISMATCH", {}, [param(965, ["3d31"], sub=0), G], [param(965, ["3d41"], sub=0), G]),
     ("BF00-LENGTH", {}, [bf00({"problems": [{"rule": "BF00-LENGTH", "message": "30 bytes"}]}, length=30), G], [bf00(), G]),
     ("BF00-LENGTH", {}, [bf00({}, data="00" * 30, length=30), G], [bf00({}), G]),             # own check
     ("BF00-RESERVED-NONZERO", {}, [bf00({}, data="c0" + "00" * 30), G], [bf00({}), G]),
@@ -100,3 +103,16 @@ def test_bf00_in_force_reconfigures_the_checker():
     rows = [bf00({"compat": 0, "problems": []}), "0x1400 0x2000 | 0x1200 0x2000 5 5"]
     assert "CTRLREQ-SET-IN-COMPAT" in rule_ids(rows)
     assert "CTRLREQ-SET-IN-COMPAT" not in rule_ids(rows[1:])
+
+
+@pytest.mark.skipif(__import__("shutil").which("lua5.2") is None, reason="lua5.2 not installed")
+def test_record_rules_lua_same():
+    """Every row of the record / parameter table through the Lua checker (luachk replay): the same violations."""
+    from luachk.record import Recorder, replay
+    with Recorder() as rec:
+        for _rule, cfg, bad, good in CASES:
+            run(bad, **cfg)
+            run(good, **cfg)
+    res = replay(rec)
+    assert not res["problems"], "\n".join(res["problems"][:20])
+    assert "P965-VERSION-MISMATCH" in res["lua_rules"]

@@ -316,8 +316,8 @@ def _read(chk, ev, p, pnu, sub, vals, frame) -> None:
         # 65: P922 names the configured telegram (000_37bf2397999f1108.txt:1953-1956)
         _v(chk, "TELEGRAM-SELECTION-MISMATCH", ev, f"P922 reads {v}; the AR runs telegram {c.telegram}"
            + (f" (data lengths {chk.io_len})" if chk.io_len else ""), frame=frame)
-    elif pnu == 965 and sub == 1 and c.profile != "psm" and _as_int(v) is not None:
-        v = _as_int(v)
+    elif pnu == 965 and c.profile != "psm" and p965_version(sub, v) is not None:
+        v = p965_version(sub, v)
         exp = 31 if c.compat == 0 else 41
         if chk.compat_open and v in (31, 41):   # the profile version tells the mode (behaviour.md §2.2)
             c.compat = 0 if v == 31 else 1
@@ -356,6 +356,19 @@ def _datatype(chk, ev, p, pnu, frame) -> None:
     names = {v[0] for v in FORMATS.values()}
     if want in names and got in names and want != got and p.get("attribute", 0x10) & 0xF0 == 0x10:
         _v(chk, "BMP-DATATYPE", ev, f"P{pnu} read as {got}; its data type is {want}", frame=frame)
+
+
+def p965_version(sub, v):
+    """The profile version a P965 read answers: subindex 1, or byte 1 of the whole octet string 2 read at
+    subindex 0 (records.md §4.3); "31"/"41" written as hex digits (0x31/0x41) count as 31/41, since no manual
+    says how they are coded (records.md §4.3)."""
+    if sub == 1:
+        x = _as_int(v)
+    elif sub == 0 and isinstance(v, str) and len(v) == 4:
+        x = _as_int(v[2:])
+    else:
+        return None
+    return {0x31: 31, 0x41: 41}.get(x, x)
 
 
 def _as_int(v):
