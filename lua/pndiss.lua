@@ -362,6 +362,7 @@ local function gap_duplicate(key, cc, ts, last)
     if st == nil or st.cc == nil or st.ts == nil or ts - st.ts >= GAP_HALF_WRAP_NS then return nil end
     local d = (cc - st.cc) % 0x10000
     if d >= 1 and d <= GAP_NEWER_MAX then return nil end
+    if d ~= 0 and key:sub(-5) == "|NONE" then return nil end   -- a cooked capture: two ARs' streams may share a key
     return st.fn, d == 0 and st.last == last
 end
 local function gap_advance(key, cc, ts, last, fn)
@@ -1502,6 +1503,7 @@ local function on_dcp(pinfo)
     if st_name == nil and st_ip == nil then return end
     local assign = d.sid == SET and d.stype == 0
     local target = assign and tostring(pinfo.dl_dst) or tostring(pinfo.dl_src)
+    if assign and target == "NONE" then return end   -- dcp_rules: a cooked capture names no Set target
     local S_ = dcp_state
     if st_name ~= nil then S_.station[target] = st_name end
     if st_name ~= nil and st_name ~= "" then
@@ -1684,7 +1686,7 @@ function on_reconnect(ar, dev, keys, fn)
                 if pick == nil and k[4].direction == ax.fm.direction then pick = k[4] end
             end
             ax.fm = pick or (keys[1] and keys[1][4]) or ax.fm
-            ax.sp, ax.sp_frame, ax.sp_before, ax.pend = nil, nil, nil, nil   -- the pairing starts afresh
+            ax.sp, ax.sp_frame, ax.sp_before, ax.pend, ax.ac_key = nil, nil, nil, nil, nil   -- the pairing starts afresh
             ax.sp_ok, ax.sp_new, ax.sp_break = false, false, false
             note(ax.checker:new_connection(prev_bf00[dev]), fn)
         end

@@ -1633,7 +1633,7 @@ local function p965_version(sub, v)
   local x
   if sub == 1 then
     x = as_int(v)
-  elseif sub == 0 and type(v) == "string" and #v == 4 then
+  elseif sub == 0 and type(v) == "string" and #v == 4 and v:sub(1, 2):lower() == "3d" then
     x = as_int(v:sub(3))
   else
     return nil

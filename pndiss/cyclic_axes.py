@@ -232,7 +232,7 @@ class AxisTracking:
                 continue
             same = [fm for fm in maps if ax.fm is not None and fm.direction == ax.fm.direction]
             ax.fm = (same or maps or [ax.fm])[0]
-            ax.sp = ax.sp_frame = ax.sp_before = ax.pend = None   # the pairing starts afresh, as on a new axis
+            ax.sp = ax.sp_frame = ax.sp_before = ax.pend = ax.ac_key = None   # the pairing starts afresh
             ax.sp_ok = ax.sp_new = ax.sp_break = False
             self._out(ax.checker.new_connection(self.prev_bf00.get(dev)))
 

@@ -26,6 +26,7 @@ HALF_WRAP_NS = WRAP * UNIT_NS // 2
 LEARN = 4            # advances seen before a learnt step is trusted
 IRREGULAR_MAX = 3    # advances off the step before the stream counts as non-uniform
 MAX_EVENTS = 1000    # gaps kept for the summary/report (events carry all of them)
+NO_DST = "00:00:00:00:00:00"   # proto/eth.py: a Linux cooked header carries no destination address
 NEWER_MAX = 61440    # the consumer's cycle-counter check: (now - last) mod 2^16 in 1..61440 is a newer frame
 
 
@@ -86,8 +87,8 @@ class GapTracker:
         if st is None or st.cc is None or st.ts is None or ts - st.ts >= HALF_WRAP_NS:
             return False
         d = (cc - st.cc) % WRAP
-        if 1 <= d <= NEWER_MAX:
-            return False
+        if 1 <= d <= NEWER_MAX or (d and key[2] == NO_DST):
+            return False   # (a cooked capture's stream key has no destination: two ARs' streams may share it)
         if d == 0 and st.last == last:
             self.duplicates += 1
             if self.first_duplicate is None or fn < self.first_duplicate[0]:  # the engine visits streams in bulk

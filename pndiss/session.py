@@ -55,6 +55,7 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
             from .gsdml import GsdmlIndex
             self.gsdml = GsdmlIndex(s.gsdml)
         self._fallback: dict[tuple, armap.FrameMap | None] = {}
+        self._fallback_gen = 0   # the map generation the cached answers are of
         self.map_generation = 0  # bumped whenever a lookup answer may change (cache key for callers)
 
     # ---------------------------------------------------------------- PNIO-CM
@@ -127,6 +128,9 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
         if fm is not None:
             return fm
         k = (frame_id, src, dst)
+        if self._fallback_gen != self.map_generation:   # a Connect, an AR's end or a P922 changed the maps
+            self._fallback_gen = self.map_generation
+            self._fallback.clear()
         if k in self._fallback:
             return self._fallback[k]
         fm = None

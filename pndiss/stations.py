@@ -34,7 +34,8 @@ class Stations:
         if not info:
             return
         target = dst if ev.get("service") == "Set" and ev.get("service_type") == 0 else src
-        self.update(target, **info)
+        if target != "00:00:00:00:00:00":   # a Set in a Linux cooked capture: the target's address is not there
+            self.update(target, **info)
 
     def from_lldp(self, ev: dict, src: str) -> None:
         self.seen(src)

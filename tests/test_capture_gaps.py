@@ -241,7 +241,7 @@ def doubled(tmp_path_factory, request):
     rows.sort(key=lambda r: (r[0], r[1]))
     ren = {}
     n = len(cyc)
-    dst = os.path.join(tmp, "doubled.pcapng")
+    dst = os.path.join(tmp, f"doubled-{request.param}.pcapng".replace("1500000", "1.5ms"))
     with open(dst, "wb") as f:
         w = Writer(f)
         for ts, _o, fn, d in rows:
@@ -263,7 +263,11 @@ def test_copies_of_frames_are_no_cycles(doubled):
     assert [(e["rule"], e["frame"]) for e in evs] == want
     s = a.summary()
     g = s["cyclic"]["capture_gaps"]
+    # a copy behind its stream's next frame carries an older counter: stale, not a copy (the last frames of a
+    # stream before a pause have no next frame before their copy: copies)
+    late = "1.5ms" in path
     assert g["duplicates"] + g["stale"] == n and g["count"] == 0
+    assert (g["stale"] > 0.99 * n) if late else (g["stale"] == 0)
     ref, fast = analyze_file(path, Settings(fast_path=False)).summary(), analyze_file(path).summary()
     ref.pop("settings"), fast.pop("settings")
     assert json.dumps(ref, sort_keys=True, default=str) == json.dumps(fast, sort_keys=True, default=str)

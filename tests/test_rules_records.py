@@ -35,6 +35,7 @@ CASES = [
     # the whole octet string 2 at subindex 0: byte 1 is the version (records.md §4.3), as 0x1F/0x29 or as hex digits
     ("P965-VERSION-MISMATCH", {}, [param(965, ["3d1f"], sub=0), G], [param(965, ["3d29"], sub=0), G]),
     ("P965-VERSION-MISMATCH", {}, [param(965, ["3d31"], sub=0), G], [param(965, ["3d41"], sub=0), G]),
+    ("P965-VERSION-MISMATCH", {}, [param(965, ["3d1f"], sub=0), G], [param(965, ["003d"], sub=0), G]),  # byte 0 only
     ("BF00-LENGTH", {}, [bf00({"problems": [{"rule": "BF00-LENGTH", "message": "30 bytes"}]}, length=30), G], [bf00(), G]),
     ("BF00-LENGTH", {}, [bf00({}, data="00" * 30, length=30), G], [bf00({}), G]),             # own check
     ("BF00-RESERVED-NONZERO", {}, [bf00({}, data="c0" + "00" * 30), G], [bf00({}), G]),

@@ -360,11 +360,11 @@ def _datatype(chk, ev, p, pnu, frame) -> None:
 
 def p965_version(sub, v):
     """The profile version a P965 read answers: subindex 1, or byte 1 of the whole octet string 2 read at
-    subindex 0 (records.md §4.3); "31"/"41" written as hex digits (0x31/0x41) count as 31/41, since no manual
+    subindex 0 whose byte 0 is the encoder profile number 0x3D (records.md §4.3); "31"/"41" written as hex digits (0x31/0x41) count as 31/41, since no manual
     says how they are coded (records.md §4.3)."""
     if sub == 1:
         x = _as_int(v)
-    elif sub == 0 and isinstance(v, str) and len(v) == 4:
+    elif sub == 0 and isinstance(v, str) and len(v) == 4 and v[:2].lower() == "3d":   # byte 0: profile 0x3D
         x = _as_int(v[2:])
     else:
         return None

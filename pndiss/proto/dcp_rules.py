@@ -9,6 +9,8 @@ from collections import deque
 from .. import rules
 from .dcp_tables import HELLO, IDENTIFY, SET
 
+NO_DST = "00:00:00:00:00:00"   # proto/eth.py: what a Linux cooked header leaves for the destination
+
 
 MAX_NAME = 127   # Lika manual (000_37bf2397999f1108.txt:956-968); IEC allows 240 octets [AMBIGUOUS]
 MAX_LABEL = 63
@@ -112,6 +114,8 @@ class DcpTracker:
             return []
         assign = ev.get("service_id") == SET and ev.get("service_type") == 0
         target = dst if assign else src
+        if assign and target == NO_DST:
+            return []   # a Linux cooked capture has no destination address: whom the Set names is not known
         fn, ts = ev.get("frame", 0), ev.get("ts_ns", 0)
         out = []
         name = st.get("name")
