@@ -726,8 +726,9 @@ function Checker:cycle_std(sp, ac)
   end
   local motion_ref = X1
   if motion_ref == nil then motion_ref = X3 end
-  -- standstill judged on the cycles before this one (this one may already show the reaction)
-  local standstill = pos_still(self) and not truthy(NIST)
+  -- standstill judged on the cycles before this one (this one may already show the reaction), by the position:
+  -- the velocity lags a stop (filtered by SCANCON/Hohner, Lika's every 100 ms: words.py)
+  local standstill = pos_still(self)
   local v_before = self:speed()
   pos_push(self, motion_ref)
 
@@ -1396,7 +1397,7 @@ function Checker:cycle_preset_telegram(sp, ac)
   local pos = ac.g1_xist1
   if pos == nil then pos = num(ac.g1_xist3) end
   local NIST = ac.nist_b
-  local standstill = pos_still(self) and not truthy(NIST)
+  local standstill = pos_still(self)   -- by the position: the velocity lags a stop (words.py)
   local v_before = self:speed()
   pos_push(self, pos)
   local ps = self.prev_sp

@@ -248,3 +248,26 @@ WRAP_CASES = [
 @pytest.mark.parametrize("kw,rows,wrong", WRAP_CASES)
 def test_relative_preset_wrap_readings(kw, rows, wrong):
     assert ("PRESET-VALUE-WRONG" in rule_ids(rows, **kw)) == wrong
+
+
+def test_standstill_is_judged_by_the_position():
+    """#26 / #44: a preset or parking request at a standing position is no fault although the velocity still
+    shows motion -- SCANCON and Hohner filter NIST (001_9461bb7bc8c2767b.txt:970-983, 004_59bef5ae9f41db55.txt:828-838),
+    Lika computes it every 100 ms (000_37bf2397999f1108.txt:1919, 2483); a moving position is a fault."""
+    still = ["0x1400 0x2000 | 0x1200 0x2000 5 5 2000"] * 3
+    moving = ["0x1400 0x2000 | 0x1200 0x2000 3 3 2000", "0x1400 0x2000 | 0x1200 0x2000 4 4 2000"]
+    req = "0x1400 0x3000 | 0x1200 0x2000 5 5 2000"
+    park = "0x1400 0x6000 | 0x1200 0x4000 0 0 0"
+    for last, rule in ((req, "PRESET-NOT-STANDSTILL"), (park, "PARK-WHILE-RUNNING")):
+        assert rule not in rule_ids(still + [last], telegram=83)
+        assert rule in rule_ids(moving + [last], telegram=83)
+
+
+@pytest.mark.skipif(__import__("shutil").which("lua5.2") is None, reason="lua5.2 not installed")
+def test_standstill_lua_same():
+    from luachk.record import Recorder, replay
+    with Recorder() as rec:
+        test_standstill_is_judged_by_the_position()
+    res = replay(rec)
+    assert not res["problems"], "\n".join(res["problems"][:20])
+    assert {"PRESET-NOT-STANDSTILL", "PARK-WHILE-RUNNING"} <= res["lua_rules"]

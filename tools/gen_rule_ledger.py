@@ -35,6 +35,10 @@ PARTIAL = {
                                "in a MultipleWrite 0xE040); only for ARs whose Connect and PrmEnd are in the capture",
     "PRESET-WITHOUT-NEW-PARAMS": "needs two connections of the same device in one capture",
     "BMP-UNKNOWN-PNU": "needs a P980 read in the capture",
+    "PRESET-NOT-STANDSTILL": "standstill by the position over W(n,-2,0) only: the velocity lags a stop (SCANCON/Hohner "
+                             "filter it, 001_9461bb7bc8c2767b.txt:970-983, 004_59bef5ae9f41db55.txt:828-838; Lika every "
+                             "100 ms, 000_37bf2397999f1108.txt:1919), so a nonzero NIST alone is no motion",
+    "PARK-WHILE-RUNNING": "standstill by the position only (as PRESET-NOT-STANDSTILL)",
 }
 
 

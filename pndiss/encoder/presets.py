@@ -87,7 +87,7 @@ class PresetRules:
         PT, PV = (word >> top) & 1, word & ((1 << top) - 1)
         pos = ac.get("g1_xist1", ac.get("g1_xist3"))
         NIST = ac.get("nist_b")
-        standstill = len(set(self.pos_hist)) <= 1 and not NIST
+        standstill = len(set(self.pos_hist)) <= 1   # by the position: the velocity lags a stop (words.py)
         v_before = self._speed()
         self.pos_hist.append(pos)
         ps = self.prev_sp

@@ -56,8 +56,10 @@ class WordRules:
         # position used by the preset arithmetic: X3 in telegram 84, else X2 while ATX (§1.6, §4.3)
         cv = REG.Cycle.of(ac, pa, has_g1)
         pos2, ppos2, motion_ref = cv.pos2, cv.ppos2, cv.motion
-        # standstill judged on the cycles before this one (this one may already show the reaction)
-        standstill = (len(set(self.pos_hist)) <= 1) and not NIST
+        # standstill judged on the cycles before this one (this one may already show the reaction), by the position:
+        # the velocity lags a stop (SCANCON/Hohner filter it, 001_9461bb7bc8c2767b.txt:970-983,
+        # 004_59bef5ae9f41db55.txt:828-838; Lika computes it every 100 ms, 000_37bf2397999f1108.txt:1919, 2483)
+        standstill = len(set(self.pos_hist)) <= 1
         v_before = self._speed()
         self.pos_hist.append(motion_ref)
 
