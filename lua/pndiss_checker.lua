@@ -1307,7 +1307,7 @@ function Checker:check_preset_value(pre, pos2, X1, shift)
       self:emit("PRESET-XIST1-NOT-AFFECTED-WHEN-ENABLED", self.f, self.ts,
                 fmt("G1_XIST2 took the preset but G1_XIST1 stayed %d; expected %d", X1, lshift(mod(exp1, U32), sh)))
     elseif not ((near(rshift(X1, sh), exp1, m1) and band(X1, lshift(1, sh) - 1) == 0)
-                or self:x1_other_reading(rshift(X1, sh), exp1, base, pos2, x2_ok, tol, mode)) then
+                or self:x1_other_reading(rshift(X1, sh), exp1, base, pos2, x2_ok, tol, mode, pre.pos2)) then
       self:emit("PRESET-VALUE-WRONG", self.f, self.ts,
                 fmt("%s preset P65000=%s: G1_XIST1=0x%08X in the first frame with G1_ZSW.12, expected 0x%08X", words,
                     tostring(P_), X1, lshift(mod(exp1, U32), sh)))
@@ -1321,9 +1321,12 @@ end
 
 -- presets._x1_other_reading: a 32-bit counter may start again from the new absolute position (G1_XIST2's);
 -- a position of unknown range may have wrapped at it
-function Checker:x1_other_reading(x1, exp1, base, pos2, x2_ok, tol, mode)
+function Checker:x1_other_reading(x1, exp1, base, pos2, x2_ok, tol, mode, pos_before)
   if C.xist1_counter(self.cfg) then
-    return x2_ok == true and pos2 ~= nil and math.abs(delta(pos2, x1, U32)) <= tol
+    if x2_ok ~= true or pos2 == nil then return false end
+    if math.abs(delta(pos2, x1, U32)) <= tol then return true end
+    -- ... or moved by the position's jump (a counter that ran past the measuring range)
+    return pos_before ~= nil and math.abs(delta(mod(base + pos2 - pos_before, U32), x1, U32)) <= tol
   end
   return self.R == nil and mode ~= 0 and fits_binary_range(x1, exp1, base, x1, tol)
 end

@@ -271,3 +271,23 @@ def test_standstill_lua_same():
     res = replay(rec)
     assert not res["problems"], "\n".join(res["problems"][:20])
     assert {"PRESET-NOT-STANDSTILL", "PARK-WHILE-RUNNING"} <= res["lua_rules"]
+
+
+def test_xist1_counter_moved_by_the_position_jump():
+    """SCANCON/Hohner profile 4.1: G1_XIST1 is a 32-bit counter that ran past the measuring range (six turns of
+    the TMR here, 001_9461bb7bc8c2767b.txt:442-447). An absolute preset that affects it may start it again at the
+    new position or move it by the position's jump; anything else is PRESET-VALUE-WRONG (Python and plugin)."""
+    from luachk.record import Recorder, replay
+    cfg = dict(profile="scancon", scaling=1, mupr=8192, tmr=819200, p65000=4000)
+    x1 = 819200 * 6 + 100
+
+    def rows(after):
+        return ([f"0x1400 0x2000 | 0x1200 0x2000 {x1} 100"] * 3 + [f"0x1400 0x3000 | 0x1200 0x2000 {x1} 100",
+                f"0x1400 0x3000 | 0x1200 0x3000 {after} 4000"])
+    with Recorder() as rec:
+        assert rule_ids(rows(x1 + 3900), **cfg) == set()        # moved like the position (4000 - 100)
+        assert rule_ids(rows(4000), **cfg) == set()             # started again at the new position
+        assert rule_ids(rows(x1 + 17), **cfg) == {"PRESET-VALUE-WRONG"}
+    if __import__("shutil").which("lua5.2"):
+        res = replay(rec)
+        assert not res["problems"], "\n".join(res["problems"][:20])

@@ -63,7 +63,7 @@ class PresetRules:
                 self._emit("PRESET-XIST1-NOT-AFFECTED-WHEN-ENABLED", self.f, self.ts,
                            f"G1_XIST2 took the preset but G1_XIST1 stayed {X1}; expected {P.aligned_xist1(exp1, sh)}")
             elif not (near(X1 >> sh, exp1, m1) and not (X1 & ((1 << sh) - 1))
-                      or self._x1_other_reading(X1 >> sh, exp1, base, pos2, x2_ok, tol, mode)):
+                      or self._x1_other_reading(X1 >> sh, exp1, base, pos2, x2_ok, tol, mode, pre["pos2"])):
                 self._emit("PRESET-VALUE-WRONG", self.f, self.ts,
                            f"{words} preset P65000={P_}: G1_XIST1=0x{X1:08X} in the first frame with G1_ZSW.12, "
                            f"expected 0x{P.aligned_xist1(exp1, sh):08X}")
@@ -72,12 +72,18 @@ class PresetRules:
             self._emit("PRESET-XIST1-AFFECTED-WHEN-DISABLED", self.f, self.ts,
                        f"G1_XIST1 changed {x1_before} -> {X1} at the preset although G1_XIST1 preset control is disabled")
 
-    def _x1_other_reading(self, x1: int, exp1: int, base: int, pos2, x2_ok, tol: int, mode: int) -> bool:
+    def _x1_other_reading(self, x1: int, exp1: int, base: int, pos2, x2_ok, tol: int, mode: int,
+                          pos_before=None) -> bool:
         """G1_XIST1 after a preset, read where the manuals leave it open: a 32-bit counter (SCANCON/Hohner
-        profile 4.1, cyclic.md §7 [AMBIGUOUS]) may start again from the new absolute position (G1_XIST2's);
+        profile 4.1, cyclic.md §7 [AMBIGUOUS]) may start again from the new absolute position (G1_XIST2's), or
+        move by the position's jump (a counter that ran past the measuring range: 001_9461bb7bc8c2767b.txt:442-447);
         a position of unknown range may have wrapped at it (position.fits_binary_range)."""
         if self.cfg.xist1_counter:
-            return bool(x2_ok) and pos2 is not None and abs(P.delta(pos2, x1, U32)) <= tol
+            if not x2_ok or pos2 is None:
+                return False
+            if abs(P.delta(pos2, x1, U32)) <= tol:
+                return True
+            return pos_before is not None and abs(P.delta((base + pos2 - pos_before) % U32, x1, U32)) <= tol
         return self.R is None and mode != 0 and P.fits_binary_range(x1, exp1, (base, x1), tol)
 
     # -- preset-carrying telegrams 86/87/88/100/101/860 (§2.5, #32-34) ----------------------------
