@@ -1286,7 +1286,7 @@ local function record_items(pinfo, recs)
             dec = decode_bf00(t, len, r.index == 0xFFFF and "psm" or profile)
             it.bf00 = dec
         end
-        if r.index == 0xBF00 or r.index == 0xFFFF then
+        if r.index == 0xBF00 or r.index == 0xFFFF or r.index == 0x8030 then
             ev.data = len > 0 and t:bytes(0, len):tohex():lower() or ""   -- acyclic._own_bf00_checks reads the bytes
         end
         ev.decoded = dec or (not it.malformed and {index = r.index, index_name = it.index_name}) or nil

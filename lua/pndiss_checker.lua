@@ -1567,6 +1567,20 @@ local function record(chk, ev)
     bmp_request(chk, ev)
     return
   end
+  if idx == 0x8030 and ev.op == "write" then
+    -- acyclic._iso_mode_data: IsochronousModeData's ControllerApplicationCycleFactor is k (it replaces k = 1)
+    local data = hexbytes(ev.data)
+    if #data >= 14 and data[1] == 0x02 and data[2] == 0x04 then   -- hexbytes: a list of byte values
+      local f = data[13] * 256 + data[14]
+      local c = chk.cfg
+      if f > 1 and c.k == 1 then
+        c.k = f
+        c.sources.k = fmt("record 0x8030 ControllerApplicationCycleFactor (frame %s)", tostring(ev.frame))
+        chk:apply_cfg()
+      end
+    end
+    return
+  end
   if idx == 0x1000 and ev.op == "write" and chk.cfg.profile == "scancon" and chk.velocity_filter == nil then
     chk.velocity_filter = ev.frame or 0   -- its lag is unknown: NIST-SIGN is not judged (value_rules.py)
     chk:apply_cfg()

@@ -347,3 +347,23 @@ def test_860_clamp_lua_same():
     res = replay(rec)
     assert not res["problems"], "\n".join(res["problems"][:20])
     assert "PRESET860-WRONG" in res["lua_rules"]
+
+
+def test_master_cycle_ratio_from_isochronous_mode_data():
+    """Record 0x8030 IsochronousModeData names ControllerApplicationCycleFactor: the controller's sign-of-life counts
+    once per that many cycles (k). Written before data exchange it replaces k = 1 (no false SOL-MASTER-STALL on a
+    k = 2 controller); a k given with --set master_cycle_ratio stays. Python and the Lua checker."""
+    from luachk.record import Recorder, replay
+    rec = {"kind": "record", "op": "write", "index": 0x8030, "frame": 1, "ts_ns": 1,
+           "data": "0204001c0100" + "0000" + "0001" + "0002" + "0002" + "00" * 16}   # slot 1, subslot 2, CACF 2
+    rows = []
+    for i in range(40):
+        m, d = (i // 2) % 15 + 1, i % 15 + 1
+        rows.append(f"0x{0x0400 | m << 12:04x} 0x2000 | 0x{0x0200 | d << 12:04x} 0x2000 5 5")
+    with Recorder() as r:
+        assert T.rule_ids([rec] + rows, iso=True) == set()
+        assert {"SOL-MASTER-STALL"} <= T.rule_ids(rows, iso=True)
+        assert T.rule_ids([rec] + rows, iso=True, k=3)   # k given: the record does not replace it (a fault for k = 3)
+    if shutil.which("lua5.2"):
+        res = replay(r)
+        assert not res["problems"], "\n".join(res["problems"][:20])

@@ -16,6 +16,7 @@ READ_ONLY = {"lika": {922, 964, 965, 975, 979, 980, 61001, 65001},
              "psm": {922, 925, 964, 965, 975, 979, 980, 61001, 65001}}   # PS/PSM "Get" (002_d69f444daf0f8af2.txt:1089-1166)
 PROFILE_PNUS = {922, 964, 965, 975, 979, 980, 65000, 65001}    # profile parameters readable after run-up (#92)
 COMMISSIONING_DIAG = 0x9011   # channel error type: user parameter data assignment error (000_37bf2397999f1108.txt:2611-2615)
+ISO_MODE_DATA = 0x8030   # record index of IsochronousModeData (pnio_cm.py record names)
 ABORTING_ERRORS = {0x05, 0x16, 0x17, 0x18}       # 001_9461bb7bc8c2767b.txt:2089, 2099 (#85)
 # words of the ParamPairer's pairing problems -> rule (behaviour.md §9.10 #76, #81)
 PAIRING_RULES = (("overwritten", "BMP-PIPELINED"), ("response id mismatch", "BMP-RESPID-MISMATCH"),
@@ -40,6 +41,22 @@ def check_record(chk, ev: dict) -> None:
         _param(chk, ev)
 
 
+def _iso_mode_data(chk, ev: dict) -> None:
+    """Record 0x8030 IsochronousModeData (block 0x0204: header, 2 padding bytes, slot, subslot, then
+    ControllerApplicationCycleFactor, as IEC 61158-6-10 device stacks read it): the controller's application
+    cycle is that many data cycles, and its sign-of-life counts once per application cycle -- k (behaviour.md
+    §0.1). It replaces the default k = 1, not a k given with --set master_cycle_ratio."""
+    data = bytes.fromhex(ev.get("data") or "") if isinstance(ev.get("data"), str) else bytes(ev.get("data") or b"")
+    if len(data) < 14 or data[0:2] != b"\x02\x04":
+        return
+    f = int.from_bytes(data[12:14], "big")
+    c = chk.cfg
+    if f > 1 and c.k == 1:
+        c.k = f
+        c.sources["k"] = f"record 0x8030 ControllerApplicationCycleFactor (frame {ev.get('frame')})"
+        chk.reconfigure()
+
+
 def _v(chk, rule, ev, msg, frame=None, side=None):
     chk.emit(rule, ev.get("frame", 0) if frame is None else frame, ev.get("ts_ns", 0), msg, side=side)
 
@@ -48,6 +65,9 @@ def _record(chk, ev: dict) -> None:
     idx = ev.get("index")
     if idx in (0xB02E, 0xB02F) and ev.get("op") == "write":
         _bmp_request(chk, ev)
+        return
+    if idx == ISO_MODE_DATA and ev.get("op") == "write":
+        _iso_mode_data(chk, ev)
         return
     if idx == 0x1000 and ev.get("op") == "write" and chk.cfg.profile == "scancon" and chk.velocity_filter is None:
         chk.velocity_filter = ev.get("frame", 0)   # its lag is unknown: NIST-SIGN is not judged (value_rules.py)
