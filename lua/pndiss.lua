@@ -354,6 +354,7 @@ local function gcd(a, b)
 end
 local GAP_UNIT_NS, GAP_HALF_WRAP_NS = 31250, 0x10000 * 31250 / 2
 local GAP_NEWER_MAX = 61440
+local NO_DST = "NONE"   -- proto/eth.NO_DST: tshark's destination of a Linux cooked frame (its header carries none)
 -- pndiss/gaps.py duplicate: a frame whose counter is not newer than the stream's previous frame's (the consumer's
 -- cycle-counter check: (now - last) mod 2^16 in 1..61440), less than half a wrap later, is discarded: returns
 -- (that frame, true) for a copy of it (same counter, DataStatus and C_SDU), (that frame, false) for a stale one
@@ -362,7 +363,7 @@ local function gap_duplicate(key, cc, ts, last)
     if st == nil or st.cc == nil or st.ts == nil or ts - st.ts >= GAP_HALF_WRAP_NS then return nil end
     local d = (cc - st.cc) % 0x10000
     if d >= 1 and d <= GAP_NEWER_MAX then return nil end
-    if d ~= 0 and key:sub(-5) == "|NONE" then return nil end   -- a cooked capture: two ARs' streams may share a key
+    if d ~= 0 and key:sub(-#NO_DST - 1) == "|" .. NO_DST then return nil end   -- a cooked capture: two ARs' streams may share a key
     return st.fn, d == 0 and st.last == last
 end
 local function gap_advance(key, cc, ts, last, fn)
@@ -427,7 +428,7 @@ local function lookup(fid, src, dst)
         if misses[key] % RELOOKUP_EVERY ~= 0 then return nil end
     end
     local fm = maps[key]
-    if fm == nil and dst == "NONE" then
+    if fm == nil and dst == NO_DST then
         -- session.lookup: a Linux cooked capture has no destination address; the frame ID and the sender name
         -- the stream when exactly one map has them
         local pre, found, n = fid .. "|" .. src .. "|", nil, 0
@@ -1503,7 +1504,7 @@ local function on_dcp(pinfo)
     if st_name == nil and st_ip == nil then return end
     local assign = d.sid == SET and d.stype == 0
     local target = assign and tostring(pinfo.dl_dst) or tostring(pinfo.dl_src)
-    if assign and target == "NONE" then return end   -- dcp_rules: a cooked capture names no Set target
+    if assign and target == NO_DST then return end   -- dcp_rules: a cooked capture names no Set target
     local S_ = dcp_state
     if st_name ~= nil then S_.station[target] = st_name end
     if st_name ~= nil and st_name ~= "" then

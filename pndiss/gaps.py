@@ -20,13 +20,14 @@ from __future__ import annotations
 
 from math import gcd
 
+from .proto.eth import NO_DST
+
 WRAP = 0x10000
 UNIT_NS = 31250              # CycleCounter unit, 31.25 us (wire.md §2.3)
 HALF_WRAP_NS = WRAP * UNIT_NS // 2
 LEARN = 4            # advances seen before a learnt step is trusted
 IRREGULAR_MAX = 3    # advances off the step before the stream counts as non-uniform
 MAX_EVENTS = 1000    # gaps kept for the summary/report (events carry all of them)
-NO_DST = "00:00:00:00:00:00"   # proto/eth.py: a Linux cooked header carries no destination address
 NEWER_MAX = 61440    # the consumer's cycle-counter check: (now - last) mod 2^16 in 1..61440 is a newer frame
 
 

@@ -13,11 +13,11 @@ from collections import OrderedDict
 
 from . import armap, limits
 from .proto import dcerpc, ip
+from .proto.eth import NO_DST
 from .session_ar import ArLayer, ar_summary
 from .session_records import MAX_CALLS, RecordLayer, param_pairer
 from .session_rpc import PORT_RT_UDP, RpcLayer
 
-NO_DST = "00:00:00:00:00:00"   # proto/eth.py: a Linux cooked header carries no destination address
 RESEND_WINDOW_NS = 10_000_000_000   # a client resends an unanswered DCE/RPC request within seconds (wire.md §5.1)
 
 

@@ -5,6 +5,8 @@ for), LLDP (chassis/port IDs, management address) and PNIO-CM (ARs). Constant si
 """
 from __future__ import annotations
 
+from .proto.eth import NO_DST
+
 
 class Stations:
     def __init__(self, by_mac: dict | None = None):
@@ -34,7 +36,7 @@ class Stations:
         if not info:
             return
         target = dst if ev.get("service") == "Set" and ev.get("service_type") == 0 else src
-        if target != "00:00:00:00:00:00":   # a Set in a Linux cooked capture: the target's address is not there
+        if target != NO_DST:   # a Set in a Linux cooked capture: the target's address is not there
             self.update(target, **info)
 
     def from_lldp(self, ev: dict, src: str) -> None:

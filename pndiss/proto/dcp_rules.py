@@ -8,8 +8,7 @@ from collections import deque
 
 from .. import rules
 from .dcp_tables import HELLO, IDENTIFY, SET
-
-NO_DST = "00:00:00:00:00:00"   # proto/eth.py: what a Linux cooked header leaves for the destination
+from .eth import NO_DST
 
 
 MAX_NAME = 127   # Lika manual (000_37bf2397999f1108.txt:956-968); IEC allows 240 octets [AMBIGUOUS]

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from .common import Malformed
 
+NO_DST = "00:00:00:00:00:00"   # the destination of a Linux cooked frame: its header carries none
 VLAN_TPIDS = (0x8100, 0x88A8, 0x9100)  # tshark: 0x8100/0x9100 -> vlan, 0x88A8 -> ieee8021ad
 MAX_TAGS = 16
 
