@@ -163,10 +163,13 @@ def test_ars_linear_and_bounded(tmp_path):
     for n in (300, 2400):
         p = str(tmp_path / f"ars{n}.pcap")
         hostile.gen_ars(p, n)
-        dt, a = feed_time(p, st)
+        runs = []
+        for _ in range(2):   # the faster of two: the other xdist worker's load comes and goes (a shared core)
+            dt, a = feed_time(p, st)
+            runs.append(dt)
         assert len(a.session.ars) == 200 and len(a.session.maps) <= 2 * 200
         assert a.limits.evicted()["ars"] == n - 200
-        times.append(dt)
+        times.append(min(runs))
     assert a.summary()["limits"]["notes"] == ["2,200 application relations (ARs) beyond the limit of 200: "
                                               "oldest not tracked (setting max_ars)"]
     assert times[1] < 20 * max(times[0], 0.05), times
