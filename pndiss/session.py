@@ -166,8 +166,7 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
                 frame_id=s["frame_id"], direction=s["direction"], controller_mac=res["controller_mac"],
                 device_mac=res["device_mac"], station=station, data_length=s["c_sdu_len"], objects=[do],
                 source="content")
-        self._fallback.clear()
-        self.map_generation += 1
+        self.map_generation += 1   # (lookup's fallback cache follows the generation)
         self.a.emit({"frame": res["frame"], "ts_ns": res["ts_ns"], "kind": "ar", "source": res["source"],
                      "station": station, "device_mac": res["device_mac"], "controller_mac": res["controller_mac"],
                      "telegram": res["telegram"], "confidence": res["confidence"], "evidence": res["evidence"],

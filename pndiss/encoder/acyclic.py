@@ -41,12 +41,18 @@ def check_record(chk, ev: dict) -> None:
         _param(chk, ev)
 
 
+def _record_bytes(ev: dict) -> bytes:
+    """A record event's data: a hex string (the events) or bytes (hand-made events)."""
+    d = ev.get("data")
+    return bytes.fromhex(d) if isinstance(d, str) else bytes(d or b"")
+
+
 def _iso_mode_data(chk, ev: dict) -> None:
     """Record 0x8030 IsochronousModeData (block 0x0204: header, 2 padding bytes, slot, subslot, then
     ControllerApplicationCycleFactor, as IEC 61158-6-10 device stacks read it): the controller's application
     cycle is that many data cycles, and its sign-of-life counts once per application cycle -- k (behaviour.md
     §0.1). It replaces the default k = 1, not a k given with --set master_cycle_ratio."""
-    data = bytes.fromhex(ev.get("data") or "") if isinstance(ev.get("data"), str) else bytes(ev.get("data") or b"")
+    data = _record_bytes(ev)
     if len(data) < 14 or data[0:2] != b"\x02\x04":
         return
     f = int.from_bytes(data[12:14], "big")
@@ -161,7 +167,7 @@ def write_refused(chk, request_frame) -> None:
 def _own_bf00_checks(chk, ev, idx, d, problems) -> None:
     """#67-69 from the raw bytes, when no records decoder judged them."""
     c = chk.cfg
-    data = bytes.fromhex(ev.get("data") or "") if isinstance(ev.get("data"), str) else bytes(ev.get("data") or b"")
+    data = _record_bytes(ev)
     n = ev.get("length", len(data))
     if n != BF00_LEN:
         problems.append(f"length {n}")
@@ -380,8 +386,8 @@ def _datatype(chk, ev, p, pnu, frame) -> None:
 
 def p965_version(sub, v):
     """The profile version a P965 read answers: subindex 1, or byte 1 of the whole octet string 2 read at
-    subindex 0 whose byte 0 is the encoder profile number 0x3D (records.md §4.3); "31"/"41" written as hex digits (0x31/0x41) count as 31/41, since no manual
-    says how they are coded (records.md §4.3)."""
+    subindex 0 whose byte 0 is the encoder profile number 0x3D (records.md §4.3). "31"/"41" written as hex
+    digits (0x31/0x41) count as 31/41: no manual says how they are coded (records.md §4.3)."""
     if sub == 1:
         x = _as_int(v)
     elif sub == 0 and isinstance(v, str) and len(v) == 4 and v[:2].lower() == "3d":   # byte 0: profile 0x3D
