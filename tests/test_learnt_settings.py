@@ -164,12 +164,9 @@ def test_alarm_while_parked_and_commissioning_diagnostic():
 
 @pytest.mark.skipif(shutil.which("lua5.2") is None, reason="lua5.2 not installed")
 def test_alarms_lua_same():
-    from luachk.record import Recorder, replay
-    with Recorder() as rec:
-        test_alarm_while_parked_and_commissioning_diagnostic()
-    res = replay(rec)
-    assert not res["problems"], "\n".join(res["problems"][:20])
-    assert {"PARK-ERROR-REPORTED", "BF00-ERROR-NOT-REPORTED", "BF00-VALID-REJECTED"} <= res["lua_rules"]
+    from luachk.record import lua_same
+    assert {"PARK-ERROR-REPORTED", "BF00-ERROR-NOT-REPORTED", "BF00-VALID-REJECTED"} <= lua_same(
+        test_alarm_while_parked_and_commissioning_diagnostic)
 
 
 def _psm_later(rows_before, rows_after):
@@ -202,11 +199,8 @@ def test_mode_learnt_at_the_generic_bit_is_learnt_again_for_psm():
 
 @pytest.mark.skipif(shutil.which("lua5.2") is None, reason="lua5.2 not installed")
 def test_mode_learnt_again_lua_same():
-    from luachk.record import Recorder, replay
-    with Recorder() as rec:
-        test_mode_learnt_at_the_generic_bit_is_learnt_again_for_psm()
-    res = replay(rec)
-    assert not res["problems"], "\n".join(res["problems"][:20])
+    from luachk.record import lua_same
+    lua_same(test_mode_learnt_at_the_generic_bit_is_learnt_again_for_psm)
 
 
 # -- P925: the tolerated master sign-of-life failures in V4.1 mode (behaviour.md §3.3 R-SOLC-3) ------------
@@ -341,12 +335,8 @@ def test_860_clamped_to_an_unknown_binary_range():
 
 @pytest.mark.skipif(shutil.which("lua5.2") is None, reason="lua5.2 not installed")
 def test_860_clamp_lua_same():
-    from luachk.record import Recorder, replay
-    with Recorder() as rec:
-        test_860_clamped_to_an_unknown_binary_range()
-    res = replay(rec)
-    assert not res["problems"], "\n".join(res["problems"][:20])
-    assert "PRESET860-WRONG" in res["lua_rules"]
+    from luachk.record import lua_same
+    assert "PRESET860-WRONG" in lua_same(test_860_clamped_to_an_unknown_binary_range)
 
 
 def test_master_cycle_ratio_from_isochronous_mode_data():

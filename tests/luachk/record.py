@@ -343,3 +343,13 @@ def compare(rec: Recorder, stdout: str) -> dict:
     lua_rules = {v[0] for evs in got.values() for v in evs}
     return {"calls": n_calls, "violations": n_viol, "rules": rules, "lua_rules": lua_rules, "opens": opens,
             "problems": problems}
+
+
+def lua_same(fn) -> set:
+    """Run ``fn`` (Python checker calls) under a Recorder, replay the calls in the Lua checker and fail on any
+    difference; the rules the Lua port emitted."""
+    with Recorder() as rec:
+        fn()
+    res = replay(rec)
+    assert not res["problems"], "\n".join(res["problems"][:20])
+    return res["lua_rules"]
