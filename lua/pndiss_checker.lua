@@ -213,6 +213,15 @@ function C.store_cycles(c)
   return math.max(1, ceil(10e6 / t))
 end
 
+-- EncoderConfig.velocity_lag_cycles: two velocity intervals + L_max; 0 when NIST is computed every cycle (#44)
+function C.velocity_lag_cycles(c)
+  local u = defaults(c).velocity_update_ms or 0
+  if u == 0 then return 0 end
+  local t = c.cycle_ns
+  if not truthy(t) then t = 1000000 end
+  return ceil(2 * u * 1e6 / t) + c.l_max
+end
+
 local DEFAULT_SOURCE = "default (telegrams.json profile_defaults)"   -- a profile default, nothing captured or given
 
 -- EncoderConfig.compat_open: the compatibility mode neither captured (0xBF00) nor given (--set compat)
@@ -340,6 +349,8 @@ function Checker:apply_cfg()
   self.R = C.modulus(c)
   self.L = c.l_max
   self.D = C.d_preset(c)
+  -- a run of NIST-SIGN must outlast a correct device's velocity lag (value_rules.active_value_rules)
+  self.nist_run = math.max(K.registry["NIST-SIGN"].min_run, C.velocity_lag_cycles(c) + 1)
   self.lika = c.profile == "lika"
   self.psm = c.profile == "psm"
   local creq = K.creq_bit[self.psm and "psm" or "generic"]
@@ -1366,7 +1377,7 @@ function Checker:nist_sign(pos, ppos, nist)
   local d = delta(ppos, pos, m)
   if d ~= 0 and (d > 0) ~= (nist > 0) then
     self.nist_bad = self.nist_bad + 1
-    if self.nist_bad >= K.registry["NIST-SIGN"].min_run then  -- in a row: not a filter lag at reversal
+    if self.nist_bad >= self.nist_run then  -- in a row: not a filter lag at reversal
       -- #44: NIST sign follows the motion [INFERENCE] (001_9461bb7bc8c2767b.txt:962)
       local o = self:hit("NIST-SIGN")
       if o then o.msg = fmt("NIST=%s while the position moves by %s per cycle", tostring(nist), tostring(d)) end

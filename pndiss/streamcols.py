@@ -66,7 +66,7 @@ class Cols:
         """Per row of [a, b): the gap tracker would not see an exact one-step advance (or learns something)."""
         st = gaps.streams.get(self.s.key)
         n = b - a
-        if st is None or st.cc is None and a == 0:
+        if st is None or st.cc is None:
             return np.ones(n, dtype=bool)
         if not gaps.enabled:
             return np.zeros(n, dtype=bool)
@@ -74,7 +74,9 @@ class Cols:
             return np.ones(n, dtype=bool)
         prev = np.empty(n, dtype=np.int64)
         prev[1:] = self.cc[a:b - 1]
-        prev[0] = st.cc if a == 0 else self.cc[a - 1]
+        # row a follows the last frame the tracker took, not row a-1: a stale frame (an older counter) is
+        # discarded and leaves the tracker where it was (gaps.duplicate)
+        prev[0] = st.cc
         return ((self.cc[a:b] - prev) % WRAP) != st.step
 
     def bulk_gaps(self, gaps, a: int, b: int) -> None:

@@ -159,7 +159,7 @@ PRESET_TELEGRAMS = [
      [("0 | 5 0", 3), ("0x80000064 | 100 0", 2), ("0 | 100 0", 13)]),
     ("PRESET89-ACK-MISSING", dict(profile="psm", telegram=89), ["0x1400 0 | 0x1400 5 0", ("0x1401 100 | 0x1400 5 0", 14)],
      ["0x1400 0 | 0x1400 5 0", ("0x1401 100 | 0x1401 100 0", 14)]),
-    ("NIST-SIGN", dict(telegram=83), ["0x1400 0x2000 | 0x1200 0x2000 %d %d -10" % (i, i) for i in range(5, 11)],
+    ("NIST-SIGN", dict(telegram=83, profile="generic"), ["0x1400 0x2000 | 0x1200 0x2000 %d %d -10" % (i, i) for i in range(5, 11)],
      ["0x1400 0x2000 | 0x1200 0x2000 %d %d 10" % (i, i) for i in range(5, 11)]),
 ]
 

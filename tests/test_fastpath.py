@@ -16,7 +16,7 @@ import json
 import os
 
 import pytest
-from hypothesis import HealthCheck, given, settings as hsettings, strategies as st
+from hypothesis import HealthCheck, example, given, settings as hsettings, strategies as st
 
 from pndiss import fast
 from pndiss.analyzer import Analyzer, analyze_file
@@ -419,6 +419,9 @@ _MUTS = st.lists(st.tuples(st.sampled_from(("byte", "bit", "zero2", "burst", "fr
 @hsettings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow,
                                                                    HealthCheck.function_scoped_fixture])
 @given(name=st.sampled_from(("two81", "scancon84", "plant", "routine")), muts=_MUTS)
+# two stale frames in a row (frames moved back in time): the second one's counter is one step on from the
+# first stale one but older than the last frame taken; the engine compared it with the stale one
+@example(name="routine", muts=[("swap", 0.25, 7, 75), ("swap", 0.25, 7, 2)])
 def test_full_jsonl_mutated_sessions(sessions, tmp_path, name, muts):
     """`analyze --jsonl` written from the engine's columns = the reference's lines on mutated sessions
     (the fuzz campaign found a cut cyclic frame's partial rt event, a station as the frame's map names

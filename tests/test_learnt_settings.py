@@ -89,10 +89,28 @@ FILTER = {"kind": "record", "op": "write", "index": 0x1000, "decoded": {"velocit
 AGAINST = ["0x1400 0x2000 | 0x1200 0x2000 %d %d -10" % (i, i) for i in range(5, 15)]   # moving up, NIST < 0
 
 
+def _against(n):
+    """n cycles moving up with NIST < 0 (after a first row that has no motion yet)."""
+    return ["0x1400 0x2000 | 0x1200 0x2000 %d %d -10" % (i, i) for i in range(5, 6 + n)]
+
+
+LIKA_LAG = 2 * 100 + 2      # cycles at 1 ms: two 100 ms velocity intervals + L_max (telegrams.json velocity_update_ms)
+
+
 def test_velocity_filter_written_nist_sign_not_judged():
     assert "NIST-SIGN" in T.rule_ids(AGAINST, profile="scancon", telegram=83)
     assert "NIST-SIGN" not in T.rule_ids([dict(FILTER)] + AGAINST, profile="scancon", telegram=83)
-    assert "NIST-SIGN" in T.rule_ids([dict(FILTER)] + AGAINST, profile="lika", telegram=83)   # SCANCON's record only
+    # SCANCON's record only: a LIKA still judged (over its own, longer lag)
+    assert "NIST-SIGN" in T.rule_ids([dict(FILTER)] + _against(LIKA_LAG + 1), profile="lika", telegram=83)
+
+
+def test_lika_nist_lags_a_reversal_by_its_100ms_interval():
+    """LIKA computes NIST every 100 ms (000_37bf2397999f1108.txt:1919): at a reversal it may keep the old sign
+    for up to two intervals (one straddling the reversal, then held) + L_max; a longer run is the fault."""
+    assert "NIST-SIGN" not in T.rule_ids(_against(LIKA_LAG), profile="lika", telegram=83)
+    assert "NIST-SIGN" in T.rule_ids(_against(LIKA_LAG + 1), profile="lika", telegram=83)
+    assert "NIST-SIGN" in T.rule_ids(_against(3), profile="generic", telegram=83)
+    assert "NIST-SIGN" not in T.rule_ids(_against(2), profile="generic", telegram=83)
 
 
 @pytest.mark.skipif(shutil.which("lua5.2") is None, reason="lua5.2 not installed")
@@ -102,6 +120,8 @@ def test_velocity_filter_lua_same():
         for prof in ("scancon", "lika"):
             T.run([dict(FILTER)] + AGAINST, profile=prof, telegram=83)
             T.run(AGAINST, profile=prof, telegram=83)
+        for n in (LIKA_LAG, LIKA_LAG + 1):
+            T.run(_against(n), profile="lika", telegram=83)
     res = replay(rec)
     assert not res["problems"], "\n".join(res["problems"][:20])
     assert "NIST-SIGN" in res["lua_rules"]

@@ -39,6 +39,8 @@ PARTIAL = {
                              "filter it, 001_9461bb7bc8c2767b.txt:970-983, 004_59bef5ae9f41db55.txt:828-838; Lika every "
                              "100 ms, 000_37bf2397999f1108.txt:1919), so a nonzero NIST alone is no motion",
     "PARK-WHILE-RUNNING": "standstill by the position only (as PRESET-NOT-STANDSTILL)",
+    "NIST-SIGN": "3 cycles in a row; LIKA computes NIST every 100 ms (000_37bf2397999f1108.txt:1919), so there the run "
+                 "must outlast two intervals + L_max (telegrams.json velocity_update_ms)",
 }
 
 

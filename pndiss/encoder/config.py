@@ -105,6 +105,17 @@ class EncoderConfig:
         t = self.cycle_ns or 1_000_000
         return max(1, math.ceil(10e6 / t))
 
+    @property
+    def velocity_lag_cycles(self) -> int:
+        """Cycles a correct NIST may keep the old sign after a reversal: two of the device's velocity
+        intervals (a value computed over an interval that straddles the reversal, then held for one
+        interval) plus L_max; 0 for a device that computes NIST every cycle (#44)."""
+        u = self.defaults.get("velocity_update_ms", 0)
+        if not u:
+            return 0
+        t = self.cycle_ns or 1_000_000
+        return math.ceil(2 * u * 1e6 / t) + self.l_max
+
     def compat_open(self) -> bool:
         """The compatibility mode is not known from the capture (no 0xBF00 seen: a capture started
         mid-session, a lost write) nor given (--set compat): the checker learns it from the words

@@ -19,6 +19,8 @@ class Rule:
     vector: Callable | None = None  # value rules: (Checker, Columns) -> bool array, equal to check row by row
     message: Callable | None = None  # value rules: (Checker, Cycle) -> str
     min_run: int = 1                # value rules: cycles in a row the condition must hold to count
+    run_lag: Callable | None = None  # value rules: (Checker) -> cycles a correct device may lag; the run
+                                     # must then be longer than that too (a velocity computed every 100 ms)
     applies: Callable | None = None  # value rules: (Checker) -> bool, a gate on the configuration only (the
                                      # checker re-evaluates it in reconfigure(); check() tests it again)
 

@@ -214,8 +214,8 @@ def _bf00_rejected_v(k, V):
     return _b((V.SERR == 1) & (V.X2 == E_PARAM))
 
 
-def _v(rule, check, vector, message, needs=(), min_run=1, applies=None) -> Rule:
-    return Rule(rule, "value", needs=needs, check=check, vector=vector, message=message, min_run=min_run,
+def _v(rule, check, vector, message, needs=(), min_run=1, applies=None, run_lag=None) -> Rule:
+    return Rule(rule, "value", needs=needs, check=check, vector=vector, message=message, min_run=min_run, run_lag=run_lag,
                 applies=applies)
 
 
@@ -226,7 +226,8 @@ def _continuity_profile(k) -> bool:
 def active_value_rules(k) -> tuple:
     """(check, id, min_run, message) of the value rules the configuration of checker k can fire at all,
     in judging order (the checker asks again whenever its configuration changes)."""
-    return tuple((r.check, r.id, r.min_run, r.message) for r in VALUE_RULES if r.applies is None or r.applies(k))
+    return tuple((r.check, r.id, max(r.min_run, r.run_lag(k) + 1) if r.run_lag else r.min_run, r.message)
+                 for r in VALUE_RULES if r.applies is None or r.applies(k))
 
 
 # in the order the checker judges them (runs that end in the same cycle are reported in this order)
@@ -248,7 +249,9 @@ VALUE_RULES: tuple[Rule, ...] = (
        applies=_continuity_profile),
     # a SCANCON velocity filter written (0x1000): Normal (96:4) and Coarse (996:4) lag a reversal by ~17 / ~173
     # cycles, and the record's codes are not documented (001_9461bb7bc8c2767b.txt:970-983): not judged then
-    _v("NIST-SIGN", _nist_sign, _nist_sign_v, _nist_msg, min_run=3, applies=lambda k: k.velocity_filter is None),
+    # LIKA computes NIST every 100 ms (000_37bf2397999f1108.txt:1919): it may keep its sign ~200 ms after a reversal
+    _v("NIST-SIGN", _nist_sign, _nist_sign_v, _nist_msg, min_run=3, applies=lambda k: k.velocity_filter is None,
+       run_lag=lambda k: k.cfg.velocity_lag_cycles),
     _v("PARK-OUTPUTS-NOT-CLEARED", _park_outputs, _park_outputs_v, applies=lambda k: k.lika,
        message=lambda k, c: f"parked with G1_XIST1={c.X1} G1_XIST2={c.X2} G1_ZSW=0x{c.g1zsw:04X}; expected 0s"),
     _v("SERR-CODE-INVALID", _serr_code, _serr_code_v, _serr_code_msg),
