@@ -482,6 +482,7 @@ for _, n in ipairs({"pn_io.opnum", "pn_io.block_type", "pn_io.ar_uuid", "pn_io.c
                     "pn_io.data_length", "pn_io.api", "pn_io.slot_nr", "pn_io.subslot_nr",
                     "pn_io.io_data_object.frame_offset", "pn_io.iocs_frame_offset", "pn_io.data_description",
                     "pn_io.submodule_data_length", "pn_io.length_iops", "pn_io.length_iocs",
+                    "pn_io.submodule_properties", "pn_io.submodule_state",
                     "pn_io.module_ident_number", "pn_io.submodule_ident_number", "pn_io.iocr_multicast_mac_add",
                     "pn_io.index", "pn_io.im_profile_id", "pn_io.vendor_id_high", "pn_io.vendor_id_low",
                     "pn_io.order_id", "dcerpc.pkt_type", "dcerpc.dg_act_id", "dcerpc.dg_seqnum", "dcerpc.dg_frag_len",
@@ -605,6 +606,7 @@ local function connect_request(key, pinfo)
         elseif b.type == 0x0104 then
             local ba, bs, bss = inside(api, b), inside(slot, b), inside(sub, b)
             local dd, iops = inside(all("pn_io.data_description"), b), inside(all("pn_io.length_iops"), b)
+            local props = inside(all("pn_io.submodule_properties"), b)
             for _, l in ipairs(inside(all("pn_io.submodule_data_length"), b)) do
                 local k = table.concat({before(ba, l.offset) or 0, before(bs, l.offset) or 0,
                                         before(bss, l.offset) or 0}, "/")
@@ -612,7 +614,12 @@ local function connect_request(key, pinfo)
                 local d = before(dd, l.offset)
                 local io = nil
                 for _, fi in ipairs(iops) do if fi.offset > l.offset then io = fi.value break end end
-                if d == 1 then e.input = {l.value, io or 1} elseif d == 2 then e.output = {l.value, io or 1} end
+                -- SubmoduleProperties (wire.md §6.6): bit 2 SharedInput, bits 3/4 reduce this AR's input/output to 0 bytes
+                local pr = before(props, l.offset) or 0
+                e.shared_input = bit.band(pr, 0x4) ~= 0
+                local n = l.value
+                if (d == 1 and bit.band(pr, 0x8) ~= 0) or (d == 2 and bit.band(pr, 0x10) ~= 0) then n = 0 end
+                if d == 1 then e.input = {n, io or 1} elseif d == 2 then e.output = {n, io or 1} end
                 req.expected[k] = e
             end
         end
@@ -641,8 +648,25 @@ local function connect_response(key, pinfo)
     local device = tostring(pinfo.dl_src)
     local res_fid = {}
     local server_name
+    local locked = {}   -- "api/slot/subslot" -> another AR owns it (session_ar._owner, ModuleDiffBlock)
     for _, b in ipairs(bl) do
-        if b.type == 0x8101 then
+        if b.type == 0x8104 then
+            local ba, bs, bss = inside(all("pn_io.api"), b), inside(all("pn_io.slot_nr"), b), inside(all("pn_io.subslot_nr"), b)
+            for _, st in ipairs(inside(all("pn_io.submodule_state"), b)) do
+                local v = st.value
+                local why
+                if bit.band(v, 0x8000) ~= 0 then
+                    why = ({[2] = "superordinated locked", [3] = "locked by IO controller",
+                            [4] = "locked by IO supervisor"})[bit.band(bit.rshift(v, 7), 0xF)]
+                elseif bit.band(v, 0x7FFF) == 2 then
+                    why = "locked by IO controller"
+                end
+                if why then
+                    locked[table.concat({before(ba, st.offset) or 0, before(bs, st.offset) or 0,
+                                         before(bss, st.offset) or 0}, "/")] = why
+                end
+            end
+        elseif b.type == 0x8101 then
             local m = inside(all("pn_io.cmresponder_macadd"), b)
             if m[1] then device = tostring(m[1].value) end
         elseif b.type == 0x8102 then
@@ -695,12 +719,15 @@ local function connect_response(key, pinfo)
                         -- armap.FrameMap.cycle_time_ns: SendClockFactor x ReductionRatio x 31.25 us
                         cycle_ns = (cr.scf and cr.scf > 0 and cr.rr and cr.rr > 0) and cr.scf * cr.rr * 31250 or nil}
             for _, o in ipairs(cr.objects) do
-                local e = req.expected[table.concat({o.api or 0, o.slot or 0, o.subslot or 0}, "/")] or {}
+                local ek = table.concat({o.api or 0, o.slot or 0, o.subslot or 0}, "/")
+                local e = req.expected[ek] or {}
                 local mine = e[direction] or {0, 1}
                 local obj = {api = o.api, slot = o.slot, subslot = o.subslot, offset = o.offset, length = mine[1]}
                 -- session._assign_telegram: P922 read before > both directions' lengths
                 local pt = p922_of[table.concat({device, o.api or 0, o.slot or 0, o.subslot or 0}, "|")]
-                if pt ~= nil then
+                if e.shared_input or locked[ek] then
+                    obj.telegram_source = "not owned"   -- session_ar.NOT_OWNED: another AR controls the encoder
+                elseif pt ~= nil then
                     obj.telegram, obj.telegram_source = pt, "P922"
                 elseif e.input and e.output then
                     -- the device's identity, not the Device profile preference (any plain 4/8-byte IO module)
@@ -947,6 +974,7 @@ end
 -- the cyclic driver (section 7) like SessionTracker -> CyclicTracker.on_record.
 local pairer           -- param key -> {req = Python-shaped request, frame, ts} awaiting its response
 local superseded       -- param key -> frames of requests overwritten before a response
+local refused_early    -- param key -> frames of new requests refused while one was open (ParamPairer.refused_early)
 local on_record        -- the cyclic driver's CyclicTracker.on_record (section 7)
 
 local function u8(t, o) return t(o, 1):uint() end
@@ -1188,7 +1216,7 @@ local function p922_relabel(device, api, slot, subslot, value)
     for _, fm in pairs(maps) do
         if fm.device == device then
             for _, o in ipairs(fm.objects) do
-                if o.telegram_source ~= "map" and (o.length or 0) > 0
+                if o.telegram_source ~= "map" and o.telegram_source ~= "not owned" and (o.length or 0) > 0
                         and not (o.telegram_source == "length" and misfit[o.api .. ":" .. o.slot .. ":" .. o.subslot])
                         and ((o.api == api and o.slot == slot and o.subslot == subslot)
                             or o.telegram == nil or o.telegram_source == "length" or o.telegram_source == "gsdml") then
@@ -1199,12 +1227,33 @@ local function p922_relabel(device, api, slot, subslot, value)
     end
 end
 
+-- two decoded requests equal field by field (ParamPairer.request: a retry of the same request)
+local function deep_eq(a, b)
+    if type(a) ~= "table" or type(b) ~= "table" then return a == b end
+    for k, v in pairs(a) do if not deep_eq(v, b[k]) then return false end end
+    for k in pairs(b) do if a[k] == nil then return false end end
+    return true
+end
+
+-- ParamPairer.request: a new request overwrites an unanswered one (kept, in case its write is refused)
+local function pair_request(key, dec, fn, ts)
+    local old = pairer[key]
+    if old and deep_eq(old.req, dec) then return end   -- the same request again: the first stays pending
+    if old then
+        superseded[key] = superseded[key] or {}
+        table.insert(superseded[key], old.frame)
+    end
+    pairer[key] = {req = dec, frame = fn, ts = ts, overwrote = old}
+end
+
 -- ParamPairer.response: the response paired with the request written before it on the same key
 local function pair_response(key, rsp, frame, ts, profile)
     local p = pairer[key]
     pairer[key] = nil
     local sup = superseded[key]
     superseded[key] = nil
+    local early = refused_early[key]
+    refused_early[key] = nil
     local ev = {request_frame = nil, response_frame = frame, response_ref = rsp.request_ref, response_id = rsp.response_id,
                 response_id_name = rsp.response_id_name, response_axis = rsp.axis,
                 response_no_of_parameters = rsp.no_of_parameters, ok = rsp.ok, params = {}, pairing = {}}
@@ -1214,6 +1263,11 @@ local function pair_response(key, rsp, frame, ts, profile)
         for j, f in ipairs(sup) do fr[j] = tostring(f) end
         ev.superseded_request_frames = sup
         w[#w + 1] = "request(s) in frame(s) " .. table.concat(fr, ", ") .. " overwritten before their response was read"
+    end
+    if early then
+        local fr = {}
+        for j, f in ipairs(early) do fr[j] = tostring(f) end
+        w[#w + 1] = "request(s) in frame(s) " .. table.concat(fr, ", ") .. " pipelined before this response was read (refused by the device)"
     end
     local blocks_ = rsp.params
     local q = p and p.req
@@ -1227,7 +1281,10 @@ local function pair_response(key, rsp, frame, ts, profile)
         if rsp.request_ref ~= q.request_ref then
             w[#w + 1] = string.format("request ref mismatch (request 0x%02X, response 0x%02X)", q.request_ref, rsp.request_ref)
         end
-        if rsp.response_id ~= q.request_id and rsp.response_id ~= bit.bor(q.request_id, 0x80) then
+        local qid = q.request_id
+        local legal = qid == 1 or qid == 2 or (qid >= 0x40 and qid <= 0x7F)
+        -- an illegal request ID is answered with 0x80 (001_9461bb7bc8c2767b.txt:2073; rule #80 judges the rest)
+        if rsp.response_id ~= qid and rsp.response_id ~= bit.bor(qid, 0x80) and not (rsp.response_id == 0x80 and not legal) then
             w[#w + 1] = string.format("response id mismatch (request 0x%02X, response 0x%02X)", q.request_id, rsp.response_id)
         end
         if rsp.axis ~= q.axis then
@@ -1296,11 +1353,7 @@ local function record_items(pinfo, recs)
         local key = table.concat({nil_ar and (controller .. "/" .. device) or r.ar, r.api, r.slot, r.subslot}, "|")
         if (r.index == 0xB02E or r.index == 0xB02F) and dec then
             if r.op == "write" then
-                if pairer[key] then   -- ParamPairer.request: an unanswered request is overwritten
-                    superseded[key] = superseded[key] or {}
-                    table.insert(superseded[key], pairer[key].frame)
-                end
-                pairer[key] = {req = dec, frame = fn, ts = ts}
+                pair_request(key, dec, fn, ts)
             else
                 local pev = pair_response(key, dec, fn, ts, profile)
                 pev.frame, pev.ts_ns, pev.kind, pev.index = fn, ts, "param", r.index
@@ -1309,7 +1362,8 @@ local function record_items(pinfo, recs)
                 it.param = pev
                 on_record(pev, fn)
                 for _, prm in ipairs(pev.params) do
-                    if prm.pnu == 922 and not prm.error and prm.values[1] ~= nil and (prm.subindex or 0) == 0 then
+                    if prm.pnu == 922 and not prm.error and prm.values[1] ~= nil and (prm.subindex or 0) == 0
+                            and bit.band(prm.attribute or 0x10, 0xF0) == 0x10 then   -- the value, not its description
                         p922_relabel(device, r.api, r.slot, r.subslot, prm.values[1])
                     end
                 end
@@ -1586,11 +1640,19 @@ end
 -- parameters at 0xFFFF, so the device's 0xFFFF records are given to the checker again
 -- cyclic_axes.addressed_to: a record or parameter access addressed to another encoder module of the device is that
 -- module's (one Encoder Object per module and slot); one addressed elsewhere is every axis' of the device
+-- (also when another controller's AR owns that module: a shared device; session_records.encoder_slots)
 local function addressed_to(ax, ev)
     local slot = ev.slot
     if slot == nil or slot == ax.info.slot or ax.fm == nil then return true end
     for _, d in ipairs(ax.fm.objects or {}) do
         if d.slot == slot and d.telegram ~= nil then return false end
+    end
+    for _, fm in pairs(maps) do
+        if fm.device == ax.info.device_mac then
+            for _, d in ipairs(fm.objects) do
+                if d.slot == slot and d.telegram ~= nil then return false end
+            end
+        end
     end
     return true
 end
@@ -1687,7 +1749,7 @@ function on_reconnect(ar, dev, keys, fn)
                 if pick == nil and k[4].direction == ax.fm.direction then pick = k[4] end
             end
             ax.fm = pick or (keys[1] and keys[1][4]) or ax.fm
-            ax.sp, ax.sp_frame, ax.sp_before, ax.pend, ax.ac_key = nil, nil, nil, nil, nil   -- the pairing starts afresh
+            ax.sp, ax.sp_frame, ax.sp_before, ax.pend, ax.ac_key, ax.held = nil, nil, nil, nil, nil, nil   -- the pairing starts afresh
             ax.sp_ok, ax.sp_new, ax.sp_break = false, false, false
             note(ax.checker:new_connection(prev_bf00[dev]), fn)
         end
@@ -1843,7 +1905,8 @@ local function rta_alarm(pinfo)
     if at == nil or pt == nil or pt.value ~= 1 then return end
     local src = tostring(pinfo.dl_src)
     local ep, seq, fid = X["pn_io.alarm_src_endpoint"](), X["pn_io.send_seq_num"](), X["pn_rt.frame_id"]()
-    local key = src .. "|" .. tostring(ep and ep.value) .. "|" .. ((fid and fid.value == 0xFC01) and "high" or "low")
+    local dst = tostring(pinfo.dl_dst)   -- per AR: one alarm reference towards two controllers (a shared device)
+    local key = src .. "|" .. dst .. "|" .. tostring(ep and ep.value) .. "|" .. ((fid and fid.value == 0xFC01) and "high" or "low")
     local sq, now = seq and seq.value, tonumber(pinfo.abs_ts)
     local last = alarm_seq[key]
     alarm_seq[key] = {sq, now}   -- the window slides with each resend
@@ -1857,7 +1920,8 @@ local function rta_alarm(pinfo)
                 slot_nr = slot[1] and slot[1].value, subslot_nr = sub[1] and sub[1].value, items = items}
     for _, ax in ipairs(axis_list) do
         if (ax.info.device_mac or "") == src and ax.info.slot == ev.slot_nr and ax.info.subslot == ev.subslot_nr
-                and ax.fm.phase ~= "released" and ax.fm.phase ~= "aborted" then   -- an ended AR's axis: not its alarm
+                and ax.fm.phase ~= "released" and ax.fm.phase ~= "aborted"   -- an ended AR's axis: not its alarm
+                and (ax.fm.controller == nil or ax.fm.controller == dst or dst == NO_DST) then   -- nor another controller's AR's
             note(ax.checker:on_alarm(ev), pinfo.number)
         end
     end
@@ -1886,8 +1950,26 @@ local function judge(ax, sig, fn, ts, ok, decided)
 end
 
 -- CyclicTracker.on_cyclic for one mapped frame (first pass); returns what the tree shows
+-- cyclic.py _own_setpoint: a setpoint followed by a newer one before any actual value (ax.held) is this value's
+-- when the value lies from it as the last pair's did (ax.phase): two frames swapped by time-stamp jitter
+local function own_setpoint(ax, miss, rts, sig, fn, ts, ok)
+    local h = ax.held
+    ax.held = nil
+    if miss > 0 or math.abs(rts - h.rts - ax.phase) >= math.abs(rts - ax.sp_rts - ax.phase) then
+        ax.sp_break = true
+        return false
+    end
+    local sp, sp_frame, sp_ok, sp_before = ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_before
+    ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_before = h.sig, h.fn, h.ok, h.before
+    ax.phase = rts - h.rts
+    judge(ax, sig, fn, ts, ok, fn)
+    ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_before = sp, sp_frame, sp_ok, sp_before
+    return true
+end
+
 local function on_cyclic(pinfo, tvb, fr, ds_ok, miss, key)
     local fn, ts = pinfo.number, ts_ns(pinfo)
+    local rts = pinfo.rel_ts * 1e9   -- time differences for the pairing (abs_ts as a double rounds to ~0.2 us)
     local out = {objs = {}}
     local csdu = tvb:raw()
     local same = csdu == fr.last_csdu
@@ -1944,11 +2026,19 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok, miss, key)
             end
             out.objs[#out.objs + 1] = v
             if dir == "setpoint" then
+                local before = ax.sp_before
                 if ax.sp_ok then ax.sp_before = ax.sp else ax.sp_before = nil end
                 -- setpoint cycles lost, or one never paired: no edge across (cyclic.py)
                 -- (an output CR faster than the input CR leaves setpoints unpaired by design: the device acts on the latest)
-                if miss > 0 or (ax.sp_new and not gap_faster(key, ax.ac_key)) then ax.sp_break = true end
-                ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, ok
+                -- -- unless the next actual value turns out to be the unpaired one's, captured late (own_setpoint)
+                if miss > 0 or (ax.sp_new and not gap_faster(key, ax.ac_key)) then
+                    if miss == 0 and ax.held == nil and ax.phase ~= nil then
+                        ax.held = {sig = ax.sp, fn = ax.sp_frame, ok = ax.sp_ok, before = before, rts = ax.sp_rts}
+                    else
+                        ax.sp_break, ax.held = true, nil
+                    end
+                end
+                ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_rts = o.sig, fn, ok, rts
                 ax.sp_new, ax.sp_key = true, key
                 local pend = ax.pend
                 if pend ~= nil then   -- an actual value came before its setpoint (RT clocks drift): pair them now
@@ -1958,13 +2048,14 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok, miss, key)
                         note(chk:lost(pend.fn, pend.ts, 1), fn)
                     else
                         ax.sp_new = false
+                        ax.phase = pend.rts - rts
                         judge(ax, pend.sig, pend.fn, pend.ts, pend.ok, fn)
                     end
                 end
             else
                 ax.ac_key = key
                 if ax.ambiguous == nil then ax.ambiguous = ambiguous(ax, o) end
-                if ax.sp ~= nil then
+                if ax.sp ~= nil and not (ax.held ~= nil and own_setpoint(ax, miss, rts, o.sig, fn, ts, ok)) then
                     if ax.pend ~= nil then   -- two actual values, no setpoint between: the first one's is lost
                         local pend = ax.pend
                         ax.pend = nil
@@ -1977,10 +2068,11 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok, miss, key)
                         local brk = ax.sp_break
                         ax.sp_break = false
                         if miss > 0 or brk then note(chk:lost(fn, ts, miss), fn) end
-                        if stale then ax.pend = {sig = o.sig, fn = fn, ts = ts, ok = ok} end
+                        if stale then ax.pend = {sig = o.sig, fn = fn, ts = ts, ok = ok, rts = rts} end
                     end
                     if not stale then
                         ax.sp_new = false
+                        ax.phase = rts - ax.sp_rts
                         judge(ax, o.sig, fn, ts, ok, fn)
                     end
                 end
@@ -2306,7 +2398,18 @@ local function write_refusals(pinfo, req_frame)
         end
         if index == nil or index == 0xB02E or index == 0xB02F then
             for k, v in pairs(pairer) do
-                if v.frame == req_frame then pairer[k] = nil end   -- ParamPairer.refused
+                if v.frame == req_frame then   -- ParamPairer.refused: a request it overwrote is pending again
+                    pairer[k] = v.overwrote
+                    if v.overwrote then   -- the controller still wrote before reading the response (#76)
+                        refused_early[k] = refused_early[k] or {}
+                        table.insert(refused_early[k], req_frame)
+                        local sup = superseded[k]
+                        if sup and sup[#sup] == v.overwrote.frame then
+                            sup[#sup] = nil
+                            if #sup == 0 then superseded[k] = nil end
+                        end
+                    end
+                end
             end
         end
     end
@@ -2444,7 +2547,7 @@ local function reset_state()
     map_generation, cache_generation = 0, 0
     profiles, facts, ar_devs, p922_of, im0_seen = {}, {}, {}, {}, {}
     ar_keys, ar_phase, ar_order = {}, {}, {}
-    pending_connects, pairer, superseded = {}, {}, {}
+    pending_connects, pairer, superseded, refused_early = {}, {}, {}, {}
     axes, axis_list, dev_records, bf00_last, prev_bf00 = {}, {}, {}, {}, {}
     bf00_resp, answered, wrote = {}, {}, {}
     req_body, answered_body, bf00_before, answered_at, alarm_seq = {}, {}, {}, {}, {}

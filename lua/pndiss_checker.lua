@@ -318,6 +318,7 @@ function C.new(cfg, info)
   self.counts = {}                -- rule -> {events=, cycles=, first_frame=, severity=, side=, message=}
   self.gated = 0
   self.lost_cycles = 0            -- cycles missing from the capture (not judged)
+  self.sol_known_at = 0           -- cycle from which the failure counter C is known again after a loss (#10)
   self:reset_history()
   -- acyclic knowledge (behaviour.md §2.0: state carried from cycle to cycle)
   -- last written preset value; until a write is seen, settings.p65000 (nil = unknown, _state.py)
@@ -428,7 +429,10 @@ end
 function Checker:lost(frame, ts, cycles)
   self.lost_cycles = self.lost_cycles + cycles
   self.n = self.n + cycles
-  return break_history(self)
+  local out = break_history(self)
+  -- C started afresh is a lower bound until a counter at the threshold would have counted down (#10)
+  self.sol_known_at = self.n + self.sol_limit + 10
+  return out
 end
 
 -- ------------------------------------------------------------------------------ violations
@@ -1018,14 +1022,14 @@ function Checker:cycle_std(sp, ac)
         if o then o.msg = fmt("sensor error 0x%X cleared without G1_STW.15", code or 0) end
       end
     end
-    if AREQ == 1 and VALID then
+    if AREQ == 1 and VALID and PKA == 0 then   -- (parking cleared it: parked, the position stays out, R-ABS-4)
       self.restore_due = {n + L, self.f, self.ts}
     end
   end
   local rd = self.restore_due
   if rd ~= nil and n >= rd[1] then
     self.restore_due = nil
-    if ATX == 0 and AREQ == 1 and SERR == 0 then
+    if ATX == 0 and AREQ == 1 and SERR == 0 and PKA == 0 then
       -- #56: the position comes back into XIST2 (000_37bf2397999f1108.txt:3204-3209)
       self:emit("SERR-XIST2-NOT-RESTORED", rd[2], rd[3], fmt("G1_ZSW.13 still 0 %d cycles after the sensor error cleared", L),
                 self.f)
@@ -1127,8 +1131,9 @@ function Checker:value_rules(CLS, pCLS, DLS, pDLS, SERR, ATX, PKA, PDONE, X1, X2
   self:continuity(pos2, ppos2, pre, PKA)
   if self.velocity_filter == nil then self:nist_sign(motion_ref, pmotion, NIST) end   -- not with a SCANCON filter written
 
-  if self.lika and PKA == 1 and ((X1 or 0) ~= 0 or (X2 or 0) ~= 0 or PDONE ~= 0 or ATX ~= 0) then
-    -- #47: LIKA clears outputs while parked (000_37bf2397999f1108.txt:3149-3159)
+  if self.lika and PKA == 1 and ((X1 or 0) ~= 0 or (SERR == 0 and (X2 or 0) ~= 0) or PDONE ~= 0 or ATX ~= 0) then
+    -- #47: LIKA clears outputs while parked (000_37bf2397999f1108.txt:3149-3159); a sensor error keeps its code in
+    -- G1_XIST2 until parking clears it (#49, #51)
     o = self:hit("PARK-OUTPUTS-NOT-CLEARED")
     if o then o.msg = fmt("parked with G1_XIST1=%s G1_XIST2=%s G1_ZSW=0x%04X; expected 0s", tostring(X1), tostring(X2), g1zsw) end
   end
@@ -1242,7 +1247,7 @@ function Checker:sign_of_life(CLS, pCLS, DLS, pDLS, SERR, X2, first)
     self.sol_fault_seen = false  -- re-armed once the counter is back under the threshold
   end
   if SERR == 1 and X2 == K.e_master_sol and self.prev_ac ~= nil and bitof(self.prev_ac.g1_zsw or 0, 15) == 0 then
-    local all_below = true
+    local all_below = self.n >= self.sol_known_at
     for i = 1, self.Ch_n do if not (self.Ch[i] < self.sol_limit) then all_below = false; break end end
     if all_below then
       -- #10: no 0x0F02 without enough failures (001_9461bb7bc8c2767b.txt:1777-1781)
@@ -1251,8 +1256,9 @@ function Checker:sign_of_life(CLS, pCLS, DLS, pDLS, SERR, X2, first)
     end
   end
   if DLS ~= 0 then
-    if not self.started_D and not first and pDLS == 0 and pCLS ~= nil and CLS == pCLS then
-      -- #7: the DO starts on a C-LS change (001_9461bb7bc8c2767b.txt:1734-1736)
+    if not self.started_D and not first and pDLS == 0 and pCLS ~= nil and CLS == pCLS
+        and not (self.started_C and self.cls_run <= self.L + 1) then
+      -- #7: the DO starts on a C-LS change (001_9461bb7bc8c2767b.txt:1734-1736), within L_max cycles of it
       o = self:hit("SOL-DEVICE-EARLY-START")
       if o then o.msg = fmt("encoder sign-of-life started (%d) without a controller sign-of-life change", DLS) end
     end
@@ -1621,7 +1627,7 @@ local function record(chk, ev)
   for _, m in ipairs(BF00_MAP) do saved[#saved + 1] = {m[2], c[m[2]], c.sources[m[2]]} end
   chk.bf00_undo = {frame = ev.frame, cfg = saved, state = {chk.bf00_invalid, chk.bf00_due, chk.bf00_valid_frame,
                                                          chk.params_changed, was_seen}}
-  for _, m in ipairs(BF00_MAP) do
+  for _, m in ipairs(#problems == 0 and BF00_MAP or {}) do   -- an invalid set is not the configuration
     if d[m[1]] ~= nil then
       c[m[2]] = toint(d[m[1]])
       c.sources[m[2]] = "captured 0xBF00 (frame " .. tostring(ev.frame) .. ")"
@@ -1742,7 +1748,7 @@ local function read(chk, ev, p, pnu, sub, vals, frame, vfloat)
     chk.shift_known = true
   elseif pnu == 925 and vint then
     p925(chk, v, "read", frame)
-  elseif pnu == 980 then
+  elseif isint(pnu) and pnu >= 980 and pnu <= 989 then   -- P980 and its continuations P981..P989
     chk.p980 = chk.p980 or {}
     for i = 1, #vals do
       local x = vals[i]
@@ -1869,13 +1875,17 @@ local function param(chk, ev)
       end
       if code ~= nil and K.aborting_errors[code] then aborted = true end
     end
-    if chk.p980 ~= nil and pnu ~= nil and not chk.p980[pnu] and (err == nil or code ~= 0x00) then
-      -- #88: unknown PNU -> error 0x00 (001_9461bb7bc8c2767b.txt:2040)
+    if chk.p980 ~= nil and truthy(pnu) and not chk.p980[pnu] and not (pnu >= 980 and pnu <= 989)
+        and (err == nil or code ~= 0x00) then
+      -- #88: unknown PNU -> error 0x00 (001_9461bb7bc8c2767b.txt:2040); P980..P989 never list themselves,
+      -- PNU 0 is the controller's bad request (#79)
       v_(chk, "BMP-UNKNOWN-PNU", ev, fmt("PNU %s is not in P980 but was answered ", tostring(pnu))
          .. (err == nil and "positively" or ("with error " .. tostring(code))), frame)
     end
     local vfloat = K.float_formats[p.format] == true
-    if is_change then
+    if p.attribute ~= nil and band(p.attribute, 0xF0) ~= 0x10 then
+      -- a description or text (attribute 0x20 / 0x30): not the parameter's value (acyclic._value_attribute)
+    elseif is_change then
       change(chk, ev, p, pnu, sub, err, vals, frame, vfloat)
     elseif err == nil and #vals > 0 then
       read(chk, ev, p, pnu, sub, vals, frame, vfloat)

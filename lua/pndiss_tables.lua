@@ -1760,6 +1760,7 @@ T.checker = {
   },
   pairing_rules = {
     {"overwritten", "BMP-PIPELINED"},
+    {"pipelined", "BMP-PIPELINED"},
     {"response id mismatch", "BMP-RESPID-MISMATCH"},
     {"ref", "BMP-NOT-MIRRORED"},
     {"axis", "BMP-NOT-MIRRORED"},

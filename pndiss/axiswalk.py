@@ -81,8 +81,8 @@ class AxisWalk:
         needs the frame-by-frame code (a relabel, a first-frame check, a length the layout does not fit)."""
         ax = self.ax
         chk = ax.checker
-        if ax.sp_new or ax.pend is not None or ax.sp_break or ax.sp is None or ax.ambiguous is None \
-                or ax.sp_key != self.S.s.key or not chk.std:
+        if ax.sp_new or ax.pend is not None or ax.sp_break or ax.held is not None or ax.sp is None \
+                or ax.ambiguous is None or ax.sp_key != self.S.s.key or not chk.std:
             return False
         if chk.solmon and not (ax.sp_ok and ax.sp is chk.prev_sp and chk.sol_bulk_ready()):
             return False
@@ -175,6 +175,8 @@ class AxisWalk:
         ax.sp_new = ax.sp_break = False
         ax.pend = None
         ax.sp_key = S.s.key
+        ax.sp_ts = int(S.ts[sl])
+        ax.phase = int(self.A.ts[al]) - ax.sp_ts   # (cyclic.py: the last pair's time from setpoint to actual)
         col = w.e.col
         if col is not None:
             self._columns_out(col, sr, ar, e)

@@ -250,12 +250,17 @@ class CyclicTracker(AxisTracking):
                 else:
                     self.telegram_sink(o, fr, key[0], fn, ts, iops, bool(ok))
             if direction == "setpoint":
+                before = ax.sp_before
                 ax.sp_before = ax.sp if ax.sp_ok else None
                 if miss or (ax.sp_new and not self.gaps.faster(key, ax.ac_key)):
                     # setpoint cycles lost, or one was never paired: no edge across (an output CR faster than
-                    # the input CR leaves setpoints unpaired by design: the device acts on the latest)
-                    ax.sp_break = True
-                ax.sp, ax.sp_frame, ax.sp_ok = o.sig, fn, bool(ok)
+                    # the input CR leaves setpoints unpaired by design: the device acts on the latest) -- unless
+                    # the next actual value turns out to be the unpaired one's, captured late (_own_setpoint)
+                    if not miss and ax.held is None and ax.phase is not None:
+                        ax.held = (ax.sp, ax.sp_frame, ax.sp_ok, before, ax.sp_ts)
+                    else:
+                        ax.sp_break, ax.held = True, None
+                ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_ts = o.sig, fn, bool(ok), ts
                 ax.sp_new, ax.sp_key = True, key
                 pend = ax.pend
                 if pend is not None:  # an actual value came before its setpoint (RT clocks drift): pair them now
@@ -265,6 +270,7 @@ class CyclicTracker(AxisTracking):
                         self._out(ax.checker.lost(pend[1], pend[2], 1))
                     else:
                         ax.sp_new = False
+                        ax.phase = pend[2] - ts
                         self._judge(ax, *pend)
                 continue
             ax.ac_key = key
@@ -272,6 +278,8 @@ class CyclicTracker(AxisTracking):
                 ax.ambiguous = self._ambiguous(ax, o)
             if ax.sp is None:
                 continue  # no setpoint seen yet: nothing to pair
+            if ax.held is not None and self._own_setpoint(ax, miss, ts, o.sig, fn, ok):
+                continue
             if ax.pend is not None:  # two actual values, no setpoint between: the first one's setpoint is lost
                 pend, ax.pend = ax.pend, None
                 self._out(ax.checker.lost(pend[1], pend[2], 1))
@@ -280,7 +288,25 @@ class CyclicTracker(AxisTracking):
                 if self._unpaired(ax, key, miss, fn, ts, o.sig, bool(ok)):
                     continue
             ax.sp_new = False
+            ax.phase = ts - ax.sp_ts
             self._judge(ax, o.sig, fn, ts, ok)
+
+    def _own_setpoint(self, ax: Axis, miss: int, ts: int, sig: dict, fn: int, ok) -> bool:
+        """A setpoint came while the one before it was unpaired (``ax.held``): when this actual value lies from the
+        held one as the last pair's values lay from theirs (``ax.phase``), it is the held one's, captured a
+        little late (time-stamp jitter swapped two frames): paired with it, the newer setpoint waits for the next
+        value and the pairing keeps its phase. Otherwise the held one was never paired (as before: a break)."""
+        h, ax.held = ax.held, None
+        h_sig, h_frame, h_ok, h_before, h_ts = h
+        if miss or abs(ts - h_ts - ax.phase) >= abs(ts - ax.sp_ts - ax.phase):
+            ax.sp_break = True
+            return False
+        cur = (ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_before)
+        ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_before = h_sig, h_frame, h_ok, h_before
+        ax.phase = ts - h_ts
+        self._judge(ax, sig, fn, ts, ok)
+        ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_before = cur
+        return True
 
     def _judge(self, ax: Axis, sig: dict, fn: int, ts: int, ok) -> None:
         """One cycle: the actual value ``sig`` with the axis' setpoint (gated on DataStatus / IOPS)."""

@@ -13,6 +13,7 @@ from __future__ import annotations
 from . import rules
 from . import telegrams as tg
 from .encoder import Checker, EncoderConfig
+from .proto.eth import NO_DST
 
 BF00_INDEXES = (0xBF00, 0xFFFF)
 
@@ -25,7 +26,8 @@ class Axis:
     """One encoder (AR/submodule): its checker, latest setpoint and identity."""
 
     __slots__ = ("key", "info", "checker", "sp", "sp_frame", "sp_ok", "telegram", "source", "profile", "reason",
-                 "fm", "ambiguous", "sp_before", "sp_new", "sp_break", "sp_key", "ac_key", "pend")
+                 "fm", "ambiguous", "sp_before", "sp_new", "sp_break", "sp_key", "ac_key", "pend", "sp_ts", "phase",
+                 "held")
 
     def __init__(self, key, info):
         self.key = key
@@ -46,6 +48,9 @@ class Axis:
         self.sp_key = None        # the setpoint's stream key
         self.ac_key = None        # the actual value's stream key
         self.pend = None          # (signals, frame, ts, ok) of an actual value waiting for its setpoint
+        self.sp_ts = None         # capture time of the latest setpoint
+        self.phase = None         # actual minus setpoint capture time of the last pair (cyclic.py _own_setpoint)
+        self.held = None          # (signals, frame, ok, before, ts) of an unpaired setpoint a newer one followed
 
 
 class AxisTracking:
@@ -73,7 +78,8 @@ class AxisTracking:
         ax.checker.prev_bf00 = self.prev_bf00.get(fm.device_mac)
         self.axes[o.key] = ax
         for ev in self.records.get(fm.device_mac, ()):  # records seen before the first cyclic frame, in order
-            if (ev.get("ar_uuid") is None or fm.ar_uuid is None or ev.get("ar_uuid") == fm.ar_uuid) and addressed_to(ax, ev):
+            if (ev.get("ar_uuid") is None or fm.ar_uuid is None or ev.get("ar_uuid") == fm.ar_uuid) \
+                    and addressed_to(ax, ev, self.a.session):
                 self._out(ax.checker.on_record(ev))  # a 0xBF00 among them configures the checker
         return ax
 
@@ -147,7 +153,7 @@ class AxisTracking:
             ax.checker.cfg.sources["profile"] = ax.reason
             ax.checker.reconfigure()
             for ev in self.records.get(ax.info["device_mac"], ()):  # PS/PSM keeps its parameters at 0xFFFF
-                if ev.get("kind") == "record" and ev.get("index") == 0xFFFF and addressed_to(ax, ev):
+                if ev.get("kind") == "record" and ev.get("index") == 0xFFFF and addressed_to(ax, ev, self.a.session):
                     self._out(ax.checker.on_record(ev))
 
     # -- AR phases (SessionTracker.set_phase, session_ar.py) --------------------------------------------
@@ -232,7 +238,7 @@ class AxisTracking:
                 continue
             same = [fm for fm in maps if ax.fm is not None and fm.direction == ax.fm.direction]
             ax.fm = (same or maps or [ax.fm])[0]
-            ax.sp = ax.sp_frame = ax.sp_before = ax.pend = ax.ac_key = None   # the pairing starts afresh
+            ax.sp = ax.sp_frame = ax.sp_before = ax.pend = ax.ac_key = ax.held = None   # the pairing starts afresh
             ax.sp_ok = ax.sp_new = ax.sp_break = False
             self._out(ax.checker.new_connection(self.prev_bf00.get(dev)))
 
@@ -256,7 +262,8 @@ class AxisTracking:
         """A DATA-RTA alarm notification (pndiss/proto/alarm.py) from a device: the encoder axes on its
         submodule judge its diagnosis (Checker.on_alarm). The RTA resends a notification until it is
         acknowledged, with the same sequence number: that is the same alarm, judged once."""
-        key = (ev.get("src"), ev.get("alarm_src_endpoint"), ev.get("priority"))
+        # per AR: a device may use one alarm reference towards two controllers (a shared device)
+        key = (ev.get("src"), ev.get("dst"), ev.get("alarm_src_endpoint"), ev.get("priority"))
         last = self.alarm_seq.get(key)
         ts = ev.get("ts_ns", 0)
         resend = last is not None and last[0] == ev.get("send_seq_num") and ts - last[1] <= ALARM_RESEND_NS
@@ -265,10 +272,16 @@ class AxisTracking:
             return
         if len(self.alarm_seq) > 256:
             self.alarm_seq.pop(next(iter(self.alarm_seq)))
+        dst = ev.get("dst")
+        if dst == NO_DST:
+            dst = None   # a Linux cooked capture names no destination
         for ax in self.axes.values():
+            # an ended AR's axis: the alarm is the next AR's; the alarm goes to the controller of one AR (an AR a
+            # controller left without a Release in the capture does not take the next controller's alarms)
             if ax.info["device_mac"] == ev.get("src") and ax.info.get("slot") == ev.get("slot_nr") \
-                    and ax.info.get("subslot") == ev.get("subslot_nr") and (ax.fm is None or ax.fm.phase not in ENDED):
-                self._out(ax.checker.on_alarm(ev))   # (an ended AR's axis: the alarm is the next AR's)
+                    and ax.info.get("subslot") == ev.get("subslot_nr") and (ax.fm is None or (
+                        ax.fm.phase not in ENDED and (dst is None or ax.fm.controller_mac in (None, dst)))):
+                self._out(ax.checker.on_alarm(ev))
 
     def on_new_ar(self, device: str) -> None:
         """A Connect of the device succeeded: its alarm sequence numbers start again (a new AR's first alarm is
@@ -326,7 +339,7 @@ class AxisTracking:
             if ax.info["device_mac"] == dev and (ev.get("ar_uuid") is None or ax.fm is None or ax.fm.ar_uuid is None
                                                   or ev.get("ar_uuid") == ax.fm.ar_uuid
                                                   or (ev.get("kind") == "param" and ax.fm.phase not in ENDED)) \
-                    and addressed_to(ax, ev):
+                    and addressed_to(ax, ev, self.a.session):
                 if ax.checker.prev_bf00 is None:  # an axis of a restarted AR seen before its own 0xBF00 (#31)
                     ax.checker.prev_bf00 = self.prev_bf00.get(dev)
                 if ax.profile == "generic" and ev.get("index") == 0xFFFF and ev.get("profile") == "psm":
@@ -336,15 +349,18 @@ class AxisTracking:
                 self._out(ax.checker.on_record(ev))
 
 
-def addressed_to(ax: Axis, ev: dict) -> bool:
+def addressed_to(ax: Axis, ev: dict, session=None) -> bool:
     """A record or parameter access for this axis: one addressed to another encoder module of the device is that
-    module's (one Encoder Object per module and slot, network.md §1.7; its parameter channel is its own); one
-    addressed elsewhere (the DAP, a slot the AR's telegrams do not name, an axis inferred from content) is every
-    axis' of the device."""
+    module's (one Encoder Object per module and slot, network.md §1.7; its parameter channel is its own), also
+    when another controller's AR owns that module (a shared device); one addressed elsewhere (the DAP, a slot
+    no AR's telegrams name, an axis inferred from content) is every axis' of the device."""
     slot = ev.get("slot")
     if slot is None or slot == ax.info.get("slot") or ax.fm is None:
         return True
-    return all(do.slot != slot or do.telegram is None for do in ax.fm.objects)
+    if any(do.slot == slot and do.telegram is not None for do in ax.fm.objects):
+        return False
+    slots = getattr(session, "encoder_slots", None)
+    return slots is None or slot not in slots(ax.info["device_mac"])
 
 
 def tg_is_irt(frame_id: int) -> bool:

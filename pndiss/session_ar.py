@@ -97,11 +97,16 @@ class ArLayer:
             for a in b.get("apis", []):
                 for s in a["submodules"]:
                     e = {"module_ident": a["module_ident_number"], "submodule_ident": s["submodule_ident_number"],
-                         "type": s["submodule_properties_type"]}
+                         "type": s["submodule_properties_type"],
+                         "shared_input": bool(s.get("submodule_properties_shared_input"))}
                     for dd in s["data_descriptions"]:
-                        e[dd["direction"] or "other"] = (dd["submodule_data_length"], dd["length_iops"],
-                                                        dd["length_iocs"])
+                        ln = dd["submodule_data_length"]
+                        if s.get(f"submodule_properties_reduce_{dd['direction']}_submodule_data_length"):
+                            ln = 0   # this AR's IO data object has no data bytes (wire.md §6.6)
+                        e[dd["direction"] or "other"] = (ln, dd["length_iops"], dd["length_iocs"])
                     expected[(a["api"], a["slot_nr"], s["subslot_nr"])] = e
+        locked = {(a["api"], m["slot_nr"], sm["subslot_nr"]): _owner(sm["submodule_state"])
+                  for b in sb.get(0x8104, []) for a in b["apis"] for m in a["modules"] for sm in m["submodules"]}
         res_fid = {b["iocr_reference"]: b["frame_id"] for b in sb.get(0x8102, [])}
         station = arq.get("cminitiator_station_name")
         dev_station = self.station_name(device) or ((sb.get(0x8106) or [{}])[0].get("cminitiator_station_name"))
@@ -134,7 +139,14 @@ class ArLayer:
                     do = armap.DataObject(api=a["api"], slot=o["slot_nr"], subslot=o["subslot_nr"],
                                           offset=o["io_data_object_frame_offset"], length=ln, iops_len=iops,
                                           module_ident=e.get("module_ident"), submodule_ident=e.get("submodule_ident"))
-                    note = self._assign_telegram(do, e, device, dev_station)
+                    why = "shared input" if e.get("shared_input") else locked.get((a["api"], o["slot_nr"], o["subslot_nr"]))
+                    if why:
+                        # another AR controls the encoder: this AR only reads its inputs (SharedInput) or gets no
+                        # data of it (locked): nothing to judge here, and a P922 read does not make it a telegram
+                        do.telegram_source = NOT_OWNED
+                        note = f"not judged in this AR: {why} (the encoder's own AR controls it)"
+                    else:
+                        note = self._assign_telegram(do, e, device, dev_station)
                     info["objects"].append(dict(_do_row(do), telegram_note=note) if note else _do_row(do))
                     if fm is not None:
                         fm.objects.append(do)
@@ -315,6 +327,17 @@ def _replaces(arq: dict, iocrs) -> bool:
     IOCRs that is no supervisor AR (IOCARSingle, IOCARCIR, RT_CLASS_3, system redundancy). A supervisor
     or Device Access AR from the same MAC (a SoftPLC's engineering tool reading I&M0) runs beside it."""
     return arq.get("artype_req") != SUPERVISOR_AR_TYPE and bool(iocrs)
+
+
+NOT_OWNED = "not owned"   # telegram_source of a submodule another AR controls (no telegram in this AR)
+
+
+def _owner(state: int) -> str | None:
+    """What a ModuleDiffBlock SubmoduleState says when another AR owns the submodule (wire.md §6.7), else None."""
+    if state & 0x8000:
+        return {2: "superordinated locked", 3: "locked by IO controller",
+                4: "locked by IO supervisor"}.get((state >> 7) & 0xF)
+    return "locked by IO controller" if state & 0x7FFF == 2 else None
 
 
 def _do_row(do: armap.DataObject) -> dict:

@@ -173,7 +173,8 @@ class RecordLayer:
         self.a.emit(ev)
         self.a.cyclic.on_record(ev)
         for prm in p.get("params", []):
-            if prm.get("pnu") == P922 and not prm.get("error") and prm.get("values") and (prm.get("subindex") or 0) == 0:
+            if prm.get("pnu") == P922 and not prm.get("error") and prm.get("values") and (prm.get("subindex") or 0) == 0 \
+                    and (prm.get("attribute") or 0x10) & 0xF0 == 0x10:   # the value, not its description (0x20)
                 self._p922(rec["device_mac"], hb["api"], hb["slot_nr"], hb["subslot_nr"], prm["values"][0])
 
     def _p922(self, device, api, slot, subslot, value) -> None:
@@ -199,8 +200,8 @@ class RecordLayer:
                     misfit.add((do.api, do.slot, do.subslot))
         for fm in self._maps_of(device):
             for do in fm.objects:
-                if do.telegram_source == "map" or not do.length:
-                    continue
+                if do.telegram_source in ("map", "not owned") or not do.length:
+                    continue   # (a submodule another AR controls: session_ar.NOT_OWNED)
                 if do.telegram_source == "length" and (do.api, do.slot, do.subslot) in misfit:
                     # the wire's data lengths fit the guessed telegram, not P922's: keep the lengths as the
                     # configuration; the encoder reports TELEGRAM-SELECTION-MISMATCH (behaviour.md §9 #65)
@@ -210,6 +211,11 @@ class RecordLayer:
                     # P922 names the telegram of a submodule whose lengths fit none (then the cyclic
                     # length check reports TELEGRAM-LENGTH-MISMATCH, #64) or that was only guessed
                     do.telegram, do.telegram_source = t, "P922"
+
+    def encoder_slots(self, device) -> set:
+        """Slots of the device whose submodules carry a telegram in one of its ARs: its encoder modules (one
+        Encoder Object per module, network.md §1.7), whoever's AR they are in (a shared device)."""
+        return {do.slot for fm in self._maps_of(device) for do in fm.objects if do.telegram is not None}
 
     def _maps_of(self, device):
         for ar in self.ars.values():

@@ -109,11 +109,43 @@ def test_pairing_problems():
 
 def test_pairing_reports_overwritten_request():
     pp = ParamPairer()
+    pp.request("k", decode_record(0xB02E, build_param_request(1, 1, [{"pnu": 922}]), write=True), 1, 0)
+    pp.request("k", decode_record(0xB02E, build_param_request(2, 1, [{"pnu": 922}]), write=True), 2, 0)
+    ev = pp.response("k", decode_response(build_param_response(2, 1, [{"format": 0x06, "values": [81]}])), 3, 0)
+    assert ev["superseded_request_frames"] == [1] and ev["request_frame"] == 2
+
+
+def test_pairing_retry_of_the_same_request_is_no_new_request():
+    """A function block's retry writes the very same request again (its job timer ran out): the first stays
+    pending, nothing is overwritten (rule #76 is about a new request before the response)."""
+    pp = ParamPairer()
     req = decode_record(0xB02E, build_param_request(1, 1, [{"pnu": 922}]), write=True)
     pp.request("k", req, 1, 0)
-    pp.request("k", req, 2, 0)
+    pp.request("k", dict(req), 2, 0)
     ev = pp.response("k", decode_response(build_param_response(1, 1, [{"format": 0x06, "values": [81]}])), 3, 0)
-    assert ev["superseded_request_frames"] == [1] and ev["request_frame"] == 2
+    assert "superseded_request_frames" not in ev and ev["request_frame"] == 1 and ev["pairing"] == []
+
+
+def test_pairing_refused_early_write_keeps_the_pending_request():
+    """A device busy with request 1 refuses request 2 ("state conflict"): request 1 is still the one its
+    response answers, and the controller's early write is still #76 (the pairing note says pipelined)."""
+    pp = ParamPairer()
+    pp.request("k", decode_record(0xB02E, build_param_request(1, 1, [{"pnu": 922}]), write=True), 1, 0)
+    pp.request("k", decode_record(0xB02E, build_param_request(2, 1, [{"pnu": 65000}]), write=True), 2, 0)
+    pp.refused("k", 2)
+    ev = pp.response("k", decode_response(build_param_response(1, 1, [{"format": 0x06, "values": [83]}])), 3, 0)
+    assert ev["request_frame"] == 1 and ev["params"][0]["pnu"] == 922 and "superseded_request_frames" not in ev
+    assert ev["pairing"] == ["request(s) in frame(s) 2 pipelined before this response was read (refused by the device)"]
+
+
+def test_pairing_illegal_request_id_answered_0x80():
+    """An illegal request ID is answered with response ID 0x80 (001_9461bb7bc8c2767b.txt:2073): no mismatch."""
+    for qid, rid, mismatch in ((0x03, 0x80, False), (0x03, 0x83, False), (0x01, 0x80, True)):
+        req = decode_record(0xB02E, build_param_request(1, qid, [{"pnu": 922}]), write=True)
+        pp = ParamPairer()
+        pp.request("k", req, 1, 0)
+        ev = pp.response("k", decode_response(build_param_response(1, rid, [{"error": 0x21}])), 2, 0)
+        assert any("response id mismatch" in p for p in ev["pairing"]) == mismatch, (qid, rid)
 
 
 def test_negative_change_keeps_written_value_and_error():

@@ -106,6 +106,47 @@ def test_bf00_in_force_reconfigures_the_checker():
     assert "CTRLREQ-SET-IN-COMPAT" not in rule_ids(rows[1:])
 
 
+def _attr(ev, attribute):
+    for p in ev["params"]:
+        p["attribute"] = attribute
+    return ev
+
+
+PRESET_REL = ["0x1400 0x2000 | 0x1200 0x2000 5000 5000", "0x1400 0x2000 | 0x1200 0x2000 5000 5000",
+              "0x1400 0x3800 | 0x1200 0x2000 5000 5000", "0x1400 0x3800 | 0x1200 0x3000 6000 6000"]
+
+
+def test_description_read_is_not_the_value():
+    """A description (attribute 0x20) or text (0x30) read answers with other octets than the value (records.md
+    §3.4): its first octet is not P922 nor P65000."""
+    assert "TELEGRAM-SELECTION-MISMATCH" not in rule_ids([_attr(param(922, [10, 46]), 0x20), G])
+    assert "TELEGRAM-SELECTION-MISMATCH" in rule_ids([_attr(param(922, [10, 46]), 0x10), G])
+    written = [param(65000, [1000], change=True)]
+    assert "PRESET-VALUE-WRONG" not in rule_ids(written + [_attr(param(65000, [0]), 0x20)] + PRESET_REL)
+    assert "PRESET-VALUE-WRONG" in rule_ids(written + [_attr(param(65000, [0]), 0x10)] + PRESET_REL)
+
+
+def test_parameter_lists_and_pnu_zero_are_no_unknown_pnu():
+    """P980..P989 never list themselves, and a list continues in P981 (records.md §4.6); PNU 0 is the controller's
+    bad request (#79), whatever error answers it."""
+    lst = param(980, [922, 65000, 981])
+    assert "BMP-UNKNOWN-PNU" not in rule_ids([lst, param(980, [922, 65000, 981]), param(981, [65001])])
+    assert "BMP-UNKNOWN-PNU" not in rule_ids([lst, param(981, [65001]), param(65001, [1, 2])])
+    assert "BMP-UNKNOWN-PNU" in rule_ids([lst, param(65001, [1, 2])])
+    assert "BMP-UNKNOWN-PNU" not in rule_ids([lst, param(0, error=ERR(0x16))])
+
+
+def test_invalid_bf00_is_not_the_configuration():
+    """A 0xBF00 judged invalid (TMR 1) is answered with 0x1002, not taken as the encoder's scaling: no second,
+    derived POSITION-OUT-OF-RANGE against the encoder (behaviour.md §4.5)."""
+    bad = bf00({"compat": 1, "class4": 1, "scaling": 1, "mupr": 8192, "tmr": 1,
+                "problems": [{"rule": "BF00-VALUE-OUT-OF-RANGE", "message": "TMR 1"}]})
+    got = rule_ids([bad, G])
+    assert "BF00-VALUE-OUT-OF-RANGE" in got and "POSITION-OUT-OF-RANGE" not in got
+    ok = bf00({"compat": 1, "class4": 1, "scaling": 1, "mupr": 2, "tmr": 4, "problems": []})
+    assert "POSITION-OUT-OF-RANGE" in rule_ids([ok, G])
+
+
 @pytest.mark.skipif(__import__("shutil").which("lua5.2") is None, reason="lua5.2 not installed")
 def test_record_rules_lua_same():
     """Every row of the record / parameter table through the Lua checker (luachk replay): the same violations."""
@@ -115,4 +156,7 @@ def test_record_rules_lua_same():
         for _rule, cfg, bad, good in CASES:
             run(bad, **cfg)
             run(good, **cfg)
+        test_description_read_is_not_the_value()
+        test_parameter_lists_and_pnu_zero_are_no_unknown_pnu()
+        test_invalid_bf00_is_not_the_configuration()
     assert "P965-VERSION-MISMATCH" in lua_same(table)

@@ -62,6 +62,7 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         self.state_changes = 0
         self.gated = 0                 # cycles reported but not judged (IOPS/DataStatus)
         self.lost_cycles = 0           # cycles missing from the capture (not judged)
+        self.sol_known_at = 0          # cycle from which the failure counter C is known again after a loss (#10)
         self._reset_history()
         # acyclic knowledge (behaviour.md §2.0: state carried from cycle to cycle)
         # last written preset value; until a write is seen, settings.p65000 (None = unknown: the factory 0 may have
@@ -170,7 +171,11 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         edge, window or pending handshake reaches across them (not judged rather than a violation)."""
         self.lost_cycles += cycles
         self.n += cycles
-        return self._break()
+        out = self._break()
+        # the encoder's failure counter went on over the lost cycles: C (started afresh at 0) is a lower bound until
+        # a counter at the fault threshold would have counted down (SOL-FAULT-SPURIOUS claims C stayed below it)
+        self.sol_known_at = self.n + self.sol_limit + 10
+        return out
 
     def _break(self) -> list[dict]:
         """No judged cycle joins the next one: open runs end, the edge history starts afresh."""

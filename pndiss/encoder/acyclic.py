@@ -7,6 +7,7 @@ configuration (0xBF00 values, P65000, P979 shift) and emits violations through t
 from __future__ import annotations
 
 from .. import telegrams as tg
+from ..records.profidrive import legal_request_id
 from .value_rules import E_PARAM
 
 BF00_LEN = 31                                    # 000_37bf2397999f1108.txt:2171, 002_d69f444daf0f8af2.txt:1020
@@ -14,12 +15,13 @@ BF00_INDEXES = (0xBF00, 0xFFFF)                  # PS/PSM: 0xFFFF (behaviour.md 
 # LIKA's read-only PNUs (behaviour.md §9.10 #86, 000_37bf2397999f1108.txt:1953-2168)
 READ_ONLY = {"lika": {922, 964, 965, 975, 979, 980, 61001, 65001},
              "psm": {922, 925, 964, 965, 975, 979, 980, 61001, 65001}}   # PS/PSM "Get" (002_d69f444daf0f8af2.txt:1089-1166)
+_LISTS = (980, 989)   # the lists of defined parameters, P980 continued in P981.. (records.md §4.6)
 PROFILE_PNUS = {922, 964, 965, 975, 979, 980, 65000, 65001}    # profile parameters readable after run-up (#92)
 COMMISSIONING_DIAG = 0x9011   # channel error type: user parameter data assignment error (000_37bf2397999f1108.txt:2611-2615)
 ISO_MODE_DATA = 0x8030   # record index of IsochronousModeData (pnio_cm.py record names)
 ABORTING_ERRORS = {0x05, 0x16, 0x17, 0x18}       # 001_9461bb7bc8c2767b.txt:2089, 2099 (#85)
 # words of the ParamPairer's pairing problems -> rule (behaviour.md §9.10 #76, #81)
-PAIRING_RULES = (("overwritten", "BMP-PIPELINED"), ("response id mismatch", "BMP-RESPID-MISMATCH"),
+PAIRING_RULES = (("overwritten", "BMP-PIPELINED"), ("pipelined", "BMP-PIPELINED"), ("response id mismatch", "BMP-RESPID-MISMATCH"),
                  ("ref", "BMP-NOT-MIRRORED"), ("axis", "BMP-NOT-MIRRORED"), ("number of param", "BMP-NOT-MIRRORED"),
                  ("value blocks for", "BMP-NOT-MIRRORED"))
 RECORD_RULES = {"BF00-LENGTH", "BF00-RESERVED-NONZERO", "BF00-VALUE-OUT-OF-RANGE", "BMP-BAD-REQUEST",
@@ -100,7 +102,9 @@ def _record(chk, ev: dict) -> None:
     # replaces is kept until the response: a refused write wrote nothing (write_refused)
     chk.bf00_undo = (ev.get("frame"), {a: (getattr(c, a), c.sources.get(a)) for _k, a in BF00_FIELDS},
                      (chk.bf00_invalid, chk.bf00_due, chk.bf00_valid_frame, chk.params_changed, was_seen))
-    for key, attr in BF00_FIELDS:
+    # an invalid set is not the device's configuration: it answers it with 0x1002 (behaviour.md §4.5),
+    # and a device that does not report it is judged for that (#70), not against the invalid values too
+    for key, attr in BF00_FIELDS if not problems else ():
         if d.get(key) is not None:
             setattr(c, attr, int(d[key]))
             c.sources[attr] = f"captured 0xBF00 (frame {ev.get('frame')})"
@@ -201,7 +205,7 @@ def _bmp_request(chk, ev: dict) -> None:
         return
     bad = []
     rid = d.get("request_id")
-    if not (rid in (1, 2) or (isinstance(rid, int) and 0x40 <= rid <= 0x7F)):
+    if not legal_request_id(rid):
         bad.append(f"request ID 0x{rid:02X}" if isinstance(rid, int) else "request ID")
     n = d.get("no_of_parameters")
     if isinstance(n, int) and not 1 <= n <= 39:
@@ -253,7 +257,7 @@ def _param(chk, ev: dict) -> None:
     params = ev.get("params") or []
     rid = ev.get("response_id")
     qid = ev.get("request_id_code")
-    if isinstance(qid, int) and not (qid in (1, 2) or 0x40 <= qid <= 0x7F) and isinstance(rid, int):
+    if isinstance(qid, int) and not legal_request_id(qid) and isinstance(rid, int):
         codes = [p["error"].get("code") for p in params if isinstance(p.get("error"), dict)]
         if rid != 0x80 or (codes and codes[0] != 0x21):
             # 80: an illegal request ID is answered 0x80 / error 0x21 (001_9461bb7bc8c2767b.txt:2073)
@@ -276,17 +280,27 @@ def _param(chk, ev: dict) -> None:
                 _v(chk, "BMP-MULTI-NOT-ABORTED", ev, f"PNU {pnu} reported changed after an aborting error", frame=frame)
             if code in ABORTING_ERRORS:
                 aborted = True
-        if chk.p980 is not None and pnu is not None and pnu not in chk.p980 and (err is None or code != 0x00):
-            # 88: unknown PNU -> error 0x00 (001_9461bb7bc8c2767b.txt:2040)
+        if chk.p980 is not None and pnu and pnu not in chk.p980 and not _LISTS[0] <= pnu <= _LISTS[1] \
+                and (err is None or code != 0x00):
+            # 88: unknown PNU -> error 0x00 (001_9461bb7bc8c2767b.txt:2040). The lists P980..P989 never list
+            # themselves; PNU 0 is the controller's bad request (#79), any error answers it
             _v(chk, "BMP-UNKNOWN-PNU", ev, f"PNU {pnu} is not in P980 but was answered "
                + ("positively" if err is None else f"with error 0x{code:02X}"), frame=frame)
-        if change:
+        if not _value_attribute(p):
+            pass   # a description or text (attribute 0x20 / 0x30): not the parameter's value
+        elif change:
             _change(chk, ev, p, pnu, sub, err, vals, frame)
         elif err is None and vals:
             _read(chk, ev, p, pnu, sub, vals, frame)
         elif code == 0x11 and pnu in PROFILE_PNUS:
             # 92: profile parameters readable in every state (001_9461bb7bc8c2767b.txt:1830)
             _v(chk, "BMP-PROFILE-PARAM-UNREADABLE", ev, f"read of P{pnu} refused with 0x11 after run-up", frame=frame)
+
+
+def _value_attribute(p: dict) -> bool:
+    """The access is to the parameter's value (attribute 0x10; records.md §3.4), or the request was not seen."""
+    a = p.get("attribute")
+    return a is None or a & 0xF0 == 0x10
 
 
 def _p925(chk, v, how: str, frame) -> None:
@@ -358,7 +372,7 @@ def _read(chk, ev, p, pnu, sub, vals, frame) -> None:
         chk.shift_known = True
     elif pnu == 925:
         _p925(chk, v, "read", frame)
-    elif pnu == 980:
+    elif isinstance(pnu, int) and _LISTS[0] <= pnu <= _LISTS[1]:   # P980 and its continuations P981..P989
         chk.p980 = (chk.p980 or set()) | {x for x in vals if isinstance(x, int) and x}
     elif pnu == 971 and chk.p971_pending is not None:
         if v == 1:

@@ -68,13 +68,15 @@ class SignOfLife:
         if self.C <= self.sol_limit and not SERR:
             self.sol_fault_seen = False  # re-armed once the counter is back under the threshold
         if SERR and X2 == E_MASTER_SOL and self.prev_ac is not None and not (self.prev_ac.get("g1_zsw", 0) >> 15) & 1:
-            if all(v < self.sol_limit for v in self.C_hist):
+            if self.n >= self.sol_known_at and all(v < self.sol_limit for v in self.C_hist):
                 # 10: no 0x0F02 without enough failures (001_9461bb7bc8c2767b.txt:1777-1781)
                 self._hit("SOL-FAULT-SPURIOUS", f"0x0F02 raised while the failure counter stayed below 10*N={self.sol_limit} "
                           f"(C={self.C})")
         if DLS:
-            if not self.started_D and not first and pDLS == 0 and pCLS is not None and CLS == pCLS:
-                # 7: the DO starts on a C-LS change (001_9461bb7bc8c2767b.txt:1734-1736)
+            if not self.started_D and not first and pDLS == 0 and pCLS is not None and CLS == pCLS \
+                    and not (self.started_C and self.cls_run <= self.L + 1):
+                # 7: the DO starts on a C-LS change (001_9461bb7bc8c2767b.txt:1734-1736), within L_max cycles of
+                # it as every reaction (with k > 1 the controller holds the value it changed)
                 self._hit("SOL-DEVICE-EARLY-START", f"encoder sign-of-life started ({DLS}) without a controller sign-of-life change")
             self.started_D = True
             if not first and pDLS and DLS != next_ls(pDLS):

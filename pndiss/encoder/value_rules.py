@@ -169,18 +169,20 @@ def _nist_msg(k, c):
     return f"NIST={c.NIST} while the position moves by {_nist_d(c.motion, c.pmotion)} per cycle"
 
 
-# 47: LIKA clears outputs while parked (000_37bf2397999f1108.txt:3149-3159)
+# 47: LIKA clears outputs while parked (000_37bf2397999f1108.txt:3149-3159); a sensor error parking clears within
+# L_max (#49) keeps its code in G1_XIST2 until then (#51)
 def _park_outputs(k, c):
-    return bool(k.lika and c.PKA and ((c.X1 or 0) or (c.X2 or 0) or c.PDONE or c.ATX))
+    return bool(k.lika and c.PKA and ((c.X1 or 0) or (not c.SERR and (c.X2 or 0)) or c.PDONE or c.ATX))
 
 
 def _park_outputs_v(k, V):
     if not k.lika:
         return _none(V)
     busy = (V.PDONE == 1) | (V.ATX == 1)
-    for X in (V.X1, V.X2):
-        if X is not None:
-            busy |= _b(X != 0)
+    if V.X1 is not None:
+        busy |= _b(V.X1 != 0)
+    if V.X2 is not None:
+        busy |= _b(V.X2 != 0) & (V.SERR == 0)
     return (V.PKA == 1) & busy
 
 

@@ -273,12 +273,12 @@ class WordRules:
                 else:
                     # 55: errors clear after acknowledgement [AMBIGUOUS] (000_37bf2397999f1108.txt:3182-3213)
                     self._hit("SERR-CLEARED-WITHOUT-ACK", f"sensor error 0x{(code or 0):X} cleared without G1_STW.15")
-            if AREQ and VALID:
+            if AREQ and VALID and not PKA:   # (parking cleared it: parked, the position stays out, R-ABS-4)
                 self.restore_due = (n + L, self.f, self.ts)
         if self.restore_due is not None and n >= self.restore_due[0]:
             _, f0, ts0 = self.restore_due
             self.restore_due = None
-            if not ATX and AREQ and not SERR:
+            if not ATX and AREQ and not SERR and not PKA:
                 # 56: the position comes back into XIST2 (000_37bf2397999f1108.txt:3204-3209)
                 self._emit("SERR-XIST2-NOT-RESTORED", f0, ts0, f"G1_ZSW.13 still 0 {L} cycles after the sensor error cleared",
                            last=self.f)

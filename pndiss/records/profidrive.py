@@ -215,6 +215,11 @@ def decode_response(data: bytes, profile: str = "generic") -> dict:
     return out
 
 
+def legal_request_id(rid) -> bool:
+    """0x01 request, 0x02 change, 0x40..0x7F manufacturer-specific; anything else is answered 0x80 / 0x21."""
+    return rid in (1, 2) or (isinstance(rid, int) and 0x40 <= rid <= 0x7F)
+
+
 # ---- request/response pairing -----------------------------------------------------------------
 class ParamPairer:
     """Pairs each 0xB02E/0xB02F response with the request written before it on the same key
@@ -223,23 +228,42 @@ class ParamPairer:
     def __init__(self):
         self.pending: dict = {}       # key -> (decoded request, frame, ts)
         self.superseded: dict = {}    # key -> frames of requests overwritten before a response
+        self.overwrote: dict = {}     # key -> the pending request the last write replaced (back if it is refused)
+        self.refused_early: dict = {}  # key -> frames of new requests the device refused while one was open
 
     def request(self, key, decoded_request: dict, frame: int, ts: int) -> None:
         old = self.pending.get(key)
+        if old is not None and old[0] == decoded_request:
+            # the same request again (a function block's retry after its job timer): no new request, the
+            # first one stays pending (rule #76 is about a new request before the response)
+            return
         if old is not None:
             self.superseded.setdefault(key, []).append(old[1])
+        self.overwrote[key] = old
         self.pending[key] = (decoded_request, frame, ts)
 
     def refused(self, key, frame: int) -> None:
         """The write of the request in ``frame`` was refused: it never reached the parameter manager
-        (001_9461bb7bc8c2767b.txt:1822, 2093), so it is not pending and a retry overwrites nothing."""
+        (001_9461bb7bc8c2767b.txt:1822, 2093), so it is not pending and a retry overwrites nothing; a
+        request it would have overwritten (a device's "state conflict" while busy) is still pending."""
         old = self.pending.get(key)
         if old is not None and old[1] == frame:
             del self.pending[key]
+            back = self.overwrote.pop(key, None)
+            if back is not None:   # the controller still wrote before reading the response (#76)
+                self.pending[key] = back
+                self.refused_early.setdefault(key, []).append(frame)
+                sup = self.superseded.get(key)
+                if sup and sup[-1] == back[1]:
+                    sup.pop()
+                    if not sup:
+                        del self.superseded[key]
 
     def response(self, key, decoded_response: dict, frame: int, ts: int, profile: str = "generic") -> dict:
         pending = self.pending.pop(key, None)
         superseded = self.superseded.pop(key, [])
+        early = self.refused_early.pop(key, [])
+        self.overwrote.pop(key, None)
         rsp = decoded_response
         rid = rsp.get("response_id")
         ev = {"request_frame": None, "response_frame": frame, "request_ts_ns": None,
@@ -253,6 +277,9 @@ class ParamPairer:
             ev["superseded_request_frames"] = superseded
             ev["pairing"].append("request(s) in frame(s) " + ", ".join(map(str, superseded))
                                  + " overwritten before their response was read")
+        if early:
+            ev["pairing"].append("request(s) in frame(s) " + ", ".join(map(str, early))
+                                 + " pipelined before this response was read (refused by the device)")
         blocks = rsp.get("params", [])
         if pending is None:
             ev["pairing"].append("no request")
@@ -266,7 +293,9 @@ class ParamPairer:
         if rsp.get("request_ref") != req["request_ref"]:
             ev["pairing"].append(f"request ref mismatch (request 0x{req['request_ref']:02X}, "
                                  f"response 0x{rsp.get('request_ref', 0):02X})")
-        if rid not in (req["request_id"], req["request_id"] | 0x80):
+        qid = req["request_id"]
+        # an illegal request ID is answered with 0x80 (001_9461bb7bc8c2767b.txt:2073; rule #80 judges the rest)
+        if rid not in (qid, qid | 0x80) and not (rid == 0x80 and not legal_request_id(qid)):
             ev["pairing"].append(f"response id mismatch (request 0x{req['request_id']:02X}, response 0x{rid:02X})")
         if rsp.get("axis") != req["axis"]:
             ev["pairing"].append(f"axis not mirrored (request {req['axis']}, response {rsp.get('axis')})")
