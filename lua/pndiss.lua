@@ -372,7 +372,7 @@ local function gap_advance(key, cc, ts, last, fn)
     st.cc, st.ts, st.last, st.fn = cc, ts, last, fn
     if prev == nil then return 0 end
     local d = (cc - prev) % 0x10000
-    if d ~= st.step and pts ~= nil and ts - pts >= GAP_HALF_WRAP_NS and st.uniform
+    if pts ~= nil and ts - pts >= GAP_HALF_WRAP_NS and st.uniform   -- (also one step on: a loss of k x 2.048 s)
             and (st.known or st.seen >= GAP_LEARN) then
         -- the counter may have wrapped during the gap: the time stamps tell the cycles (pndiss/gaps.py)
         local period = st.step * GAP_UNIT_NS
@@ -740,6 +740,31 @@ local function connect_response(key, pinfo)
             end
             maps[fid .. "|" .. s .. "|" .. d] = fm
             keys[#keys + 1] = {fid, s, d, fm}
+        end
+    end
+    -- session_ar._taken_over: another controller's AR owning an encoder module this AR owns too ended unseen
+    -- (not with system redundancy, whose two ARs own the same modules)
+    if req.ar_type ~= 0x0020 then
+        local mine, any_ = {}, false
+        for _, k in ipairs(keys) do
+            for _, o in ipairs(k[4].objects) do
+                if o.telegram ~= nil then mine[(o.api or 0) .. "/" .. (o.slot or 0) .. "/" .. (o.subslot or 0)] = true; any_ = true end
+            end
+        end
+        for _, a in ipairs(any_ and ar_order or {}) do
+            local dv, ph = ar_devs[a], ar_phase[a]
+            if a ~= req.ar and dv ~= nil and dv[1] == device and dv[2] ~= req.controller and ph ~= nil
+                    and ph ~= "released" and ph ~= "aborted" and ar_keys[a] ~= nil then
+                local hit = false
+                for _, k in ipairs(ar_keys[a]) do
+                    if not k[4].primary_only then
+                        for _, o in ipairs(k[4].objects) do
+                            if o.telegram ~= nil and mine[(o.api or 0) .. "/" .. (o.slot or 0) .. "/" .. (o.subslot or 0)] then hit = true end
+                        end
+                    end
+                end
+                if hit then ar_moves(a, "aborted", pinfo.number) end
+            end
         end
     end
     if again then on_reconnect(req.ar, device, keys, pinfo.number) end
@@ -2228,7 +2253,9 @@ local function heuristic(tvb, pinfo, tree)
         end
         local miss = cc and gap_advance(key, cc.value, ts_ns(pinfo), last, pinfo.number) or 0
         local fr = lookup(fi.value, src, dst)
-        if fr == nil then infer_offer(key, fi.value, src, dst, pinfo.number, tvb) end   -- mid-session capture
+        if fr == nil and ds ~= nil and bit.band(ds.value, 0x14) == 0x14 then   -- mid-session capture: frames of
+            infer_offer(key, fi.value, src, dst, pinfo.number, tvb)             -- a provider in RUN (infer.offer)
+        end
         if fr == nil or #fr.objs == 0 then return false end
         -- rt.judgeable: DataValid (bit 2), ProviderState RUN (bit 4) and TransferStatus 0, wire.md §2.3
         local xs = X["pn_rt.transfer_status"]()

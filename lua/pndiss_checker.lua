@@ -230,6 +230,16 @@ function C.compat_open(c)
   return s:sub(-#DEFAULT_SOURCE) == DEFAULT_SOURCE
 end
 
+-- EncoderConfig.class4_open / preset_control_open: a vendor default only (no 0xBF00, no --set): not judged on
+function C.class4_open(c)
+  local s = c.sources and c.sources.class4 or ""
+  return s:sub(-#DEFAULT_SOURCE) == DEFAULT_SOURCE
+end
+function C.preset_control_open(c)
+  local s = c.sources and c.sources.preset_control or ""
+  return s:sub(-#DEFAULT_SOURCE) == DEFAULT_SOURCE
+end
+
 -- EncoderConfig field defaults (config.py); nil = None
 local function new_config(profile, telegram)
   return {profile = profile, telegram = telegram, compat = 1, class4 = 1, preset_control = nil, scaling = 0,
@@ -814,7 +824,7 @@ function Checker:cycle_std(sp, ac)
 
   -- ---- 9.3 preset (G1_STW.12 / G1_ZSW.12) -------------------------------------------------
   if not first and (PREQ == 1 and pPREQ == 0) then
-    if not truthy(c.class4) then
+    if not truthy(c.class4) and not C.class4_open(c) then
       -- #17: preset needs class 4 functionality (001_9461bb7bc8c2767b.txt:846)
       o = self:hit("PRESET-CLASS4-DISABLED", true)
       if o then o.msg = "preset requested (G1_STW.12 rise) with class 4 functionality off" end
@@ -825,7 +835,7 @@ function Checker:cycle_std(sp, ac)
       o = self:hit("PRESET-NOT-STANDSTILL", true)
       if o then o.msg = fmt("preset requested while moving (positions %s, NIST=%s)", pos_list(self), tostring(NIST)) end
     end
-    local allowed = VALID and truthy(c.class4) and PKA == 0 and SERR == 0
+    local allowed = VALID and (truthy(c.class4) or C.class4_open(c)) and PKA == 0 and SERR == 0
     self.pre = {n = n, f = self.f, fc = self.fc, ts = self.ts, mode = HMODE, P = self.p65000, pos2 = ppos2, x1 = pX1,
                 allowed = allowed, moving = moving, done = false, v = v_before}
     if allowed and (HMODE == 1 or truthy(self.p65000)) then
@@ -839,11 +849,12 @@ function Checker:cycle_std(sp, ac)
     if o then o.msg = fmt("G1_STW.11 changed %d->%d while the preset request was pending", pHMODE, HMODE) end
   end
   if not first and (PDONE == 1 and pPDONE == 0) then
-    if not truthy(c.class4) or pPKA ~= 0 then
+    local off = not truthy(c.class4) and not C.class4_open(c)
+    if off or pPKA ~= 0 then
       -- #18: no preset without class 4 or while parked (000_37bf2397999f1108.txt:2245-2265, 3140-3162)
       o = self:hit("PRESET-EXECUTED-WHEN-NOT-ALLOWED")
       if o then o.msg = "preset acknowledged (G1_ZSW.12 rise) while "
-                        .. (not truthy(c.class4) and "class 4 functionality is off" or "parked") end
+                        .. (off and "class 4 functionality is off" or "parked") end
     end
     if h_all(self, self.hPREQ, 0) then
       -- #20: PDONE only in answer to PREQ (000_37bf2397999f1108.txt:3123-3139)
@@ -1118,7 +1129,10 @@ function Checker:value_rules(CLS, pCLS, DLS, pDLS, SERR, ATX, PKA, PDONE, X1, X2
     local pc = c.preset_control
     if pc == nil then pc = d.preset_control end
     local on = c4 ~= nil and c4 ~= 0 and c4 ~= false
-    if (not on or pc == d.preset_control_affects_xist1) and not (d.xist1_counter and (sh == nil or sh == 0)) then
+    local src = tostring(c.sources.shift or "")
+    -- a vendor not known: its X1 may be a profile 4.1 counter, unless the shift was read (P979) or given
+    local known = c.profile ~= "generic" or src:sub(1, 4) == "P979" or src:sub(1, 9) == "settings."
+    if known and (not on or pc == d.preset_control_affects_xist1) and not (d.xist1_counter and (sh == nil or sh == 0)) then
       xist2_inconsistent(self, X1, X2, shift)
     end
   end
@@ -1302,7 +1316,7 @@ function Checker:check_preset_value(pre, pos2, X1, shift)
                     tostring(P_), tostring(pos2), tostring(exp2)) .. (tol ~= 0 and (" +- " .. tostring(tol)) or ""))
     end
   end
-  if X1 == nil or pre.x1 == nil then return end
+  if X1 == nil or pre.x1 == nil or C.preset_control_open(c) then return end   -- (no 0xBF00: X1's setting unknown)
   local x1_before = pre.x1
   local counter = C.xist1_counter(c)
   local m1 = counter and U32 or m2
@@ -1776,7 +1790,7 @@ local function change(chk, ev, p, pnu, sub, err, vals, frame, vfloat)
   if pnu == 65000 then
     local v = vals[1]
     local vint = not vfloat and isint(v)
-    if not truthy(c.class4) then
+    if not truthy(c.class4) and not C.class4_open(c) then
       -- #17: P65000 needs class 4 functionality (001_9461bb7bc8c2767b.txt:846)
       v_(chk, "PRESET-CLASS4-DISABLED", ev, "P65000 change request while class 4 functionality is off",
          ev.request_frame or frame)

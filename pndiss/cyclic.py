@@ -185,7 +185,7 @@ class CyclicTracker(AxisTracking):
                 if miss:
                     self._capture_gap(key, fn, ts, miss, fr)
                 if fr is None and self.infer.enabled:
-                    self.infer.offer(key, fn, pdu[csdu_off:len(pdu) - 4], ts)   # mid-session: learn from the content
+                    self.infer.offer(key, fn, pdu[csdu_off:len(pdu) - 4], ts, pdu[-2])   # mid-session: learn from the content
                 if fr is None:
                     self.count_unmapped(key, 1)
                 else:

@@ -167,12 +167,17 @@ def ring_order(paths) -> list:
     return [p for _t, p in firsts]
 
 
+RING_SLACK_NS = 1_000_000_000   # a dumpcap on several interfaces writes each one's buffer in turn: a piece may
+                                # start a little before the last frame of the one before (counted as out of order)
+
+
 def _check_order(a, prev: str, path: str) -> None:
-    """A piece must start where the previous one ended (the time the analyzer reached)."""
+    """A piece must start where the previous one ended (the time the analyzer reached), give or take the
+    reordering of a multi-interface dumpcap (RING_SLACK_NS, as within one file)."""
     from .capture import CaptureError, open_capture
 
     for _fn, ts, _lt, _data in open_capture(path):
-        if a.last_ts is not None and ts < a.last_ts:
+        if a.last_ts is not None and ts < a.last_ts - RING_SLACK_NS:
             raise CaptureError(f"{path} starts before {prev} ends: these files are not the pieces of one ring "
                                f"buffer (merge them with mergecap first)", a.frames)
         break

@@ -83,8 +83,10 @@ class Engine:
             good = (lts[ix.ifid] == 1) & (li >= 0) & (raw <= np.maximum(li, 0).astype(np.uint64))
             if not good.all():
                 m = int(np.argmin(good))
+                if m == 0:   # the reader takes the run of such frames (a cooked, FCS or binary-tsresol interface)
+                    return int(np.argmax(good)) if good.any() else len(ix)   # at once, not one re-index per frame
                 if m < MIN_FRAMES:
-                    return 1 if m == 0 else m
+                    return m
             ifid = ix.ifid[:m]
             ts = raw[:m].astype(np.int64) * mult[ifid] + off[ifid]
             return self._window(buf, n, ix.data[:m], ix.cap[:m], ts,

@@ -113,10 +113,10 @@ class GapTracker:
         if prev is None or not self.enabled:
             return 0
         d = (cc - prev) % WRAP
-        if d != st.step and pts is not None and ts - pts >= HALF_WRAP_NS and st.uniform \
-                and (st.known or st.seen >= LEARN):
-            # the counter may have wrapped during the gap (every 2.048 s): the time stamps tell the cycles. An
-            # advance of exactly one step is taken as one cycle (as the engine does, pndiss/streamcols.py)
+        if pts is not None and ts - pts >= HALF_WRAP_NS and st.uniform and (st.known or st.seen >= LEARN):
+            # the counter may have wrapped during the gap (every 2.048 s): the time stamps tell the cycles --
+            # also for an advance of exactly one step (a loss of k x 2.048 s): no provider pauses a second
+            # without its consumer's watchdog ending the AR (the engine asks the same, pndiss/streamcols.py)
             period = st.step * UNIT_NS
             k = (ts - pts + period // 2) // period - 1
             if k > 0:

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 from . import telegrams as tg
 from .encoder.config import next_ls
+from .proto.rt import DS_JUDGED
 
 SAMPLES = 48          # C_SDUs per stream before a decision
 MAX_STREAMS = 256     # streams sampled at once (bounded memory)
@@ -141,8 +142,12 @@ class Inference:
         self.failed: dict = {}            # key -> {frame_id, src, dst, c_sdu_len, frames}: nothing fits
         self.ts = None                    # time stamp of the frame that completed the samples
 
-    def offer(self, key: tuple, fn: int, csdu: bytes, ts: int | None = None) -> None:
-        """A cyclic frame the session could not map (cyclic.py); decides once both directions have samples."""
+    def offer(self, key: tuple, fn: int, csdu: bytes, ts: int | None = None, ds: int | None = None) -> None:
+        """A cyclic frame the session could not map (cyclic.py); decides once both directions have samples. A
+        frame whose DataStatus is not valid + RUN (``ds``; a PLC in STOP, an AR starting up) is no sample: its
+        IOPS are bad, and the IOCS bytes beside its data objects would fit a wrong layout (an independent audit)."""
+        if ds is not None and ds & DS_JUDGED != DS_JUDGED:
+            return
         st = self.streams.get(key)
         if st is None:
             if not self.enabled or len(self.streams) >= MAX_STREAMS:

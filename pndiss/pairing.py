@@ -116,7 +116,7 @@ def _offer(w, s, idx) -> None:
     for i in idx.tolist():
         data = w.frame(i)
         off = 18 if data[12] == 0x81 else 14
-        offer(s.key, w.fn(i), data[off + 2:len(data) - 4], int(w.ts[i]))
+        offer(s.key, w.fn(i), data[off + 2:len(data) - 4], int(w.ts[i]), data[-2])
 
 
 def _walk_count(w, g: Group) -> None:

@@ -164,6 +164,8 @@ class ArLayer:
                 frame_maps.append(fm)
                 map_keys.append((fid, s_mac, d_mac))
             iocrs.append(info)
+        if ok:
+            self._taken_over(frame_maps, arq, controller, device, fn, ts)
         alarm = (rb.get(0x0103) or [None])[0]
         alarm_res = (sb.get(0x8103) or [None])[0]
         ar = {"frame": fn, "ts_ns": ts, "kind": "ar", "ar_uuid": ar_uuid, "request_frame": call["frame"],
@@ -228,6 +230,22 @@ class ArLayer:
         cycle counters start afresh (no capture loss across the restart)."""
         for old in self._held(controller, device, ar_uuid):
             self.set_phase(old, "aborted", fn, ts, f"a new Connect of the same controller (frame {fn})")
+
+    def _taken_over(self, frame_maps, arq, controller: str, device: str, fn: int, ts: int) -> None:
+        """Another controller's AR that owns an encoder module this accepted Connect owns too ended unseen: a
+        device gives a submodule to one AR (the other's would be locked, session_ar._owner); system
+        redundancy's two ARs own the same modules by design."""
+        if arq.get("artype_req") == SYSRED_AR_TYPE:
+            return
+        mine = {(do.api, do.slot, do.subslot) for fm in frame_maps for do in fm.objects if do.telegram is not None}
+        if not mine:
+            return
+        for old in list(self.ars.values()):
+            if old["ok"] and old["device_mac"] == device and old["controller_mac"] != controller \
+                    and old.get("ar_type") != SYSRED_AR_TYPE and old.get("phase") not in ("released", "aborted", "refused") \
+                    and any((do.api, do.slot, do.subslot) in mine for fm in old["maps"] for do in fm.objects
+                            if do.telegram is not None):
+                self.set_phase(old, "aborted", fn, ts, f"another controller's Connect took its encoder module (frame {fn})")
 
     def _held(self, controller: str, device: str, ar_uuid: str) -> list:
         """The ARs other than ``ar_uuid`` this controller holds with this device (up: not ended or refused)."""
@@ -350,7 +368,13 @@ def ar_summary(ar: dict) -> dict:
     out = {k: v for k, v in ar.items() if k not in ("maps", "map_keys", "kind", "ts_ns")}
     # telegrams may have changed since the ar event (P922 read later): refresh from the maps
     objs = {(fm.frame_id, do.api, do.slot, do.subslot): do for fm in ar["maps"] for do in fm.objects}
-    out["iocrs"] = [dict(cr, objects=[_do_row(objs[(cr["frame_id"], o["api"], o["slot"], o["subslot"])])
-                                      if (cr["frame_id"], o["api"], o["slot"], o["subslot"]) in objs else o
-                                      for o in cr["objects"]]) for cr in ar["iocrs"]]
+    def row(cr, o):
+        do = objs.get((cr["frame_id"], o["api"], o["slot"], o["subslot"]))
+        if do is None:
+            return o
+        r = _do_row(do)
+        if "telegram_note" in o and do.telegram_source in ("length", NOT_OWNED):   # why it is guessed / not judged
+            r["telegram_note"] = o["telegram_note"]
+        return r
+    out["iocrs"] = [dict(cr, objects=[row(cr, o) for o in cr["objects"]]) for cr in ar["iocrs"]]
     return out

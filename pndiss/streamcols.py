@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import telegrams as tg
-from .gaps import LEARN, WRAP
+from .gaps import HALF_WRAP_NS, LEARN, WRAP
 from .proto.rt import DS_JUDGED
 
 BLOCK = 4096         # pairs judged per vectorised pass
@@ -77,7 +77,12 @@ class Cols:
         # row a follows the last frame the tracker took, not row a-1: a stale frame (an older counter) is
         # discarded and leaves the tracker where it was (gaps.duplicate)
         prev[0] = st.cc
-        return ((self.cc[a:b] - prev) % WRAP) != st.step
+        bad = ((self.cc[a:b] - prev) % WRAP) != st.step
+        if st.ts is not None:   # a pause of half a counter wrap or more: the time stamps tell (gaps.advance)
+            t = self.ts[a:b]
+            bad[0] |= int(t[0]) - st.ts >= HALF_WRAP_NS
+            bad[1:] |= (t[1:] - t[:-1]) >= HALF_WRAP_NS
+        return bad
 
     def bulk_gaps(self, gaps, a: int, b: int) -> None:
         st = gaps.streams.get(self.s.key)

@@ -250,6 +250,16 @@ def not_checked(summary: dict) -> list[str]:
                        f"the telegram is only guessed from the data lengths, which fit {cands} of profile "
                        f"{e.get('profile')} (cyclic.md §14): --map FILE (per station), --gsdml FILE, a P922 read in the capture, "
                        "or --set telegram=N (for every submodule of those lengths)")
+    seen = set()
+    for a in (summary.get("session") or {}).get("ars", []):
+        for cr in a.get("iocrs") or ():
+            for o in cr.get("objects") or ():
+                k = (a.get("ar_uuid"), o.get("slot"), o.get("subslot"))
+                if o.get("telegram_source") == "not owned" and k not in seen:   # session_ar.NOT_OWNED
+                    seen.add(k)
+                    out.append(f"{a.get('station') or a.get('device_mac')} {o.get('slot')}/{o.get('subslot')} in the AR of "
+                               f"{a.get('controller_station') or a.get('controller_mac')}: "
+                               + (o.get("telegram_note") or "not judged in this AR (another AR controls it)"))
     cyc = summary.get("cyclic", {})
     n = cyc.get("frames_before_ar") or 0
     if n >= 100 or (n and (cyc.get("content_inference") or {}).get("inferred")):   # not a start-up's few frames

@@ -12,7 +12,8 @@ from pndiss.encoder import Checker, EncoderConfig
 from pndiss.settings import Settings
 
 BASE = dict(profile="lika", telegram=81, compat=1, class4=1, st_phys=8192, mt_phys=4096, l_max=2, shift=0,
-            p65000=0)   # the tables state the preset value (the factory 0); tests/test_encoder_rules.py: unknown
+            p65000=0, preset_control=None)   # the tables state the preset value (the factory 0); tests/
+# test_encoder_rules.py: unknown; preset_control None = the vendor's coding, given as a captured 0xBF00 would
 
 
 def make_cfg(**kw) -> EncoderConfig:

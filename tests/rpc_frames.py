@@ -11,6 +11,9 @@ DEVICE_MAC = "02:00:00:00:01:01"
 CONTROLLER_IP = "192.168.0.1"
 DEVICE_IP = "192.168.0.10"
 AR_UUID = "12345678-9abc-def0-1234-56789abcdef0"
+ACT = "00000007-0000-1010-8000-000000000007"
+# who calls: the controller's MAC and IP, its AR and its RPC activity (the ``plc`` keyword of the pairs below)
+PLC = (CONTROLLER_MAC, CONTROLLER_IP, AR_UUID, ACT)
 
 
 def mac_bytes(m: str) -> bytes:
@@ -73,9 +76,10 @@ def block(bt: int, body: bytes, vlow: int = 0) -> bytes:
     return struct.pack(">HHBB", bt, len(body) + 2, 1, vlow) + body
 
 
-def ar_block_req(station: str = "plc", ar_uuid: str = AR_UUID, udp_port: int = 0x8892, ar_type: int = 1) -> bytes:
+def ar_block_req(station: str = "plc", ar_uuid: str = AR_UUID, udp_port: int = 0x8892, ar_type: int = 1,
+                 mac: str = CONTROLLER_MAC) -> bytes:
     name = station.encode()
-    body = struct.pack(">H", ar_type) + uuid_bytes(ar_uuid) + struct.pack(">H", 1) + mac_bytes(CONTROLLER_MAC)
+    body = struct.pack(">H", ar_type) + uuid_bytes(ar_uuid) + struct.pack(">H", 1) + mac_bytes(mac)
     body += uuid_bytes("dea00000-6c97-11d1-8271-000100010279") + struct.pack(">IHHH", 0x11, 600, udp_port, len(name))
     return block(0x0101, body + name)
 
@@ -111,13 +115,14 @@ def alarmcr_res() -> bytes:
 
 
 def expected(api: int, slot: int, module_ident: int, subs) -> bytes:
-    """subs: [(subslot, ident, type, in_len, out_len)]"""
+    """subs: [(subslot, ident, type, in_len, out_len)]; ``type`` is the whole SubmoduleProperties (bits 0-1 the
+    type, bit 2 SharedInput, bits 3/4 ReduceInput/OutputSubmoduleDataLength: wire.md §6.6)"""
     body = struct.pack(">HIHIHH", 1, api, slot, module_ident, 0, len(subs))
     for ss, ident, typ, in_len, out_len in subs:
         body += struct.pack(">HIH", ss, ident, typ)
-        if typ in (0, 1, 3):
-            body += struct.pack(">HHBB", 1, in_len if typ else 0, 1, 1)
-        if typ in (2, 3):
+        if (typ & 3) in (0, 1, 3):
+            body += struct.pack(">HHBB", 1, in_len if typ & 3 else 0, 1, 1)
+        if (typ & 3) in (2, 3):
             body += struct.pack(">HHBB", 2, out_len, 1, 1)
     return block(0x0104, body)
 
@@ -134,20 +139,32 @@ def rw_header(bt: int, index: int, length: int, *, seq: int = 1, api: int = 0x3D
     return block(bt, body)
 
 
+def _pair(opnum: int, req_body: bytes, res_body: bytes, plc: tuple, seq: int = 0, little: bool = False):
+    """(request, response) frames of one call of ``plc`` (PLC: mac, ip, AR UUID, activity) to the device."""
+    mac, ip, _ar, act = plc
+    req = frame(mac, DEVICE_MAC, ip, DEVICE_IP, 49153, 34964, dcerpc(0, opnum, req_body, act=act, seq=seq))
+    res = frame(DEVICE_MAC, mac, DEVICE_IP, ip, 49154, 49153,
+                dcerpc(2, opnum, res_body, act=act, seq=seq, little=little, flags1=0x0A))
+    return req, res
+
+
 def connect_pair(subs, api: int = 0x3D00, in_fid: int = 0x8000, out_fid: int = 0x8001, rt_class: int = 1,
-                 rr: tuple = (2, 2), **kw):
+                 rr: tuple = (2, 2), plc: tuple = PLC, diff: bytes = b"", **kw):
     """(request frame, response frame) of a Connect with ``subs``: (subslot, ident, type, in_len, out_len) of a
-    slot-1 module, or (slot, subslot, ident, type, in_len, out_len) for modules in several slots."""
+    slot-1 module, or (slot, subslot, ident, type, in_len, out_len) for modules in several slots; ``type`` may
+    carry SubmoduleProperties bits (expected()): a reduced direction's IO data object has no data bytes.
+    ``plc``: the calling controller and its AR (PLC); ``diff``: blocks appended to the response (a
+    ModuleDiffBlock)."""
     subs = [s if len(s) == 6 else (1, *s) for s in subs]
     in_objs, out_objs, in_iocs, out_iocs = [], [], [], []
     ioff = ooff = 0
     for slot, ss, _ident, typ, in_len, out_len in subs:
-        if typ in (0, 1, 3):
+        if (typ & 3) in (0, 1, 3):
             in_objs.append((slot, ss, ioff))
-            ioff += (in_len if typ else 0) + 1
-        if typ in (2, 3):
+            ioff += (in_len if typ & 3 and not typ & 0x08 else 0) + 1
+        if (typ & 3) in (2, 3):
             out_objs.append((slot, ss, ooff))
-            ooff += out_len + 1
+            ooff += (0 if typ & 0x10 else out_len) + 1
     for s, ss, _ in out_objs:
         in_iocs.append((s, ss, ioff))
         ioff += 1
@@ -157,38 +174,35 @@ def connect_pair(subs, api: int = 0x3D00, in_fid: int = 0x8000, out_fid: int = 0
     exp = b""
     for slot in dict.fromkeys(s[0] for s in subs):
         exp += expected(api, slot, 0x100, [s[1:] for s in subs if s[0] == slot])
-    req_blocks = (ar_block_req(**kw) + iocr_req(1, 1, in_fid, max(40, ioff), in_objs, in_iocs, api, rt_class, rr[0])
+    kw.setdefault("ar_uuid", plc[2])
+    req_blocks = (ar_block_req(mac=plc[0], **kw)
+                  + iocr_req(1, 1, in_fid, max(40, ioff), in_objs, in_iocs, api, rt_class, rr[0])
                   + iocr_req(2, 2, 0xFFFF, max(40, ooff), out_objs, out_iocs, api, rt_class, rr[1]) + alarmcr_req()
                   + exp)
-    res_blocks = ar_block_res() + iocr_res(1, 1, in_fid) + iocr_res(2, 2, out_fid) + alarmcr_res()
-    act = "00000007-0000-1010-8000-000000000007"
-    req = frame(CONTROLLER_MAC, DEVICE_MAC, CONTROLLER_IP, DEVICE_IP, 49153, 34964,
-                dcerpc(0, 0, ndr_request(req_blocks), act=act))
-    res = frame(DEVICE_MAC, CONTROLLER_MAC, DEVICE_IP, CONTROLLER_IP, 49154, 49153,
-                dcerpc(2, 0, ndr_response(res_blocks, little=True), act=act, little=True, flags1=0x0A))
-    return req, res
+    res_blocks = ar_block_res(kw["ar_uuid"]) + iocr_res(1, 1, in_fid) + iocr_res(2, 2, out_fid) + alarmcr_res() + diff
+    return _pair(0, ndr_request(req_blocks), ndr_response(res_blocks, little=True), plc, little=True)
 
 
-def prm_end_pair(seq: int = 1) -> tuple[bytes, bytes]:
+def prm_end_pair(seq: int = 1, plc: tuple = PLC) -> tuple[bytes, bytes]:
     """(request, response) of the controller's Control(PrmEnd): IODControlReq 0x0110, ControlCommand 0x0001, and
     the device's IODControlRes 0x8110 with Done 0x0008 (wire.md §6.8)."""
-    act = "00000007-0000-1010-8000-000000000007"
     def body(bt, cmd):
-        return block(bt, b"\0\0" + uuid_bytes(AR_UUID) + struct.pack(">HHHH", 1, 0, cmd, 0))
-    req = frame(CONTROLLER_MAC, DEVICE_MAC, CONTROLLER_IP, DEVICE_IP, 49153, 34964,
-                dcerpc(0, 4, ndr_request(body(0x0110, 0x0001)), act=act, seq=seq))
-    res = frame(DEVICE_MAC, CONTROLLER_MAC, DEVICE_IP, CONTROLLER_IP, 49154, 49153,
-                dcerpc(2, 4, ndr_response(body(0x8110, 0x0008)), act=act, seq=seq, flags1=0x0A))
-    return req, res
+        return block(bt, b"\0\0" + uuid_bytes(plc[2]) + struct.pack(">HHHH", 1, 0, cmd, 0))
+    return _pair(4, ndr_request(body(0x0110, 0x0001)), ndr_response(body(0x8110, 0x0008)), plc, seq)
 
 
-def write_pair(index: int, data: bytes, *, seq: int = 2, api: int = 0x3D00, slot: int = 1, subslot: int = 1):
-    """(request, positive response) of a record write from the controller to the device."""
-    act = "00000007-0000-1010-8000-000000000007"
-    req = frame(CONTROLLER_MAC, DEVICE_MAC, CONTROLLER_IP, DEVICE_IP, 49153, 34964,
-                dcerpc(0, 3, ndr_request(rw_header(0x0008, index, len(data), seq=seq, api=api, slot=slot,
-                                                   subslot=subslot) + data), act=act, seq=seq))
-    res = frame(DEVICE_MAC, CONTROLLER_MAC, DEVICE_IP, CONTROLLER_IP, 49154, 49153,
-                dcerpc(2, 3, ndr_response(rw_header(0x8008, index, len(data), seq=seq, api=api, slot=slot,
-                                                    subslot=subslot)), act=act, seq=seq, flags1=0x0A))
-    return req, res
+def write_pair(index: int, data: bytes, *, seq: int = 2, api: int = 0x3D00, slot: int = 1, subslot: int = 1,
+               plc: tuple = PLC, status: bytes = b"\0\0\0\0"):
+    """(request, response) of a record write from the controller to the device: positive, or refused with the
+    PNIOStatus ``status`` (in the NDR header and the IODWriteResHeader, wire.md §6.9)."""
+    hdr = dict(seq=seq, api=api, slot=slot, subslot=subslot, ar_uuid=plc[2])
+    return _pair(3, ndr_request(rw_header(0x0008, index, len(data), **hdr) + data),
+                 ndr_response(rw_header(0x8008, index, len(data), status=status, **hdr), status=status), plc, seq)
+
+
+def read_pair(index: int, data: bytes, *, seq: int = 2, api: int = 0x3D00, slot: int = 1, subslot: int = 1,
+              plc: tuple = PLC):
+    """(request, positive response with ``data``) of a record read from the controller."""
+    hdr = dict(seq=seq, api=api, slot=slot, subslot=subslot, ar_uuid=plc[2])
+    return _pair(2, ndr_request(rw_header(0x0009, index, 4096, **hdr)),
+                 ndr_response(rw_header(0x8009, index, len(data), **hdr) + data), plc, seq)

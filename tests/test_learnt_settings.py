@@ -377,3 +377,72 @@ def test_master_cycle_ratio_from_isochronous_mode_data():
     if shutil.which("lua5.2"):
         res = replay(r)
         assert not res["problems"], "\n".join(res["problems"][:20])
+
+
+# -- vendor defaults are no facts of a device the PLC parameterises at every start-up (no 0xBF00 in the capture) --
+
+def _open_run(rows, profile, telegram=81, given=None):
+    """rows through a checker whose 0xBF00 settings are the profile defaults (open) or ``given`` as --set would."""
+    from pndiss.encoder import EncoderConfig
+    from pndiss.settings import Settings
+    cfg = EncoderConfig.from_settings(Settings(), profile=profile, telegram=telegram)
+    for k, v in (given or {}).items():
+        setattr(cfg, k, v)
+        cfg.sources[k] = "settings." + k if k != "shift" else "P979.3 read (frame 1)"
+    chk = Checker(cfg)
+    out = []
+    for i, r in enumerate(T.expand(rows)):
+        sp, ac = T.parse(r, telegram)
+        out += chk.cycle(i, i * 1000, sp, ac)
+    out += chk.finish()
+    return {e["rule"] for e in out if e["kind"] == "violation"}
+
+
+STILL = ("0x1400 0x2000 | 0x1200 0x2000 1000 5", 3)
+PRESET = [STILL, "0x1400 0x3000 | 0x1200 0x2000 1000 5", ("0x1400 0x3000 | 0x1200 0x3000 1000 0", 3),
+          ("0x1400 0x2000 | 0x1200 0x2000 1000 0", 3)]
+CLASS4 = {"PRESET-CLASS4-DISABLED", "PRESET-EXECUTED-WHEN-NOT-ALLOWED"}
+
+
+def test_class4_default_is_not_judged():
+    """Hohner's factory default is class 4 off (telegrams.json profile_defaults): a mid-session capture's presets
+    are not both sides' errors on that default (an independent audit: every preset blamed twice)."""
+    assert not _open_run(PRESET, "hohner") & CLASS4
+    assert _open_run(PRESET, "hohner", given={"class4": 0}) >= CLASS4
+
+
+def test_xist1_of_an_unknown_vendor_is_not_judged_against_xist2():
+    """X1 = 1000 with X2 = 5: a profile 4.1 counter (SCANCON, Hohner) or a fault -- for a device of unknown vendor
+    only when the shift was read (P979) or given; LIKA's X1 is X2 shifted (#40)."""
+    rows = [("0x1400 0x2000 | 0x1200 0x2000 1000 5", 3)]
+    assert "XIST2-INCONSISTENT" not in _open_run(rows, "generic")
+    assert "XIST2-INCONSISTENT" in _open_run(rows, "generic", given={"shift": 0})
+    assert "XIST2-INCONSISTENT" in _open_run(rows, "lika")
+
+
+def test_preset_control_default_is_not_judged():
+    """What a preset does to G1_XIST1 is the 0xBF00's preset control bit: without it, X1 is not judged (#28, #29)."""
+    rows = [("0x1400 0x2000 | 0x1200 0x2000 40 5", 3), "0x1400 0x3000 | 0x1200 0x2000 40 5",
+            ("0x1400 0x3000 | 0x1200 0x3000 40 0", 3), ("0x1400 0x2000 | 0x1200 0x2000 40 0", 3)]
+    X1_RULES = {"PRESET-XIST1-NOT-AFFECTED-WHEN-ENABLED", "PRESET-XIST1-AFFECTED-WHEN-DISABLED"}
+    assert not _open_run(rows, "lika", given={"p65000": 0, "shift": 3}) & X1_RULES
+    assert _open_run(rows, "lika", given={"p65000": 0, "shift": 3, "preset_control": 0}) & X1_RULES
+
+
+@pytest.mark.skipif(shutil.which("lua5.2") is None, reason="lua5.2 not installed")
+def test_open_defaults_lua_same():
+    from luachk.record import lua_same
+    lua_same(lambda: (test_class4_default_is_not_judged(), test_xist1_of_an_unknown_vendor_is_not_judged_against_xist2(),
+                      test_preset_control_default_is_not_judged()))
+
+
+def test_inference_takes_no_samples_of_a_stopped_provider():
+    """Content inference samples only frames of a provider in RUN with valid data: in STOP the data objects' IOPS
+    are bad and the IOCS bytes beside them fit a wrong layout (an independent audit: 7-29 false errors)."""
+    from pndiss.infer import Inference
+    inf = Inference(type("A", (), {"session": None})())
+    key = (0x8001, "02:00:00:00:00:01", "02:00:00:00:01:01")
+    inf.offer(key, 1, bytes(10), 0, 0x05)   # DataValid, ProviderState STOP
+    assert key not in inf.streams or not inf.streams[key].samples
+    inf.offer(key, 2, bytes(10), 0, 0x35)   # RUN
+    assert inf.streams[key].samples

@@ -34,7 +34,16 @@ PARTIAL = {
     "STARTUP-NO-PARAM-RECORD": "decided at the AR's PrmEnd (0xBF00 / PS/PSM 0xFFFF written since the Connect, alone or "
                                "in a MultipleWrite 0xE040); only for ARs whose Connect and PrmEnd are in the capture",
     "PRESET-WITHOUT-NEW-PARAMS": "needs two connections of the same device in one capture",
-    "BMP-UNKNOWN-PNU": "needs a P980 read in the capture",
+    "BMP-UNKNOWN-PNU": "needs a P980 read in the capture (P981.. continue the list; P980..P989 themselves and PNU 0, "
+                       "the controller's bad request, are not judged)",
+    "XIST2-INCONSISTENT": "profile generic: only with the shift read (P979) or given (an unknown vendor's X1 may be a 4.1 counter)",
+    "PRESET-CLASS4-DISABLED": "class 4 from a captured 0xBF00 or --set class4, not a vendor default",
+    "BMP-CLASS4-WRITE-ACCEPTED": "class 4 from a captured 0xBF00 or --set class4, not a vendor default",
+    "PRESET-XIST1-AFFECTED-WHEN-DISABLED": "needs the preset control bit of a captured 0xBF00",
+    "PRESET-XIST1-NOT-AFFECTED-WHEN-ENABLED": "needs the preset control bit of a captured 0xBF00",
+    "SOL-FAULT-SPURIOUS": "the failure counter must be known below 10N: not judged for 10N+10 cycles after capture loss",
+    "SOL-DEVICE-EARLY-START": "the encoder may start within L_max cycles of a controller sign-of-life change (k > 1 "
+                              "holds the changed value)",
     "PRESET-NOT-STANDSTILL": "standstill by the position over W(n,-2,0) only: the velocity lags a stop (SCANCON/Hohner "
                              "filter it, 001_9461bb7bc8c2767b.txt:970-983, 004_59bef5ae9f41db55.txt:828-838; Lika every "
                              "100 ms, 000_37bf2397999f1108.txt:1919), so a nonzero NIST alone is no motion",

@@ -318,7 +318,7 @@ def _change(chk, ev, p, pnu, sub, err, vals, frame) -> None:
         _p925(chk, vals[0], "written", frame)
     if pnu == 65000:
         v = vals[0] if vals else None
-        if not c.class4:
+        if not c.class4 and not c.class4_open():
             # 17: P65000 needs class 4 functionality (001_9461bb7bc8c2767b.txt:846)
             _v(chk, "PRESET-CLASS4-DISABLED", ev, "P65000 change request while class 4 functionality is off",
                frame=ev.get("request_frame", frame))

@@ -123,6 +123,17 @@ class EncoderConfig:
         SIMATIC technology object (000_37bf2397999f1108.txt:1280-1281): the default would blame the encoder."""
         return self.sources.get("compat", "").endswith(DEFAULT_SOURCE)
 
+    def class4_open(self) -> bool:
+        """Class 4 functionality neither captured (0xBF00) nor given (--set class4): a vendor default (SCANCON's
+        and Hohner's is off) is no fact of a device the PLC parameterises at every start-up -- the class 4
+        rules (#17, #18, #91) are not judged, a preset is judged as allowed."""
+        return self.sources.get("class4", "").endswith(DEFAULT_SOURCE)
+
+    def preset_control_open(self) -> bool:
+        """The G1_XIST1 preset control bit not captured (no 0xBF00): what a preset does to G1_XIST1 is not
+        judged (#28, #29, the G1_XIST1 value after a preset)."""
+        return self.sources.get("preset_control", "").endswith(DEFAULT_SOURCE)
+
     def in_force(self) -> dict:
         """The settings in force, with where each came from (for summary() and the report)."""
         out = {}

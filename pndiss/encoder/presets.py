@@ -48,8 +48,8 @@ class PresetRules:
                 self._emit("PRESET-VALUE-WRONG", self.f, self.ts,
                            f"{words} preset P65000={P_}: position {pos2} in the first frame with G1_ZSW.12, expected {exp2}"
                            + (f" +- {tol}" if tol else ""))
-        if X1 is None or pre["x1"] is None:
-            return
+        if X1 is None or pre["x1"] is None or c.preset_control_open():
+            return   # (no 0xBF00: what the preset does to G1_XIST1 is the device's unknown setting)
         x1_before = pre["x1"]
         m1 = U32 if c.xist1_counter else m2
         sh = 0 if c.xist1_counter else shift

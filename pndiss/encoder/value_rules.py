@@ -19,6 +19,7 @@ U32 = 1 << 32
 LIKA_CODES = frozenset(tg.XIST2_ERRORS)          # LIKA's full list (behaviour.md §9.7 #51)
 E_MASTER_SOL, E_SYNC, E_PARAM = 0x0F02, 0x0F04, 0x1002   # cyclic.md §9
 CONTINUITY_PROFILES = ("scancon", "hohner")      # endless shaft continuous modulo R (#42)
+SHIFT_GIVEN = ("P979", "settings.")              # a shift read from the device or given, not inferred (#40)
 
 
 def _none(V) -> np.ndarray:
@@ -76,6 +77,8 @@ def _x2_zero_v(k, V):
 # 40: X1 == X2 << P979.3 (001_9461bb7bc8c2767b.txt:2223-2224)
 def _x40_applies(k) -> bool:
     c = k.cfg
+    if c.profile == "generic" and not c.sources.get("shift", "").startswith(SHIFT_GIVEN):
+        return False   # a vendor not known: its X1 may be a profile 4.1 counter (001_9461bb7bc8c2767b.txt:442-447)
     return (not c.class4 or c.xist1_preset_affected) and not c.xist1_counter
 
 

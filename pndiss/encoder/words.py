@@ -111,7 +111,7 @@ class WordRules:
 
         # ---- 9.3 preset (G1_STW.12 / G1_ZSW.12) -------------------------------------------------
         if not first and rise(PREQ, pPREQ):
-            if not c.class4:
+            if not c.class4 and not c.class4_open():
                 # 17: preset needs class 4 functionality (001_9461bb7bc8c2767b.txt:846)
                 self._hit("PRESET-CLASS4-DISABLED", "preset requested (G1_STW.12 rise) with class 4 functionality off", controller=True)
             moving = not standstill
@@ -119,7 +119,7 @@ class WordRules:
                 # 26: presets only at standstill (001_9461bb7bc8c2767b.txt:844, 004_59bef5ae9f41db55.txt:772)
                 self._hit("PRESET-NOT-STANDSTILL", f"preset requested while moving (positions {list(self.pos_hist)}, NIST={NIST})",
                           controller=True)
-            allowed = VALID and c.class4 and not PKA and not SERR
+            allowed = VALID and (c.class4 or c.class4_open()) and not PKA and not SERR
             self.pre = {"n": n, "f": self.f, "fc": self.fc, "ts": self.ts, "mode": HMODE, "P": self.p65000,
                         "pos2": ppos2, "x1": pX1, "allowed": allowed, "moving": moving, "done": False,
                         "v": v_before}
@@ -131,10 +131,11 @@ class WordRules:
             self._hit("PRESET-MODE-CHANGED", f"G1_STW.11 changed {pHMODE}->{HMODE} while the preset request was pending",
                       controller=True)
         if not first and rise(PDONE, pPDONE):
-            if not c.class4 or pPKA:
+            off = not c.class4 and not c.class4_open()
+            if off or pPKA:
                 # 18: no preset without class 4 or while parked (000_37bf2397999f1108.txt:2245-2265, 3140-3162)
                 self._hit("PRESET-EXECUTED-WHEN-NOT-ALLOWED", "preset acknowledged (G1_ZSW.12 rise) while "
-                          + ("class 4 functionality is off" if not c.class4 else "parked"))
+                          + ("class 4 functionality is off" if off else "parked"))
             if all(h[1] == 0 for h in H):
                 # 20: PDONE only in answer to PREQ (000_37bf2397999f1108.txt:3123-3139)
                 self._hit("PRESET-ACK-SPURIOUS", f"G1_ZSW.12 rose with G1_STW.12=0 in the last {len(H)} cycles")

@@ -391,7 +391,9 @@ def held_xist1_session() -> Checker:
     """Hand-made: an absolute preset requested while XIST2 shows no position yet (so the position
     before the preset is unknown) on a device whose XIST1 ignores it: #29, decided by the
     'no position before' branch of _check_preset_value."""
-    cfg = EncoderConfig.from_settings(Settings(), profile="generic", telegram=81, cycle_ns=1_000_000)
+    # the preset control bit as a captured 0xBF00 says it (without one, #28/#29 are not judged)
+    cfg = EncoderConfig.from_settings(Settings(), profile="generic", telegram=81, cycle_ns=1_000_000,
+                                      bf00={"class4": 1, "preset_control": 0})
     chk = Checker(cfg, {"station": "enc"})
     chk.on_record({"frame": 2, "ts_ns": 0, "kind": "param", "response_frame": 2, "request_frame": 1,
                    "request_id": "change parameter", "request_id_code": 2, "response_id": 2, "request_ref": 1,
