@@ -334,6 +334,7 @@ local misses
 -- capture loss, as pndiss/gaps.py: per (frame ID, src, dst) stream the CycleCounter of its last frame;
 -- round(advance / step) - 1 cycles are missing, once the step is known (Connect) or seen LEARN times
 local gap_streams
+local gap_last_ts      -- time of the frame that ended the latest capture gap (gaps.GapTracker.last_ts)
 local GAP_LEARN, GAP_IRREGULAR_MAX = 4, 3
 local function gap_stream(key)
     local st = gap_streams[key]
@@ -377,7 +378,7 @@ local function gap_advance(key, cc, ts, last, fn)
         -- the counter may have wrapped during the gap: the time stamps tell the cycles (pndiss/gaps.py)
         local period = st.step * GAP_UNIT_NS
         local k = math.floor((ts - pts + math.floor(period / 2)) / period) - 1
-        if k > 0 then return k end
+        if k > 0 then gap_last_ts = ts; return k end
     end
     if d == 0 then return 0 end
     if st.step == 0 then st.step = d; return 0 end
@@ -400,6 +401,7 @@ local function gap_advance(key, cc, ts, last, fn)
         end
         return 0
     end
+    gap_last_ts = ts
     return math.floor(d / st.step) - 1
 end
 -- both streams advance by one confirmed step per cycle: each actual value has its own setpoint
@@ -455,7 +457,7 @@ local function lookup(fid, src, dst)
             if d.length and d.length > 0 then
                 local t, source = d.telegram, d.telegram_source
                 local pt = pndiss.prefs.telegram
-                if pt ~= 0 and (t == nil or (tostring(source):sub(1, 6) == "length" and T.telegrams[pt] ~= nil
+                if pt ~= 0 and d.telegram_source ~= "not owned" and (t == nil or (tostring(source):sub(1, 6) == "length" and T.telegrams[pt] ~= nil
                         and T.telegrams[t] ~= nil and layout(pt, "setpoint").len == layout(t, "setpoint").len
                         and layout(pt, "actual").len == layout(t, "actual").len)) then   -- the guess's lengths only
                     t, source = pndiss.prefs.telegram, "settings.telegram"
@@ -725,7 +727,8 @@ local function connect_response(key, pinfo)
                 local obj = {api = o.api, slot = o.slot, subslot = o.subslot, offset = o.offset, length = mine[1]}
                 -- session._assign_telegram: P922 read before > both directions' lengths
                 local pt = p922_of[table.concat({device, o.api or 0, o.slot or 0, o.subslot or 0}, "|")]
-                if e.shared_input or locked[ek] then
+                obj.locked = not e.shared_input and locked[ek] or nil   -- for now (judged when GOOD, no #66)
+                if e.shared_input then
                     obj.telegram_source = "not owned"   -- session_ar.NOT_OWNED: another AR controls the encoder
                 elseif pt ~= nil then
                     obj.telegram, obj.telegram_source = pt, "P922"
@@ -744,11 +747,11 @@ local function connect_response(key, pinfo)
     end
     -- session_ar._taken_over: another controller's AR owning an encoder module this AR owns too ended unseen
     -- (not with system redundancy, whose two ARs own the same modules)
-    if req.ar_type ~= 0x0020 then
+    if req.ar_type ~= 0x0020 and req.ar_type ~= 0x0006 then   -- (a supervisor gives the module back)
         local mine, any_ = {}, false
         for _, k in ipairs(keys) do
             for _, o in ipairs(k[4].objects) do
-                if o.telegram ~= nil then mine[(o.api or 0) .. "/" .. (o.slot or 0) .. "/" .. (o.subslot or 0)] = true; any_ = true end
+                if o.telegram ~= nil and not o.locked then mine[(o.api or 0) .. "/" .. (o.slot or 0) .. "/" .. (o.subslot or 0)] = true; any_ = true end
             end
         end
         for _, a in ipairs(any_ and ar_order or {}) do
@@ -1263,6 +1266,8 @@ end
 -- ParamPairer.request: a new request overwrites an unanswered one (kept, in case its write is refused)
 local function pair_request(key, dec, fn, ts)
     local old = pairer[key]
+    -- pending from before the capture lost frames: its response may have been read there (forgotten, not overwritten)
+    if old and gap_last_ts ~= nil and gap_last_ts > old.ts then old = nil end
     if old and deep_eq(old.req, dec) then return end   -- the same request again: the first stays pending
     if old then
         superseded[key] = superseded[key] or {}
@@ -1847,6 +1852,9 @@ end
 -- cyclic.py _startup: #66, 0xBF00 (PS/PSM 0xFFFF) is written since the Connect, decided at PrmEnd
 -- (an ambiguous length guess is not judged: cyclic.py _unsure)
 local function startup(ax, fn)
+    for _, d in ipairs(ax.fm.objects or {}) do   -- another AR owns the module (ModuleDiffBlock): no 0xBF00 of this AR
+        if d.locked and d.slot == ax.info.slot and d.subslot == ax.info.subslot then return end
+    end
     if ax.fm.source == "connect" and is_std(ax.checker.cfg.telegram) and not ax.checker.bf00_seen
             and not bf00_resp[ax.fm.ar or ""] and not ambiguous(ax, {source = ax.source}) then
         note_violation(fn, "STARTUP-NO-PARAM-RECORD", fn, false,
@@ -1980,13 +1988,17 @@ end
 local function own_setpoint(ax, miss, rts, sig, fn, ts, ok)
     local h = ax.held
     ax.held = nil
-    if miss > 0 or math.abs(rts - h.rts - ax.phase) >= math.abs(rts - ax.sp_rts - ax.phase) then
+    local st = gap_streams[ax.sp_key or ""]
+    local T = (st ~= nil and st.step > 0 and st.uniform) and st.step * GAP_UNIT_NS or nil
+    local d0, d1 = math.abs(rts - h.rts - ax.phase), math.abs(rts - ax.sp_rts - ax.phase)
+    if miss > 0 or T == nil or d0 >= d1 or 2 * d0 >= T then   -- within half a cycle of the phase (gaps.period_ns)
         ax.sp_break = true
         return false
     end
     local sp, sp_frame, sp_ok, sp_before = ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_before
     ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_before = h.sig, h.fn, h.ok, h.before
     ax.phase = rts - h.rts
+    ax.held_paired = (ax.held_paired or 0) + 1   -- cyclic.HELD_MAX in a row: more is clock drift
     judge(ax, sig, fn, ts, ok, fn)
     ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_before = sp, sp_frame, sp_ok, sp_before
     return true
@@ -2057,7 +2069,7 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok, miss, key)
                 -- (an output CR faster than the input CR leaves setpoints unpaired by design: the device acts on the latest)
                 -- -- unless the next actual value turns out to be the unpaired one's, captured late (own_setpoint)
                 if miss > 0 or (ax.sp_new and not gap_faster(key, ax.ac_key)) then
-                    if miss == 0 and ax.held == nil and ax.phase ~= nil then
+                    if miss == 0 and ax.held == nil and ax.phase ~= nil and (ax.held_paired or 0) < 3 then   -- cyclic.HELD_MAX
                         ax.held = {sig = ax.sp, fn = ax.sp_frame, ok = ax.sp_ok, before = before, rts = ax.sp_rts}
                     else
                         ax.sp_break, ax.held = true, nil
@@ -2072,7 +2084,7 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok, miss, key)
                         ax.sp_break = false
                         note(chk:lost(pend.fn, pend.ts, 1), fn)
                     else
-                        ax.sp_new = false
+                        ax.sp_new, ax.held_paired = false, 0
                         ax.phase = pend.rts - rts
                         judge(ax, pend.sig, pend.fn, pend.ts, pend.ok, fn)
                     end
@@ -2096,7 +2108,7 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok, miss, key)
                         if stale then ax.pend = {sig = o.sig, fn = fn, ts = ts, ok = ok, rts = rts} end
                     end
                     if not stale then
-                        ax.sp_new = false
+                        ax.sp_new, ax.held_paired = false, 0
                         ax.phase = rts - ax.sp_rts
                         judge(ax, o.sig, fn, ts, ok, fn)
                     end
@@ -2240,6 +2252,8 @@ local function heuristic(tvb, pinfo, tree)
         if pinfo.visited then return false end
         local fi = X["pn_rt.frame_id"]()
         if fi == nil then blind = true; return false end   -- no protocol tree: nothing extracted
+        -- analyzer._pn_rt: a frame the snap length cut has no APDU status (its last 4 bytes): malformed, no cycle
+        if pinfo.caplen < pinfo.len then return false end
         local src, dst = tostring(pinfo.dl_src), tostring(pinfo.dl_dst)
         local key = fi.value .. "|" .. src .. "|" .. dst
         local cc = X["pn_rt.cycle_counter"]()
@@ -2579,6 +2593,7 @@ local function reset_state()
     bf00_resp, answered, wrote = {}, {}, {}
     req_body, answered_body, bf00_before, answered_at, alarm_seq = {}, {}, {}, {}, {}
     gap_streams = {}
+    gap_last_ts = nil
     infer_streams, infer_list = {}, {}
     viol, viol_seen, late, finished = {}, {}, {}, false
     dcp_state = {name_at = {}, ip_at = {}, mac_name = {}, mac_ip = {}, reported = {}, station = {}, identifies = {}}

@@ -329,6 +329,7 @@ function C.new(cfg, info)
   self.gated = 0
   self.lost_cycles = 0            -- cycles missing from the capture (not judged)
   self.sol_known_at = 0           -- cycle from which the failure counter C is known again after a loss (#10)
+  self.preset_done = false        -- a preset was acknowledged: X1 vs X2 then hangs on the 0xBF00 (#40)
   self:reset_history()
   -- acyclic knowledge (behaviour.md §2.0: state carried from cycle to cycle)
   -- last written preset value; until a write is seen, settings.p65000 (nil = unknown, _state.py)
@@ -863,6 +864,7 @@ function Checker:cycle_std(sp, ac)
     end
     self.pdone_since = n
     self.preset_done = true
+    self.preset_done = true
     if pre ~= nil and not pre.done then
       pre.done = true
       pre.done_n = n
@@ -1131,7 +1133,8 @@ function Checker:value_rules(CLS, pCLS, DLS, pDLS, SERR, ATX, PKA, PDONE, X1, X2
     local on = c4 ~= nil and c4 ~= 0 and c4 ~= false
     local src = tostring(c.sources.shift or "")
     -- a vendor not known: its X1 may be a profile 4.1 counter, unless the shift was read (P979) or given
-    local known = c.profile ~= "generic" or src:sub(1, 4) == "P979" or src:sub(1, 9) == "settings."
+    local known = (c.profile ~= "generic" or src:sub(1, 4) == "P979" or src:sub(1, 9) == "settings.")
+                  and not ((self.preset_done or PDONE == 1) and C.preset_control_open(c))
     if known and (not on or pc == d.preset_control_affects_xist1) and not (d.xist1_counter and (sh == nil or sh == 0)) then
       xist2_inconsistent(self, X1, X2, shift)
     end
@@ -1142,7 +1145,7 @@ function Checker:value_rules(CLS, pCLS, DLS, pDLS, SERR, ATX, PKA, PDONE, X1, X2
     o = self:hit("POSITION-OUT-OF-RANGE")
     if o then o.msg = fmt("position G1_XIST2=%s G1_XIST1=%s >= R=%s", tostring(X2), tostring(X1), tostring(R)) end
   end
-  self:continuity(pos2, ppos2, pre, PKA)
+  self:continuity(pos2, ppos2, pre, PKA, PDONE)
   if self.velocity_filter == nil then self:nist_sign(motion_ref, pmotion, NIST) end   -- not with a SCANCON filter written
 
   if self.lika and PKA == 1 and ((X1 or 0) ~= 0 or (SERR == 0 and (X2 or 0) ~= 0) or PDONE ~= 0 or ATX ~= 0) then
@@ -1363,10 +1366,11 @@ function Checker:x1_other_reading(x1, exp1, base, pos2, x2_ok, tol, mode, pos_be
 end
 
 -- ------------------------------------------------------------------------------ continuity and velocity (§4.2, #42, #44)
-function Checker:continuity(pos, ppos, pre, PKA)
+function Checker:continuity(pos, ppos, pre, PKA, PDONE)
   local c = self.cfg
   local R = self.R
-  if pos == nil or ppos == nil or R == nil or PKA ~= 0 or pre ~= nil or self.pdone_since ~= nil then return end
+  -- (a jump in a cycle with G1_ZSW.12 is a preset's, also one whose request a capture gap hid)
+  if pos == nil or ppos == nil or R == nil or PKA ~= 0 or PDONE ~= 0 or pre ~= nil or self.pdone_since ~= nil then return end
   if c.profile ~= "scancon" and c.profile ~= "hohner" and not (self.psm and truthy(c.scaling)) then
     return  -- LIKA jumps at the physical wrap (red zone); generic: unknown
   end

@@ -179,6 +179,10 @@ class Analyzer:
             if len(pdu) - off < 6:
                 self.emit(ev)
                 raise Malformed("pn_rt", f"cyclic PDU of {len(pdu) - off} bytes has no room for the APDU status")
+            if end is None and self.reader.cut_of(fn) is not None:
+                # the APDU status (cycle counter, DataStatus) is the frame's last 4 bytes on the wire: not kept
+                self.emit(ev)
+                raise Malformed("pn_rt", "cyclic frame without its APDU status")
             ev.update(rt.decode_apdu_status(pdu, off))
             if self.frame_events:  # IOPS/IOCS of every submodule (pndiss/iodata.py), for event readers
                 io = iodata.decode(self.session.lookup(frame_id, src, dst), pdu[off + 2:len(pdu) - 4])

@@ -23,6 +23,7 @@ class DataObject:
     submodule_ident: int | None = None
     telegram: int | None = None          # PROFIdrive telegram number, when known
     telegram_source: str | None = None   # 'P922' | 'gsdml' | 'map' | 'length' (a guess) | ...
+    locked: str | None = None            # the Connect response's ModuleDiffBlock: another AR owns it (for now)
 
 
 @dataclass

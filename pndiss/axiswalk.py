@@ -176,6 +176,7 @@ class AxisWalk:
         ax.pend = None
         ax.sp_key = S.s.key
         ax.sp_ts = int(S.ts[sl])
+        ax.held_paired = 0
         ax.phase = int(self.A.ts[al]) - ax.sp_ts   # (cyclic.py: the last pair's time from setpoint to actual)
         col = w.e.col
         if col is not None:

@@ -39,6 +39,8 @@ JUDGED_FIRST = ("prm_end", "application_ready")  # phases the first judged cycle
 _MISSING = object()
 
 
+HELD_MAX = 3   # held-setpoint pairings in a row (_own_setpoint): more is clock drift, not capture jitter
+
 class _Obj:
     """One data object of a mapped frame, compiled once."""
 
@@ -141,7 +143,7 @@ class CyclicTracker(AxisTracking):
             if not do.length:
                 continue
             telegram, source = do.telegram, do.telegram_source
-            if self.s.telegram and (telegram is None or (str(source).startswith("length")
+            if self.s.telegram and source != "not owned" and (telegram is None or (str(source).startswith("length")
                                                          and int(self.s.telegram) in tg.TELEGRAMS and all(
                     tg.length(int(self.s.telegram), d) == tg.length(telegram, d) for d in tg.DIRECTIONS))):
                 # beats a length guess of the same lengths (81 for OEM 100), not another device's telegram
@@ -256,7 +258,7 @@ class CyclicTracker(AxisTracking):
                     # setpoint cycles lost, or one was never paired: no edge across (an output CR faster than
                     # the input CR leaves setpoints unpaired by design: the device acts on the latest) -- unless
                     # the next actual value turns out to be the unpaired one's, captured late (_own_setpoint)
-                    if not miss and ax.held is None and ax.phase is not None:
+                    if not miss and ax.held is None and ax.phase is not None and ax.held_paired < HELD_MAX:
                         ax.held = (ax.sp, ax.sp_frame, ax.sp_ok, before, ax.sp_ts)
                     else:
                         ax.sp_break, ax.held = True, None
@@ -269,7 +271,7 @@ class CyclicTracker(AxisTracking):
                         ax.sp_break = False
                         self._out(ax.checker.lost(pend[1], pend[2], 1))
                     else:
-                        ax.sp_new = False
+                        ax.sp_new, ax.held_paired = False, 0
                         ax.phase = pend[2] - ts
                         self._judge(ax, *pend)
                 continue
@@ -287,7 +289,7 @@ class CyclicTracker(AxisTracking):
                 # elapsed cycles, not captured frames: the cycles the capture lost are not judged
                 if self._unpaired(ax, key, miss, fn, ts, o.sig, bool(ok)):
                     continue
-            ax.sp_new = False
+            ax.sp_new, ax.held_paired = False, 0
             ax.phase = ts - ax.sp_ts
             self._judge(ax, o.sig, fn, ts, ok)
 
@@ -295,15 +297,20 @@ class CyclicTracker(AxisTracking):
         """A setpoint came while the one before it was unpaired (``ax.held``): when this actual value lies from the
         held one as the last pair's values lay from theirs (``ax.phase``), it is the held one's, captured a
         little late (time-stamp jitter swapped two frames): paired with it, the newer setpoint waits for the next
-        value and the pairing keeps its phase. Otherwise the held one was never paired (as before: a break)."""
+        value and the pairing keeps its phase (within half a cycle). Otherwise the held one was never paired
+        (as before: a break). At most
+        HELD_MAX times in a row: clocks drifting past a cycle look the same again every cycle, and then the
+        latest setpoint is the value's (``held_paired``); jitter makes a late frame now and then."""
         h, ax.held = ax.held, None
         h_sig, h_frame, h_ok, h_before, h_ts = h
-        if miss or abs(ts - h_ts - ax.phase) >= abs(ts - ax.sp_ts - ax.phase):
+        d0, d1, T = abs(ts - h_ts - ax.phase), abs(ts - ax.sp_ts - ax.phase), self.gaps.period_ns(ax.sp_key)
+        if miss or not T or d0 >= d1 or 2 * d0 >= T:   # within half a cycle of the phase: jitter, not a change
             ax.sp_break = True
             return False
         cur = (ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_before)
         ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_before = h_sig, h_frame, h_ok, h_before
         ax.phase = ts - h_ts
+        ax.held_paired += 1
         self._judge(ax, sig, fn, ts, ok)
         ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_before = cur
         return True

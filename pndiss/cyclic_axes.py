@@ -27,7 +27,7 @@ class Axis:
 
     __slots__ = ("key", "info", "checker", "sp", "sp_frame", "sp_ok", "telegram", "source", "profile", "reason",
                  "fm", "ambiguous", "sp_before", "sp_new", "sp_break", "sp_key", "ac_key", "pend", "sp_ts", "phase",
-                 "held")
+                 "held", "held_paired")
 
     def __init__(self, key, info):
         self.key = key
@@ -51,6 +51,7 @@ class Axis:
         self.sp_ts = None         # capture time of the latest setpoint
         self.phase = None         # actual minus setpoint capture time of the last pair (cyclic.py _own_setpoint)
         self.held = None          # (signals, frame, ok, before, ts) of an unpaired setpoint a newer one followed
+        self.held_paired = 0      # pairs in a row of a held setpoint's (cyclic.py _own_setpoint, HELD_MAX)
 
 
 class AxisTracking:
@@ -211,6 +212,8 @@ class AxisTracking:
             return
         if self.bf00_unseen_for(ax) is not None:
             return  # its request was lost, its response shows the write (verdict.trust says so)
+        if any(do.locked for do in ax.fm.objects if (do.slot, do.subslot) == (ax.info["slot"], ax.info["subslot"])):
+            return  # another AR owns the module (ModuleDiffBlock): this AR does not parameterise it
         ev = rules.violation("STARTUP-NO-PARAM-RECORD", fn, ts,
                              "PrmEnd without a write of 0xBF00" + (" / 0xFFFF" if ax.profile == "psm" else "")
                              + " since the Connect of this AR", **ax.info)

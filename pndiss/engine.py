@@ -77,16 +77,15 @@ class Engine:
             m = len(ix)
             if m < MIN_FRAMES:
                 return 1
-            # frames the reader must take itself: not Ethernet, or a time stamp it would clamp (and count)
+            # frames the reader must take itself: not Ethernet, a time stamp it would clamp (and count), or cut by the
+        # snap length (a cyclic frame's APDU status is its last 4 bytes on the wire: analyzer._pn_rt)
             raw = ix.raw_ts
             li = lim[ix.ifid]   # -1: every time stamp of the interface is checked (clamped) by the reader
-            good = (lts[ix.ifid] == 1) & (li >= 0) & (raw <= np.maximum(li, 0).astype(np.uint64))
+            good = (lts[ix.ifid] == 1) & (li >= 0) & (raw <= np.maximum(li, 0).astype(np.uint64)) & (ix.cap == ix.orig)
             if not good.all():
                 m = int(np.argmin(good))
-                if m == 0:   # the reader takes the run of such frames (a cooked, FCS or binary-tsresol interface)
-                    return int(np.argmax(good)) if good.any() else len(ix)   # at once, not one re-index per frame
-                if m < MIN_FRAMES:
-                    return m
+                if m < MIN_FRAMES:   # the reader takes every frame up to the next run the window can take
+                    return _to_next_run(good)   # at once: not one re-index per frame (cooked, FCS, mixed NICs)
             ifid = ix.ifid[:m]
             ts = raw[:m].astype(np.int64) * mult[ifid] + off[ifid]
             return self._window(buf, n, ix.data[:m], ix.cap[:m], ts,
@@ -100,10 +99,17 @@ class Engine:
             ix = frameindex.pcap(buf, pos, end, bo)
             if len(ix) < MIN_FRAMES:
                 return 1
-            raw = ix.raw_ts
+            m = len(ix)
+            whole = ix.cap == ix.orig   # a frame the snap length cut: the reader takes it (as pcapng above)
+            if not whole.all():
+                m = int(np.argmin(whole))
+                if m < MIN_FRAMES:
+                    return _to_next_run(whole)
+            raw = ix.raw_ts[:m]
             ts = (raw >> np.uint64(32)).astype(np.int64) * 1_000_000_000 + \
                 (raw & np.uint64(0xFFFFFFFF)).astype(np.int64) * mult
-            return self._window(buf, n, ix.data, ix.cap, ts, ix.end, ix.orig)
+            return self._window(buf, n, ix.data[:m], ix.cap[:m], ts, ix.end if m == len(ix) else int(ix.block[m]),
+                                ix.orig[:m])
         return take
 
     # -- one window --------------------------------------------------------------------------------
@@ -131,6 +137,15 @@ class Engine:
         if self.progress is not None and (self.last_fn >> 12) != (n >> 12):
             self.progress(self.last_fn & ~0xFFF)
         return stop, n + m
+
+
+def _to_next_run(good) -> int:
+    """Frames before the first run of MIN_FRAMES frames the engine can take (all of them when there is none)."""
+    if len(good) < MIN_FRAMES:
+        return len(good)
+    full = np.convolve(good.astype(np.int32), np.ones(MIN_FRAMES, dtype=np.int32), "valid") == MIN_FRAMES
+    hit = np.flatnonzero(full)
+    return max(1, int(hit[0])) if hit.size else len(good)
 
 
 HASHES_MAX = 4096   # prefix hashes remembered across windows (a plant's streams; a flood starts afresh)

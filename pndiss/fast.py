@@ -101,6 +101,7 @@ def stepper(a, streams: dict):
     get = streams.get
     feed = a.feed
     on_cyclic = a.cyclic.on_cyclic
+    cut_of = a.reader.cut_of   # a frame the snap length cut has no APDU status: Analyzer.feed says malformed
 
     def one(fn, ts, lt, data):
         if lt == 1 and len(data) >= 24:
@@ -108,7 +109,7 @@ def stepper(a, streams: dict):
             off = 18 if data[12] == 0x81 else 14
             key = data[:off + 2]
             s = get(key, False)
-            if s:
+            if s and cut_of(fn) is None:
                 s.n += 1
                 a.cur_frame = fn   # the frame being processed: what emitted events belong to (Analyzer.at)
                 try:
@@ -119,7 +120,7 @@ def stepper(a, streams: dict):
                     a.add_malformed(fn, ts, e.layer, e.reason)
                 return
             feed(fn, ts, lt, data)
-            if data[off - 2:off] == ETH_PNRT:   # no per-header state for frames that are no PN-RT
+            if not s and data[off - 2:off] == ETH_PNRT:   # no per-header state for frames that are no PN-RT
                 s = learn_stream(data, off)
                 if s is not None:
                     streams[key] = s

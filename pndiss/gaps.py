@@ -62,6 +62,7 @@ class GapTracker:
         self.duplicates = 0   # copies of frames (``duplicate``)
         self.first_duplicate = None   # (frame, the frame it copies)
         self.stale = 0        # other frames whose counter is not newer (``duplicate``)
+        self.last_ts = None   # time of the frame that ended the latest gap (what else the capture may have lost)
         self.first_stale = None       # (frame, the frame it is not newer than)
 
     def step_from(self, key, step: int | None) -> None:
@@ -120,6 +121,7 @@ class GapTracker:
             period = st.step * UNIT_NS
             k = (ts - pts + period // 2) // period - 1
             if k > 0:
+                self.last_ts = ts
                 return self._count(st, k)
         if d == 0:
             return 0              # a repeated counter: no new cycle, nothing to say
@@ -147,6 +149,7 @@ class GapTracker:
                 if st.irregular >= IRREGULAR_MAX:
                     st.uniform = False
             return 0
+        self.last_ts = ts
         return self._count(st, d // st.step - 1)
 
     def _count(self, st: Stream, k: int) -> int:
@@ -166,6 +169,11 @@ class GapTracker:
 
     def kept(self) -> list[dict]:
         return sorted(self.rows, key=lambda r: r["next_frame"])[:MAX_EVENTS]
+
+    def period_ns(self, key) -> int | None:
+        """The stream's cycle in ns (its counter step), when known and uniform."""
+        st = self.streams.get(key)
+        return st.step * UNIT_NS if st is not None and st.step and st.uniform else None
 
     def same_step(self, a, b) -> bool:
         """Both streams advance by one confirmed step per cycle (a setpoint and an actual stream of one

@@ -139,14 +139,16 @@ class ArLayer:
                     do = armap.DataObject(api=a["api"], slot=o["slot_nr"], subslot=o["subslot_nr"],
                                           offset=o["io_data_object_frame_offset"], length=ln, iops_len=iops,
                                           module_ident=e.get("module_ident"), submodule_ident=e.get("submodule_ident"))
-                    why = "shared input" if e.get("shared_input") else locked.get((a["api"], o["slot_nr"], o["subslot_nr"]))
-                    if why:
-                        # another AR controls the encoder: this AR only reads its inputs (SharedInput) or gets no
-                        # data of it (locked): nothing to judge here, and a P922 read does not make it a telegram
+                    if e.get("shared_input"):
+                        # another AR controls the encoder: this AR only reads its inputs -- nothing to judge here,
+                        # and a P922 read does not make it a telegram
                         do.telegram_source = NOT_OWNED
-                        note = f"not judged in this AR: {why} (the encoder's own AR controls it)"
+                        note = "not judged in this AR: shared input (the encoder's own AR controls it)"
                     else:
                         note = self._assign_telegram(do, e, device, dev_station)
+                        # locked by another AR for now (its IOPS say so until a hand-over, p-net's plug alarm and
+                        # plug-PrmEnd): judged when GOOD, but it needs no 0xBF00 of this AR at its PrmEnd (#66)
+                        do.locked = locked.get((a["api"], o["slot_nr"], o["subslot_nr"]))
                     info["objects"].append(dict(_do_row(do), telegram_note=note) if note else _do_row(do))
                     if fm is not None:
                         fm.objects.append(do)
@@ -235,13 +237,15 @@ class ArLayer:
         """Another controller's AR that owns an encoder module this accepted Connect owns too ended unseen: a
         device gives a submodule to one AR (the other's would be locked, session_ar._owner); system
         redundancy's two ARs own the same modules by design."""
-        if arq.get("artype_req") == SYSRED_AR_TYPE:
-            return
-        mine = {(do.api, do.slot, do.subslot) for fm in frame_maps for do in fm.objects if do.telegram is not None}
+        if arq.get("artype_req") in (SYSRED_AR_TYPE, SUPERVISOR_AR_TYPE):
+            return   # (a supervisor takes the module for a while and gives it back)
+        mine = {(do.api, do.slot, do.subslot) for fm in frame_maps for do in fm.objects
+                if do.telegram is not None and not do.locked}
         if not mine:
             return
         for old in list(self.ars.values()):
             if old["ok"] and old["device_mac"] == device and old["controller_mac"] != controller \
+                    and old["ar_uuid"] != arq["ar_uuid"] \
                     and old.get("ar_type") != SYSRED_AR_TYPE and old.get("phase") not in ("released", "aborted", "refused") \
                     and any((do.api, do.slot, do.subslot) in mine for fm in old["maps"] for do in fm.objects
                             if do.telegram is not None):

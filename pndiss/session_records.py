@@ -70,8 +70,9 @@ class RecordLayer:
             self.a.emit(ev)
             self.a.cyclic.on_record(ev)
             if hb["index"] in IDX_PARAM and self.pairer is not None and isinstance(ev.get("decoded"), dict):
+                gaps = getattr(getattr(self.a, "cyclic", None), "gaps", None)   # capture loss since a pending one
                 self.pairer.request(self._param_key(hb, ev["device_mac"], ev["controller_mac"]),
-                                    ev["decoded"], fn, ts)
+                                    ev["decoded"], fn, ts, gaps.last_ts if gaps is not None else None)
             evs.append(ev)
             self._row(ev)
         if evs:
@@ -174,7 +175,7 @@ class RecordLayer:
         self.a.cyclic.on_record(ev)
         for prm in p.get("params", []):
             if prm.get("pnu") == P922 and not prm.get("error") and prm.get("values") and (prm.get("subindex") or 0) == 0 \
-                    and (prm.get("attribute") or 0x10) & 0xF0 == 0x10:   # the value, not its description (0x20)
+                    and (prm.get("attribute") is None or prm["attribute"] & 0xF0 == 0x10):   # the value, not (0x20) its description
                 self._p922(rec["device_mac"], hb["api"], hb["slot_nr"], hb["subslot_nr"], prm["values"][0])
 
     def _p922(self, device, api, slot, subslot, value) -> None:

@@ -352,3 +352,20 @@ def test_failure_counter_unknown_after_capture_loss():
 def test_failure_counter_unknown_after_capture_loss_lua_same():
     from luachk.record import lua_same
     lua_same(lambda: (_sol_after_loss(True), _sol_after_loss(False)))
+
+
+def test_a_jump_with_the_preset_acknowledgement_is_no_discontinuity():
+    """A capture (or a capture gap) that begins with the preset request already up: the jump comes with G1_ZSW.12,
+    so it is the preset's result, not POSITION-DISCONTINUITY (found by an independent audit: a lost ring file
+    hid the request's edge)."""
+    kw = dict(profile="scancon", shift=0)
+    assert "POSITION-DISCONTINUITY" not in rule_ids(["0x1400 0x3000 | 0x1200 0x2000 5 5",
+                                                      "0x1400 0x3000 | 0x1200 0x3000 16777221 16777221"], **kw)
+    assert "POSITION-DISCONTINUITY" in rule_ids(["0x1400 0x3000 | 0x1200 0x2000 5 5",
+                                                  "0x1400 0x3000 | 0x1200 0x2000 16777221 16777221"], **kw)
+
+
+@pytest.mark.skipif(__import__("shutil").which("lua5.2") is None, reason="lua5.2 not installed")
+def test_a_jump_with_the_preset_acknowledgement_lua_same():
+    from luachk.record import lua_same
+    assert "POSITION-DISCONTINUITY" in lua_same(test_a_jump_with_the_preset_acknowledgement_is_no_discontinuity)

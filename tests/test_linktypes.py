@@ -96,8 +96,9 @@ def test_cooked_simulated_sessions_as_their_ethernet_twin(tmp_path, name):
         assert n and not bad and lua_viol == py_viol, bad[:5]
 
 
-def _pcapng(path, linktype, frames, tsresol=None):
-    """A pcapng file: one interface of ``linktype`` (if_tsresol option when given), one EPB per frame."""
+def _pcapng(path, linktype, frames, tsresol=None, second=None):
+    """A pcapng file: one interface of ``linktype`` (if_tsresol option when given), one EPB per frame; with
+    ``second`` (a link type) a second interface, and every other frame (``frames`` as (frame, frame)) on it."""
     def block(bt, body):
         body += b"\0" * (-len(body) % 4)
         return struct.pack("<II", bt, len(body) + 12) + body + struct.pack("<I", len(body) + 12)
@@ -105,21 +106,25 @@ def _pcapng(path, linktype, frames, tsresol=None):
     with open(path, "wb") as f:
         f.write(block(0x0A0D0D0A, struct.pack("<IHHq", 0x1A2B3C4D, 1, 0, -1)))
         f.write(block(1, struct.pack("<HHI", linktype, 0, 65535) + opts))
+        if second is not None:
+            f.write(block(1, struct.pack("<HHI", second, 0, 65535)))
         for i, d in enumerate(frames):
             t = 1_700_000_000_000_000 + i * 1000
-            f.write(block(6, struct.pack("<IIIII", 0, t >> 32, t & 0xFFFFFFFF, len(d), len(d)) + d))
+            ifid = i % 2 if second is not None else 0
+            f.write(block(6, struct.pack("<IIIII", ifid, t >> 32, t & 0xFFFFFFFF, len(d), len(d)) + d))
     return path
 
 
-@pytest.mark.parametrize("linktype,tsresol", [(113, None), (1, 0x80 | 30)])
-def test_frames_the_engine_leaves_to_the_reader_are_taken_in_runs(tmp_path, monkeypatch, linktype, tsresol):
+@pytest.mark.parametrize("linktype,tsresol,second", [(113, None, None), (1, 0x80 | 30, None), (1, None, 113)])
+def test_frames_the_engine_leaves_to_the_reader_are_taken_in_runs(tmp_path, monkeypatch, linktype, tsresol, second):
     """An interface the engine's window does not take (Linux cooked, dumpcap -i any; a binary if_tsresol): the
     reader takes its frames, a run at a time -- before, the window was indexed again for every frame
     (quadratic: 70 s for 40 k frames, found by an independent audit)."""
     from pndiss import frameindex
     eth = bytes.fromhex("020000000101 020000000001 8892") + bytes([0x80, 0x00]) + bytes(40) + bytes([0, 0, 0x35, 0])
     fr = _cooked(eth, 113, False) if linktype == 113 else eth
-    path = _pcapng(str(tmp_path / "c.pcapng"), linktype, [fr] * 20000, tsresol)
+    frames = [fr, _cooked(eth, 113, False)] * 10000 if second else [fr] * 20000   # mixed: Ethernet and cooked NICs
+    path = _pcapng(str(tmp_path / "c.pcapng"), linktype, frames, tsresol, second)
     calls = []
     orig = frameindex.pcapng
     monkeypatch.setattr(frameindex, "pcapng", lambda *a, **k: calls.append(1) or orig(*a, **k))

@@ -303,3 +303,18 @@ def test_psm_vendor_records():
             d["reset_control_write_protect"]) == ("NV-RAM", "read only", "read only", 0)
     assert decode_record(0x1000, b"\x02", write=True, profile="scancon")["velocity_filter"] == 2
     assert "data" in decode_record(0x1001, b"\x01\x00", write=True, profile="lika")
+
+
+def test_pairing_forgets_a_request_pending_from_before_capture_loss():
+    """The capture lost frames after a request was written (a capture gap): its response may have been read in
+    the lost part, so the next request overwrites nothing (no BMP-PIPELINED; found by an independent audit: a
+    lost ring file)."""
+    pp = ParamPairer()
+    pp.request("k", decode_record(0xB02E, build_param_request(1, 1, [{"pnu": 922}]), write=True), 1, 100)
+    pp.request("k", decode_record(0xB02E, build_param_request(2, 1, [{"pnu": 922}]), write=True), 9, 900, gap_ts=500)
+    ev = pp.response("k", decode_response(build_param_response(2, 1, [{"format": 0x06, "values": [81]}])), 10, 950)
+    assert "superseded_request_frames" not in ev and ev["request_frame"] == 9
+    pp.request("k", decode_record(0xB02E, build_param_request(3, 1, [{"pnu": 922}]), write=True), 11, 960, gap_ts=500)
+    pp.request("k", decode_record(0xB02E, build_param_request(4, 1, [{"pnu": 922}]), write=True), 12, 970, gap_ts=500)
+    ev = pp.response("k", decode_response(build_param_response(4, 1, [{"format": 0x06, "values": [81]}])), 13, 980)
+    assert ev["superseded_request_frames"] == [11]   # a gap before the pending request: still overwritten

@@ -28,7 +28,6 @@ PARTIAL = {
                                "cycles",
     "BF00-VALID-REJECTED": "0x1002 in G1_XIST2 or a 0x9011 diagnosis alarm after a valid record (an AR inferred from content has no slot: its alarms are not correlated)",
     "SOL-MASTER-ZERO": "only with SOLMON (iso from the RT class, or settings.iso / sol_monitor_rt)",
-    "POSITION-DISCONTINUITY": "plausible step = settings.max_position_step, else R/8 [INFERENCE]; LIKA red-zone jumps not modelled",
     "POSITION-OUT-OF-RANGE": "needs R: 0xBF00 TMR with scaling, or settings st_phys/mt_phys",
     "PRESET860-VALUE-OUT-OF-RANGE": "needs R (as POSITION-OUT-OF-RANGE)",
     "STARTUP-NO-PARAM-RECORD": "decided at the AR's PrmEnd (0xBF00 / PS/PSM 0xFFFF written since the Connect, alone or "
@@ -36,7 +35,12 @@ PARTIAL = {
     "PRESET-WITHOUT-NEW-PARAMS": "needs two connections of the same device in one capture",
     "BMP-UNKNOWN-PNU": "needs a P980 read in the capture (P981.. continue the list; P980..P989 themselves and PNU 0, "
                        "the controller's bad request, are not judged)",
-    "XIST2-INCONSISTENT": "profile generic: only with the shift read (P979) or given (an unknown vendor's X1 may be a 4.1 counter)",
+    "XIST2-INCONSISTENT": "profile generic: only with the shift read (P979) or given (an unknown vendor's X1 may be a 4.1 counter); "
+                          "without a captured 0xBF00 not after a preset",
+    "PARK-OUTPUTS-NOT-CLEARED": "LIKA; G1_XIST2 may keep a sensor error's code while SERR is still shown (#49 allows L_max)",
+    "SERR-XIST2-NOT-RESTORED": "not while parked (parking clears the error and keeps the position out, R-ABS-4)",
+    "POSITION-DISCONTINUITY": "plausible step = settings.max_position_step, else R/8 [INFERENCE]; LIKA red-zone jumps not "
+                              "modelled; not in a cycle with G1_ZSW.12 (a preset's result, also one whose request a gap hid)",
     "PRESET-CLASS4-DISABLED": "class 4 from a captured 0xBF00 or --set class4, not a vendor default",
     "BMP-CLASS4-WRITE-ACCEPTED": "class 4 from a captured 0xBF00 or --set class4, not a vendor default",
     "PRESET-XIST1-AFFECTED-WHEN-DISABLED": "needs the preset control bit of a captured 0xBF00",

@@ -79,18 +79,22 @@ def _x40_applies(k) -> bool:
     c = k.cfg
     if c.profile == "generic" and not c.sources.get("shift", "").startswith(SHIFT_GIVEN):
         return False   # a vendor not known: its X1 may be a profile 4.1 counter (001_9461bb7bc8c2767b.txt:442-447)
+    if k.preset_done and c.preset_control_open():
+        return False   # after a preset X1 = X2 << shift only if the preset moved X1: the 0xBF00 says, none seen
     return (not c.class4 or c.xist1_preset_affected) and not c.xist1_counter
 
 
 def _x2_inconsistent(k, c):
     return bool(c.ATX and not c.SERR and c.X1 is not None and c.X2 is not None and c.X3 is None and _x40_applies(k)
+                and not (c.PDONE and k.cfg.preset_control_open())   # (the preset's own cycle: preset_done next)
                 and c.X1 != (c.X2 << (k.cfg.shift or 0)) % U32)
 
 
 def _x2_inconsistent_v(k, V):
     if V.X1 is None or V.X2 is None or V.X3 is not None or not _x40_applies(k):
         return _none(V)
-    return _b((V.ATX == 1) & (V.SERR == 0) & (V.X1 != ((V.X2 << (k.cfg.shift or 0)) & (U32 - 1))))
+    hit = _b((V.ATX == 1) & (V.SERR == 0) & (V.X1 != ((V.X2 << (k.cfg.shift or 0)) & (U32 - 1))))
+    return hit & (V.PDONE == 0) if k.cfg.preset_control_open() else hit
 
 
 # 41: position inside [0, R) (000_37bf2397999f1108.txt:2394-2434)
@@ -121,7 +125,8 @@ def _step(k) -> int:
 
 
 def _discontinuity(k, c):
-    if c.pos2 is None or c.ppos2 is None or c.PKA or not _continuity_applies(k):
+    # (a jump in a cycle with G1_ZSW.12 is a preset's, also one whose request a capture gap hid)
+    if c.pos2 is None or c.ppos2 is None or c.PKA or c.PDONE or not _continuity_applies(k):
         return False  # LIKA jumps at the physical wrap (red zone); generic: unknown
     return abs(P.delta(c.ppos2, c.pos2, k.R)) > _step(k)
 
@@ -133,7 +138,7 @@ def _discontinuity_v(k, V):
     pos, ppos = (V.pos2, V.ppos2) if R < SAFE else (V.pos2.astype(object), V.ppos2.astype(object))
     d = (pos - ppos) % R
     d = np.where(d > R // 2, d - R, d)
-    return V.pos2_ok & V.ppos2_ok & (V.PKA == 0) & _b(np.abs(d) > _step(k))
+    return V.pos2_ok & V.ppos2_ok & (V.PKA == 0) & (V.PDONE == 0) & _b(np.abs(d) > _step(k))
 
 
 def _discontinuity_msg(k, c):

@@ -231,8 +231,12 @@ class ParamPairer:
         self.overwrote: dict = {}     # key -> the pending request the last write replaced (back if it is refused)
         self.refused_early: dict = {}  # key -> frames of new requests the device refused while one was open
 
-    def request(self, key, decoded_request: dict, frame: int, ts: int) -> None:
+    def request(self, key, decoded_request: dict, frame: int, ts: int, gap_ts: int | None = None) -> None:
+        """A request written; ``gap_ts``: when the capture last lost frames (gaps.GapTracker.last_ts) -- a request
+        pending from before that may have had its response read in the lost part: not overwritten, forgotten."""
         old = self.pending.get(key)
+        if old is not None and gap_ts is not None and gap_ts > old[2]:
+            old = None
         if old is not None and old[0] == decoded_request:
             # the same request again (a function block's retry after its job timer): no new request, the
             # first one stays pending (rule #76 is about a new request before the response)
