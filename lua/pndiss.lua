@@ -355,6 +355,7 @@ local function gcd(a, b)
 end
 local GAP_UNIT_NS, GAP_HALF_WRAP_NS = 31250, 0x10000 * 31250 / 2
 local GAP_NEWER_MAX = 61440
+local NOT_OWNED = "not owned"   -- armap.NOT_OWNED: a shared-input submodule (another AR controls it)
 local NO_DST = "NONE"   -- proto/eth.NO_DST: tshark's destination of a Linux cooked frame (its header carries none)
 -- pndiss/gaps.py duplicate: a frame whose counter is not newer than the stream's previous frame's (the consumer's
 -- cycle-counter check: (now - last) mod 2^16 in 1..61440), less than half a wrap later, is discarded: returns
@@ -457,7 +458,7 @@ local function lookup(fid, src, dst)
             if d.length and d.length > 0 then
                 local t, source = d.telegram, d.telegram_source
                 local pt = pndiss.prefs.telegram
-                if pt ~= 0 and d.telegram_source ~= "not owned" and (t == nil or (tostring(source):sub(1, 6) == "length" and T.telegrams[pt] ~= nil
+                if pt ~= 0 and d.telegram_source ~= NOT_OWNED and (t == nil or (tostring(source):sub(1, 6) == "length" and T.telegrams[pt] ~= nil
                         and T.telegrams[t] ~= nil and layout(pt, "setpoint").len == layout(t, "setpoint").len
                         and layout(pt, "actual").len == layout(t, "actual").len)) then   -- the guess's lengths only
                     t, source = pndiss.prefs.telegram, "settings.telegram"
@@ -729,7 +730,7 @@ local function connect_response(key, pinfo)
                 local pt = p922_of[table.concat({device, o.api or 0, o.slot or 0, o.subslot or 0}, "|")]
                 obj.locked = not e.shared_input and locked[ek] or nil   -- for now (judged when GOOD, no #66)
                 if e.shared_input then
-                    obj.telegram_source = "not owned"   -- session_ar.NOT_OWNED: another AR controls the encoder
+                    obj.telegram_source = NOT_OWNED   -- another AR controls the encoder
                 elseif pt ~= nil then
                     obj.telegram, obj.telegram_source = pt, "P922"
                 elseif e.input and e.output then
@@ -1244,7 +1245,7 @@ local function p922_relabel(device, api, slot, subslot, value)
     for _, fm in pairs(maps) do
         if fm.device == device then
             for _, o in ipairs(fm.objects) do
-                if o.telegram_source ~= "map" and o.telegram_source ~= "not owned" and (o.length or 0) > 0
+                if o.telegram_source ~= "map" and o.telegram_source ~= NOT_OWNED and (o.length or 0) > 0
                         and not (o.telegram_source == "length" and misfit[o.api .. ":" .. o.slot .. ":" .. o.subslot])
                         and ((o.api == api and o.slot == slot and o.subslot == subslot)
                             or o.telegram == nil or o.telegram_source == "length" or o.telegram_source == "gsdml") then

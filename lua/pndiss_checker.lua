@@ -329,7 +329,6 @@ function C.new(cfg, info)
   self.gated = 0
   self.lost_cycles = 0            -- cycles missing from the capture (not judged)
   self.sol_known_at = 0           -- cycle from which the failure counter C is known again after a loss (#10)
-  self.preset_done = false        -- a preset was acknowledged: X1 vs X2 then hangs on the 0xBF00 (#40)
   self:reset_history()
   -- acyclic knowledge (behaviour.md §2.0: state carried from cycle to cycle)
   -- last written preset value; until a write is seen, settings.p65000 (nil = unknown, _state.py)
@@ -863,7 +862,6 @@ function Checker:cycle_std(sp, ac)
       if o then o.msg = fmt("G1_ZSW.12 rose with G1_STW.12=0 in the last %d cycles", self.h_n) end
     end
     self.pdone_since = n
-    self.preset_done = true
     self.preset_done = true
     if pre ~= nil and not pre.done then
       pre.done = true

@@ -9,6 +9,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 
+NOT_OWNED = "not owned"   # DataObject.telegram_source of a shared-input submodule: another AR controls it
+
+
 @dataclass
 class DataObject:
     """One submodule's IO data in one cyclic frame (offsets relative to the first C_SDU byte)."""

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from . import limits, rules
 from . import telegrams as tg
+from .armap import NOT_OWNED
 from .cyclic_axes import Axis, AxisTracking
 from .encoder.acyclic import tg_length_problem
 from .gaps import GapTracker
@@ -40,6 +41,7 @@ _MISSING = object()
 
 
 HELD_MAX = 3   # held-setpoint pairings in a row (_own_setpoint): more is clock drift, not capture jitter
+
 
 class _Obj:
     """One data object of a mapped frame, compiled once."""
@@ -143,8 +145,8 @@ class CyclicTracker(AxisTracking):
             if not do.length:
                 continue
             telegram, source = do.telegram, do.telegram_source
-            if self.s.telegram and source != "not owned" and (telegram is None or (str(source).startswith("length")
-                                                         and int(self.s.telegram) in tg.TELEGRAMS and all(
+            if self.s.telegram and source != NOT_OWNED and (telegram is None or (
+                    str(source).startswith("length") and int(self.s.telegram) in tg.TELEGRAMS and all(
                     tg.length(int(self.s.telegram), d) == tg.length(telegram, d) for d in tg.DIRECTIONS))):
                 # beats a length guess of the same lengths (81 for OEM 100), not another device's telegram
                 telegram, source = int(self.s.telegram), "settings.telegram"
@@ -187,7 +189,8 @@ class CyclicTracker(AxisTracking):
                 if miss:
                     self._capture_gap(key, fn, ts, miss, fr)
                 if fr is None and self.infer.enabled:
-                    self.infer.offer(key, fn, pdu[csdu_off:len(pdu) - 4], ts, pdu[-2])   # mid-session: learn from the content
+                    # mid-session: learn from the content (the DataStatus says which frames may be samples)
+                    self.infer.offer(key, fn, pdu[csdu_off:len(pdu) - 4], ts, pdu[-2])
                 if fr is None:
                     self.count_unmapped(key, 1)
                 else:
@@ -298,9 +301,8 @@ class CyclicTracker(AxisTracking):
         held one as the last pair's values lay from theirs (``ax.phase``), it is the held one's, captured a
         little late (time-stamp jitter swapped two frames): paired with it, the newer setpoint waits for the next
         value and the pairing keeps its phase (within half a cycle). Otherwise the held one was never paired
-        (as before: a break). At most
-        HELD_MAX times in a row: clocks drifting past a cycle look the same again every cycle, and then the
-        latest setpoint is the value's (``held_paired``); jitter makes a late frame now and then."""
+        (as before: a break). At most HELD_MAX times in a row: clocks drifting past a cycle look the same again
+        every cycle, and then the latest setpoint is the value's (``held_paired``); jitter is now and then."""
         h, ax.held = ax.held, None
         h_sig, h_frame, h_ok, h_before, h_ts = h
         d0, d1, T = abs(ts - h_ts - ax.phase), abs(ts - ax.sp_ts - ax.phase), self.gaps.period_ns(ax.sp_key)

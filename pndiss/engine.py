@@ -77,11 +77,12 @@ class Engine:
             m = len(ix)
             if m < MIN_FRAMES:
                 return 1
-            # frames the reader must take itself: not Ethernet, a time stamp it would clamp (and count), or cut by the
-        # snap length (a cyclic frame's APDU status is its last 4 bytes on the wire: analyzer._pn_rt)
+            # frames the reader must take itself: not Ethernet, a time stamp it would clamp (and count), or cut by
+            # the snap length (a cyclic frame's APDU status is its last 4 bytes on the wire: analyzer._pn_rt)
             raw = ix.raw_ts
             li = lim[ix.ifid]   # -1: every time stamp of the interface is checked (clamped) by the reader
-            good = (lts[ix.ifid] == 1) & (li >= 0) & (raw <= np.maximum(li, 0).astype(np.uint64)) & (ix.cap == ix.orig)
+            good = (lts[ix.ifid] == 1) & (li >= 0) & (raw <= np.maximum(li, 0).astype(np.uint64)) \
+                & (ix.cap == ix.orig)
             if not good.all():
                 m = int(np.argmin(good))
                 if m < MIN_FRAMES:   # the reader takes every frame up to the next run the window can take

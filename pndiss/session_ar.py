@@ -142,7 +142,7 @@ class ArLayer:
                     if e.get("shared_input"):
                         # another AR controls the encoder: this AR only reads its inputs -- nothing to judge here,
                         # and a P922 read does not make it a telegram
-                        do.telegram_source = NOT_OWNED
+                        do.telegram_source = armap.NOT_OWNED
                         note = "not judged in this AR: shared input (the encoder's own AR controls it)"
                     else:
                         note = self._assign_telegram(do, e, device, dev_station)
@@ -245,11 +245,12 @@ class ArLayer:
             return
         for old in list(self.ars.values()):
             if old["ok"] and old["device_mac"] == device and old["controller_mac"] != controller \
-                    and old["ar_uuid"] != arq["ar_uuid"] \
-                    and old.get("ar_type") != SYSRED_AR_TYPE and old.get("phase") not in ("released", "aborted", "refused") \
+                    and old["ar_uuid"] != arq["ar_uuid"] and old.get("ar_type") != SYSRED_AR_TYPE \
+                    and old.get("phase") not in ("released", "aborted", "refused") \
                     and any((do.api, do.slot, do.subslot) in mine for fm in old["maps"] for do in fm.objects
                             if do.telegram is not None):
-                self.set_phase(old, "aborted", fn, ts, f"another controller's Connect took its encoder module (frame {fn})")
+                self.set_phase(old, "aborted", fn, ts,
+                               f"another controller's Connect took its encoder module (frame {fn})")
 
     def _held(self, controller: str, device: str, ar_uuid: str) -> list:
         """The ARs other than ``ar_uuid`` this controller holds with this device (up: not ended or refused)."""
@@ -351,9 +352,6 @@ def _replaces(arq: dict, iocrs) -> bool:
     return arq.get("artype_req") != SUPERVISOR_AR_TYPE and bool(iocrs)
 
 
-NOT_OWNED = "not owned"   # telegram_source of a submodule another AR controls (no telegram in this AR)
-
-
 def _owner(state: int) -> str | None:
     """What a ModuleDiffBlock SubmoduleState says when another AR owns the submodule (wire.md §6.7), else None."""
     if state & 0x8000:
@@ -377,7 +375,7 @@ def ar_summary(ar: dict) -> dict:
         if do is None:
             return o
         r = _do_row(do)
-        if "telegram_note" in o and do.telegram_source in ("length", NOT_OWNED):   # why it is guessed / not judged
+        if "telegram_note" in o and do.telegram_source in ("length", armap.NOT_OWNED):   # why guessed / not judged
             r["telegram_note"] = o["telegram_note"]
         return r
     out["iocrs"] = [dict(cr, objects=[row(cr, o) for o in cr["objects"]]) for cr in ar["iocrs"]]

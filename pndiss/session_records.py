@@ -7,6 +7,7 @@ A mixin of pndiss.session.SessionTracker: the tracker's own tables and counts.
 """
 from __future__ import annotations
 
+from . import armap
 from .proto import pnio_cm
 from .proto.common import Malformed
 
@@ -175,7 +176,7 @@ class RecordLayer:
         self.a.cyclic.on_record(ev)
         for prm in p.get("params", []):
             if prm.get("pnu") == P922 and not prm.get("error") and prm.get("values") and (prm.get("subindex") or 0) == 0 \
-                    and (prm.get("attribute") is None or prm["attribute"] & 0xF0 == 0x10):   # the value, not (0x20) its description
+                    and (prm.get("attribute") is None or prm["attribute"] & 0xF0 == 0x10):   # the value, not (0x20) a text
                 self._p922(rec["device_mac"], hb["api"], hb["slot_nr"], hb["subslot_nr"], prm["values"][0])
 
     def _p922(self, device, api, slot, subslot, value) -> None:
@@ -201,8 +202,8 @@ class RecordLayer:
                     misfit.add((do.api, do.slot, do.subslot))
         for fm in self._maps_of(device):
             for do in fm.objects:
-                if do.telegram_source in ("map", "not owned") or not do.length:
-                    continue   # (a submodule another AR controls: session_ar.NOT_OWNED)
+                if do.telegram_source in ("map", armap.NOT_OWNED) or not do.length:
+                    continue   # (a shared input: another AR controls the submodule)
                 if do.telegram_source == "length" and (do.api, do.slot, do.subslot) in misfit:
                     # the wire's data lengths fit the guessed telegram, not P922's: keep the lengths as the
                     # configuration; the encoder reports TELEGRAM-SELECTION-MISMATCH (behaviour.md §9 #65)

@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections import Counter
 
 from . import telegrams as tg
+from .armap import NOT_OWNED
 from .encoder.config import DEFAULT_SOURCE
 from .rules import RULES
 
@@ -255,7 +256,7 @@ def not_checked(summary: dict) -> list[str]:
         for cr in a.get("iocrs") or ():
             for o in cr.get("objects") or ():
                 k = (a.get("ar_uuid"), o.get("slot"), o.get("subslot"))
-                if o.get("telegram_source") == "not owned" and k not in seen:   # session_ar.NOT_OWNED
+                if o.get("telegram_source") == NOT_OWNED and k not in seen:
                     seen.add(k)
                     out.append(f"{a.get('station') or a.get('device_mac')} {o.get('slot')}/{o.get('subslot')} in the AR of "
                                f"{a.get('controller_station') or a.get('controller_mac')}: "

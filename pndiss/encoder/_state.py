@@ -63,7 +63,6 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         self.gated = 0                 # cycles reported but not judged (IOPS/DataStatus)
         self.lost_cycles = 0           # cycles missing from the capture (not judged)
         self.sol_known_at = 0          # cycle from which the failure counter C is known again after a loss (#10)
-        self.preset_done = False       # a preset was acknowledged (G1_ZSW.12): X1 vs X2 then hangs on the 0xBF00 (#40)
         self._reset_history()
         # acyclic knowledge (behaviour.md §2.0: state carried from cycle to cycle)
         # last written preset value; until a write is seen, settings.p65000 (None = unknown: the factory 0 may have

@@ -21,8 +21,8 @@ COMMISSIONING_DIAG = 0x9011   # channel error type: user parameter data assignme
 ISO_MODE_DATA = 0x8030   # record index of IsochronousModeData (pnio_cm.py record names)
 ABORTING_ERRORS = {0x05, 0x16, 0x17, 0x18}       # 001_9461bb7bc8c2767b.txt:2089, 2099 (#85)
 # words of the ParamPairer's pairing problems -> rule (behaviour.md §9.10 #76, #81)
-PAIRING_RULES = (("overwritten", "BMP-PIPELINED"), ("pipelined", "BMP-PIPELINED"), ("response id mismatch", "BMP-RESPID-MISMATCH"),
-                 ("ref", "BMP-NOT-MIRRORED"), ("axis", "BMP-NOT-MIRRORED"), ("number of param", "BMP-NOT-MIRRORED"),
+PAIRING_RULES = (("overwritten", "BMP-PIPELINED"), ("pipelined", "BMP-PIPELINED"),
+                 ("response id mismatch", "BMP-RESPID-MISMATCH"), ("ref", "BMP-NOT-MIRRORED"), ("axis", "BMP-NOT-MIRRORED"), ("number of param", "BMP-NOT-MIRRORED"),
                  ("value blocks for", "BMP-NOT-MIRRORED"))
 RECORD_RULES = {"BF00-LENGTH", "BF00-RESERVED-NONZERO", "BF00-VALUE-OUT-OF-RANGE", "BMP-BAD-REQUEST",
                 "BMP-REQREF-ZERO", "BMP-NEG-FORMAT", "BMP-ILLEGAL-REQID-RESPONSE", "BMP-RESPID-MISMATCH"}

@@ -225,8 +225,8 @@ def _bf00_rejected_v(k, V):
 
 
 def _v(rule, check, vector, message, needs=(), min_run=1, applies=None, run_lag=None) -> Rule:
-    return Rule(rule, "value", needs=needs, check=check, vector=vector, message=message, min_run=min_run, run_lag=run_lag,
-                applies=applies)
+    return Rule(rule, "value", needs=needs, check=check, vector=vector, message=message, min_run=min_run,
+                run_lag=run_lag, applies=applies)
 
 
 def _continuity_profile(k) -> bool:

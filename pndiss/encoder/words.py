@@ -141,7 +141,6 @@ class WordRules:
                 self._hit("PRESET-ACK-SPURIOUS", f"G1_ZSW.12 rose with G1_STW.12=0 in the last {len(H)} cycles")
             self.pdone_since = n
             self.preset_done = True
-            self.preset_done = True
             if pre is not None and not pre["done"]:
                 pre["done"] = True
                 pre["done_n"] = n
