@@ -968,7 +968,8 @@ function Checker:cycle_std(sp, ac)
 
   -- ---- 9.7 sensor error and acknowledgement -----------------------------------------------
   if SERR == 1 and (first or pSERR == 0) then
-    self.sack_since_serr = SACK == 1
+    -- an error on in the first cycle after a break began unseen: its acknowledgement is not known (#11/#55)
+    self.sack_since_serr = SACK == 1 or first
     self.fack_since_serr = FACK == 1
   end
   if SERR == 1 then

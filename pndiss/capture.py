@@ -52,11 +52,14 @@ PCAPNG_SHB = 0x0A0D0D0A
 
 
 class CaptureError(Exception):
-    """Unusable or damaged capture file; ``frames`` is how many frames were read before it."""
+    """Unusable or damaged capture file; ``frames`` is how many frames were read before it. ``cut_short``: the
+    file ends inside a record (a capture still being written, or a dumpcap killed), tshark 4.0's "appears to
+    have been cut short in the middle of a packet"; the frames before it are whole."""
 
-    def __init__(self, message: str, frames: int = 0):
+    def __init__(self, message: str, frames: int = 0, cut_short: bool = False):
         super().__init__(message)
         self.frames = frames
+        self.cut_short = cut_short
 
 
 class _Buffer:
@@ -244,13 +247,14 @@ def _read_pcap(path: str, b: _Buffer, bo: str, ns: bool, batch=None, first: int 
         # The next record is not wholly buffered: read more, or say why the file ends here.
         if not b.need(16):
             if len(b.buf) - b.pos:
-                raise CaptureError(f"{path}: truncated record header after frame {n}", n)
+                raise CaptureError(f"{path}: truncated record header after frame {n}", n, cut_short=True)
             return
         incl = unpack(b.buf, b.pos)[2]
         if incl > MAX_RECORD:
             raise CaptureError(f"{path}: corrupt record after frame {n} (captured length {incl})", n)
         if not b.need(16 + incl):
-            raise CaptureError(f"{path}: frame {n + 1} truncated ({len(b.buf) - b.pos - 16} of {incl} bytes)", n)
+            raise CaptureError(f"{path}: frame {n + 1} truncated ({len(b.buf) - b.pos - 16} of {incl} bytes)", n,
+                               cut_short=True)
 
 
 def _tsres_to_ns(resol: int):
@@ -296,7 +300,7 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
     while True:
         if not b.need(12):
             if len(b.buf) - b.pos:
-                raise CaptureError(f"{path}: truncated block header after frame {n}", n)
+                raise CaptureError(f"{path}: truncated block header after frame {n}", n, cut_short=True)
             return
         btype = struct.unpack_from(bo + "I", b.buf, b.pos)[0]
         if btype == PCAPNG_SHB:  # byte order may change per section
@@ -312,7 +316,7 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
         if blen < 12 or blen % 4 or blen > MAX_RECORD:
             raise CaptureError(f"{path}: corrupt pcapng block (length {blen}) after frame {n}", n)
         if not b.need(blen):
-            raise CaptureError(f"{path}: pcapng block truncated after frame {n}", n)
+            raise CaptureError(f"{path}: pcapng block truncated after frame {n}", n, cut_short=True)
         if btype == 6 and ifaces:
             # Inner loop over the Enhanced Packet Blocks already buffered (99.9% of a capture):
             # one precompiled unpack per block, no method call; anything else goes the long way.

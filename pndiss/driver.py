@@ -13,6 +13,11 @@ Several files are one capture when they are the pieces of one ring buffer (dumpc
 read in the order of their first time stamp, frame numbers run on across them (as after mergecap
 -a), so an axis' history -- its pairing, deadlines, capture gaps -- runs across file boundaries.
 Pieces that overlap in time are not a ring buffer: refused, as mergecap would interleave them.
+
+A damaged file (cut short in the middle of a packet -- the newest piece of a live ring buffer, a dumpcap
+killed -- or a corrupt block) ends its piece, as it ends tshark's read: every whole frame before it is
+analysed, a ring buffer goes on with its next piece, and the driver raises CaptureError at the end with
+``e.analyzer`` holding the whole analysis (the command reports it, then exits 2 as tshark does).
 """
 from __future__ import annotations
 
@@ -118,15 +123,41 @@ def analyze(paths, settings=None, sinks=(), progress=None, verdict_hooks: dict |
     try:
         _run(a, ring_order(paths) if len(paths) > 1 else paths, fast_ok, progress, col)
     except CaptureError as e:
-        a.finish()
-        if col is not None:
-            col.flush(a.frames)
-        e.analyzer = a
-        raise
+        if len(paths) > 1 or not a.frames:
+            # not a damaged piece (ring_piece takes those): pieces that are no ring buffer, nothing readable
+            a.finish()
+            if col is not None:
+                col.flush(a.frames)
+            e.analyzer = a
+            raise
+        a.reader.damage(paths[0], e, a.frames)   # one file: the reader's error ends the read
     a.finish()
     if col is not None:
         col.flush(a.frames)
+    if a.reader.damaged:
+        e = damaged_error(a.reader.damaged, a.frames)
+        e.analyzer = a
+        raise e
     return a
+
+
+def damaged_error(damaged: list, frames: int):
+    """One CaptureError for the damaged files of a capture (the first one's message, how many more)."""
+    from .capture import CaptureError
+
+    first = damaged[0]
+    more = f"; {len(damaged) - 1} more damaged file(s) (see the summary's input.damaged)" if len(damaged) > 1 else ""
+    return CaptureError(first["message"] + more, frames, cut_short=all(d["cut_short"] for d in damaged))
+
+
+def ring_piece(a, path: str, frames):
+    """The frames of one piece of a ring buffer; a piece that ends damaged ends there, the next one follows."""
+    from .capture import CaptureError
+
+    try:
+        yield from frames
+    except CaptureError as e:
+        a.reader.damage(path, e, a.frames)
 
 
 def _run(a, paths, fast_ok: bool, progress, col=None) -> None:
@@ -141,7 +172,8 @@ def _run(a, paths, fast_ok: bool, progress, col=None) -> None:
         if k:
             _check_order(a, paths[k - 1], path)
         order = a.reader.order   # time order (ReadInfo)
-        for fn, ts, lt, data in open_capture(path, info=a.reader, first=first):
+        frames = open_capture(path, info=a.reader, first=first)
+        for fn, ts, lt, data in (ring_piece(a, path, frames) if len(paths) > 1 else frames):
             order(fn, ts)
             a.feed(fn, ts, lt, data)
             if not fn & 0xFFF:
@@ -154,14 +186,19 @@ def _run(a, paths, fast_ok: bool, progress, col=None) -> None:
 
 def ring_order(paths) -> list:
     """The pieces of one ring buffer in the order of their first time stamps."""
-    from .capture import open_capture
+    from .capture import TS_MAX, CaptureError, open_capture
 
     firsts = []
     for p in paths:
         ts0 = None
-        for _fn, ts, _lt, _data in open_capture(p):
-            ts0 = ts
-            break
+        try:
+            for _fn, ts, _lt, _data in open_capture(p):
+                ts0 = ts
+                break
+        except CaptureError as e:
+            if not e.cut_short:
+                raise
+            ts0 = TS_MAX   # cut short before its first frame: the piece being written, the newest (ring_piece says)
         firsts.append((ts0 if ts0 is not None else 0, p))
     firsts.sort()
     return [p for _t, p in firsts]
@@ -176,8 +213,13 @@ def _check_order(a, prev: str, path: str) -> None:
     reordering of a multi-interface dumpcap (RING_SLACK_NS, as within one file)."""
     from .capture import CaptureError, open_capture
 
-    for _fn, ts, _lt, _data in open_capture(path):
-        if a.last_ts is not None and ts < a.last_ts - RING_SLACK_NS:
-            raise CaptureError(f"{path} starts before {prev} ends: these files are not the pieces of one ring "
-                               f"buffer (merge them with mergecap first)", a.frames)
-        break
+    try:
+        for _fn, ts, _lt, _data in open_capture(path):
+            if a.last_ts is not None and ts < a.last_ts - RING_SLACK_NS:
+                raise CaptureError(f"{path} starts before {prev} ends: these files are not the pieces of one ring "
+                                   f"buffer (merge them with mergecap first)", a.frames)
+            break
+    except CaptureError as e:
+        if not e.cut_short:
+            raise
+        # cut short before its first frame: reading it says so (ring_piece)

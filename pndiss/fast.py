@@ -56,6 +56,7 @@ def run_files(a, paths, progress=None, check=None, collector=None) -> None:
     buffered windows go to the engine, which takes every frame it can index; the rest come one by one
     through run(). ``check(a, previous, path)`` runs before each further piece."""
     from .capture import open_capture
+    from .driver import ring_piece
 
     streams = new_streams(a)
     one = stepper(a, streams)
@@ -73,8 +74,7 @@ def run_files(a, paths, progress=None, check=None, collector=None) -> None:
                     fn, ts = engine.last_fn, engine.last_ts
                 _settle(a, streams, fn, ts)   # the time reached so far, for the check
                 check(a, paths[k - 1], path)
-            for f in open_capture(path, batch=engine, info=a.reader, first=first):
-                yield f
+            yield from ring_piece(a, path, open_capture(path, batch=engine, info=a.reader, first=first))
             first = max(last[2], engine.last_fn if engine is not None else 0)
     last = [None, None, 0]
 

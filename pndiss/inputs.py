@@ -38,7 +38,7 @@ class _Stream:
         try:
             return self._read(n if n and n > 0 else 1 << 20)
         except EOFError:
-            raise CaptureError(f"{self.path}: {self.what} data ends early (truncated file)") from None
+            raise CaptureError(f"{self.path}: {self.what} data ends early (truncated file)", cut_short=True) from None
         except (OSError, lzma.LZMAError, ValueError) as e:
             if self.what is None:
                 raise

@@ -15,7 +15,7 @@ class ReadInfo:
     [0, TS_MAX] ns)."""
 
     __slots__ = ("_h", "_known", "complete", "ts_clamped", "ts_clamped_first", "last_ts", "ts_back", "ts_back_max",
-                 "ts_back_first", "cut_n", "cut_first", "cut_to", "_cut_at")
+                 "ts_back_first", "cut_n", "cut_first", "cut_to", "_cut_at", "damaged")
 
     def __init__(self, known_sha256: str | None = None, digest: bool = True):
         # a digest the caller took already (pndiss fleet hashes every input to plan): not taken twice
@@ -36,6 +36,8 @@ class ReadInfo:
         self.cut_first = None
         self.cut_to = 0
         self._cut_at: dict = {}   # frame -> (captured, on the wire), the latest ones (malformed reasons)
+        # files whose read ended early (pndiss/driver.py): cut short in the middle of a packet, or corrupt
+        self.damaged: list[dict] = []
 
     def sha256(self) -> str | None:
         """The digest of the whole input, '' when it was not read to its end, None when nobody asked for it."""
@@ -80,6 +82,12 @@ class ReadInfo:
         if len(self._cut_at) > CUT_KEPT:
             self._cut_at.pop(next(iter(self._cut_at)))
 
+    def damage(self, path: str, e, frames: int) -> None:
+        """The read of ``path`` ended with CaptureError ``e``; every whole frame before it, up to frame ``frames``
+        (a decompressor's error does not know the frame), was read."""
+        self.damaged.append({"file": str(path), "after_frame": e.frames or frames,
+                             "cut_short": bool(getattr(e, "cut_short", False)), "message": str(e)})
+
     def cut_of(self, fn: int):
         """(captured, on the wire) of a recent frame the capture cut, else None."""
         return self._cut_at.get(fn)
@@ -88,4 +96,5 @@ class ReadInfo:
         return {"timestamps_clamped": self.ts_clamped, "timestamps_clamped_first_frame": self.ts_clamped_first,
                 "timestamps_backwards": self.ts_back, "timestamps_backwards_max_ns": self.ts_back_max,
                 "timestamps_backwards_first_frame": self.ts_back_first,
-                "frames_cut": self.cut_n, "frames_cut_first_frame": self.cut_first, "frames_cut_to_bytes": self.cut_to}
+                "frames_cut": self.cut_n, "frames_cut_first_frame": self.cut_first, "frames_cut_to_bytes": self.cut_to,
+                "damaged": list(self.damaged)}

@@ -154,6 +154,11 @@ def trust(summary: dict) -> list[str]:
                    "or a provider repeating its counter; a consumer discards them (PROFINET cycle-counter check), "
                    "so they are no cycles here either")
     inp = summary.get("input") or {}
+    for d in inp.get("damaged") or ():
+        what = ("cut short in the middle of a packet (a capture still being written, or a capture tool stopped "
+                "abruptly)" if d["cut_short"] else "damaged (a corrupt block tshark refuses too)")
+        out.append(f"{d['file']} is {what}: its read ended after frame {d['after_frame']:,}; the frames before it "
+                   "are analysed, what the file held after it is not")
     if inp.get("frames_cut"):
         out.append(f"{inp['frames_cut']:,} frame(s) cut by the capture's snap length (kept {inp['frames_cut_to_bytes']:,} "
                    f"bytes at most; first at frame {inp['frames_cut_first_frame']}): what was cut off is not decoded, and "

@@ -1,6 +1,7 @@
 """CLI: accounting adds up, bad input gives one clear line and exit 2, JSONL contract."""
 import json
 import os
+import shutil
 import subprocess
 import sys
 
@@ -57,13 +58,39 @@ def test_bad_inputs_one_line_exit_2(tmp_path):
     with open(OWN, "rb") as f:
         raw = f.read()
     trunc = tmp_path / "trunc.pcapng"
-    trunc.write_bytes(raw[: len(raw) // 2 + 7])
+    trunc.write_bytes(raw[:70])   # cut short in its first packet: nothing to report
     for p in (empty, text, trunc, tmp_path / "missing.pcap", tmp_path):
         r = run("analyze", str(p), "--no-progress")
         assert r.returncode == 2, (p, r.stderr)
         err = r.stderr.strip().splitlines()
         assert len(err) == 1 and err[0].startswith("pndiss: error:"), r.stderr
         assert "Traceback" not in r.stderr + r.stdout
+
+
+def test_a_capture_cut_short_is_reported_then_exit_2(tmp_path):
+    """A file that ends in the middle of a packet (dumpcap killed, a ring file copied while written): the report
+    and the summary cover every whole frame before the cut, one error line says where it ends, exit 2 -- as
+    tshark 4.0 shows the frames and exits 2 (an independent audit found no report at all)."""
+    with open(OWN, "rb") as f:
+        raw = f.read()
+    trunc = tmp_path / "trunc.pcapng"
+    trunc.write_bytes(raw[: len(raw) // 2 + 7])
+    sj = tmp_path / "s.json"
+    r = run("analyze", str(trunc), "--no-progress", "--summary-json", str(sj))
+    assert r.returncode == 2, r.stderr
+    err = r.stderr.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("pndiss: error:") and "truncated" in err[0], r.stderr
+    assert "cut short in the middle of a packet" in r.stdout and "Traceback" not in r.stderr + r.stdout
+    s = json.loads(sj.read_text())
+    (d,) = s["input"]["damaged"]
+    assert d["cut_short"] and d["after_frame"] == s["frames"] > 0 and d["file"] == str(trunc)
+    assert sum(s["accounting"].values()) == s["frames"]
+    tshark = shutil.which("tshark")
+    if tshark:   # tshark shows the same whole frames, says "cut short" and exits 2 too
+        t = subprocess.run([tshark, "-r", str(trunc), "-T", "fields", "-e", "frame.number"], capture_output=True,
+                           text=True)
+        assert t.returncode == 2 and "cut short" in t.stderr
+        assert len(t.stdout.split()) == s["frames"]
 
 
 def test_bad_arguments_exit_2():

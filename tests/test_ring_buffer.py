@@ -73,3 +73,55 @@ def test_a_boundary_reorder_of_a_multi_interface_dumpcap_is_accepted(session):
     paths = _pieces(tmp, src, [cut], name="tap2", moves={cut: 0, cut - 1: 1})   # swap the two frames at the cut
     got, s = _events(paths)
     assert s["frames"] == n and s["input"]["timestamps_backwards"] >= 1
+
+
+def _cut(path: str, keep_bytes_off_end: int) -> int:
+    """Cut ``path`` short in the middle of its last blocks; return how many whole frames it keeps."""
+    raw = open(path, "rb").read()
+    with open(path, "wb") as f:
+        f.write(raw[:len(raw) - keep_bytes_off_end])
+    n = 0
+    try:
+        for _f in open_capture(path):
+            n += 1
+    except CaptureError as e:
+        assert e.cut_short
+    return n
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_a_piece_cut_short_ends_there_and_the_ring_goes_on(session, fast):
+    """A ring file copied while dumpcap wrote it (cut in the middle of a packet) ends that piece as it ends
+    tshark's read; the later pieces are still read, and the analysis of all of it comes with the error (found by
+    an independent audit: the whole run ended at the cut, later files unread, no report)."""
+    tmp, src, n = session
+    paths = _pieces(tmp, src, [n // 3, 2 * n // 3], name=f"cutmid{int(fast)}")
+    whole = {p: sum(1 for _ in open_capture(p)) for p in paths}
+    kept = _cut(paths[1], 5_000)
+    assert 0 < kept < whole[paths[1]]
+    with pytest.raises(CaptureError) as e:
+        analyze(list(reversed(paths)), Settings(fast_path=fast))
+    a = e.value.analyzer
+    assert e.value.cut_short and "truncated" in str(e.value)
+    assert a.frames == whole[paths[0]] + kept + whole[paths[2]]   # the third piece was read
+    dmg = a.summary()["input"]["damaged"]
+    assert [d["file"] for d in dmg] == [paths[1]] and dmg[0]["after_frame"] == whole[paths[0]] + kept
+    assert dmg[0]["cut_short"]
+    # the lost stretch is a capture gap of the streams that go on in the third piece, as any loss would be
+    assert a.summary()["cyclic"]["capture_gaps"]["count"] >= 1
+
+
+def test_the_newest_piece_cut_short_before_its_first_frame(session):
+    """The piece being written holds a few bytes of its first block only: it sorts last and ends the ring."""
+    tmp, src, n = session
+    paths = _pieces(tmp, src, [n // 2], name="fresh")
+    with open(paths[1], "rb") as f:
+        head = f.read(70)   # the section and interface blocks (60 bytes) and part of the first packet
+    with open(paths[1], "wb") as f:
+        f.write(head)
+    first = sum(1 for _ in open_capture(paths[0]))
+    with pytest.raises(CaptureError) as e:
+        analyze([paths[1], paths[0]], Settings())
+    a = e.value.analyzer
+    assert a.frames == first and e.value.cut_short
+    assert [(d["file"], d["after_frame"]) for d in a.summary()["input"]["damaged"]] == [(paths[1], first)]

@@ -254,7 +254,7 @@ def run(args) -> int:
             mcap_writer.close()
     if jsonl is not None:
         close_out(jsonl, args.jsonl)
-    if error is not None:
+    if error is not None and (a is None or not a.reader.damaged):
         print(f"pndiss: error: {error} ({error.frames} frames read before it)", file=sys.stderr)
         return 2
     summary = a.summary()
@@ -276,6 +276,10 @@ def run(args) -> int:
         print("pndiss: " + one_line(summary, a.violations), file=report_out)
     else:
         render_report(summary, a, to_stderr)
+    if error is not None:
+        # a damaged file: the report covers every whole frame before the damage; exit 2 as tshark 4.0 does
+        print(f"pndiss: error: {error} (the report covers the {a.frames:,} frames read)", file=sys.stderr)
+        return 2
     return exit_code(a.violations, settings.fail_on)
 
 

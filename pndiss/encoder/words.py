@@ -224,7 +224,9 @@ class WordRules:
 
         # ---- 9.7 sensor error and acknowledgement -----------------------------------------------
         if SERR and (first or not pSERR):
-            self.sack_since_serr = bool(SACK)
+            # an error already on in the first cycle after a break (capture loss, a setpoint never paired, the
+            # capture's start) began unseen: whether it was acknowledged is not known, so #11/#55 do not claim it
+            self.sack_since_serr = bool(SACK) or first
             self.fack_since_serr = bool(FACK)
         if SERR:
             self.serr_code = X2
