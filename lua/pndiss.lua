@@ -966,10 +966,19 @@ local function infer_try(st, fn)
     local out_s, in_s = best.out, best["in"]
     local controller, device = out_s.src, out_s.dst
     local station = station_of(device)   -- session.add_inferred: the station table's name of the device
+    -- the cycle the encoder reports in: its input stream's counter step (else the output's), once confirmed
+    -- (gaps.py confirmed_period_ns: the Connect's step, or one seen GAP_LEARN times on a uniform counter)
+    local cycle = nil
+    for _, k in ipairs({in_s.key, out_s.key}) do
+        local g = gap_streams[k]
+        if cycle == nil and g ~= nil and g.step ~= 0 and g.uniform and (g.known or g.seen >= GAP_LEARN) then
+            cycle = g.step * GAP_UNIT_NS
+        end
+    end
     for _, x in ipairs({{out_s, "output", best.os, best.cand.len_setpoint}, {in_s, "input", best.oa, best.cand.len_actual}}) do
         local s = x[1]
         maps[s.key] = {direction = x[2], device = device, controller = controller, frame_id = s.fid, source = "content",
-                       station = station,
+                       station = station, learnt_cycle_ns = cycle,
                        objects = {{api = 0, slot = 0, subslot = 0, offset = x[3], length = x[4], telegram = best.t,
                                    telegram_source = CI.source}},
                        inferred = {confidence = best.confidence, first = math.min(out_s.frames[1], in_s.frames[1]),
@@ -1747,8 +1756,14 @@ local function new_axis(o, fr, fn)
     ax.profile, ax.reason = profile_for(fm.device)
     local iso = nil
     if fm.frame_id ~= nil then iso = fm.frame_id >= 0x0100 and fm.frame_id < 0x1000 end   -- RT_CLASS_3 = IRT
-    local cfg = C.config_from_settings(settings, {profile = ax.profile, telegram = o.telegram, cycle_ns = fm.cycle_ns,
-                                                  iso = iso, profile_reason = ax.reason, telegram_source = o.source})
+    local cycle, cycle_source = fm.cycle_ns, nil   -- (nil: the Connect's)
+    if cycle == nil and fm.learnt_cycle_ns then   -- a map found from the content: config.COUNTER_CYCLE
+        cycle = fm.learnt_cycle_ns
+        cycle_source = "learnt from the cycle counter step of the encoder's input frames (no Connect in the capture)"
+    end
+    local cfg = C.config_from_settings(settings, {profile = ax.profile, telegram = o.telegram, cycle_ns = cycle,
+                                                  cycle_source = cycle_source, iso = iso, profile_reason = ax.reason,
+                                                  telegram_source = o.source})
     ax.checker = C.new(cfg, info)
     ax.checker.io_len[fr.dir] = d.length
     refine_profile(ax, fn)
@@ -1827,7 +1842,8 @@ local function relabel(o, fr, fn)
     o.length_checked = false
     if ax == nil then return end
     ax.telegram, ax.source, ax.ambiguous = t, o.source, false
-    ax.sp, ax.sp_before = nil, nil   -- decoded with the old layout
+    ax.sp, ax.sp_before = nil, nil   -- decoded with the old layout, as a held setpoint and a waiting actual value are
+    ax.held, ax.pend = nil, nil
     local chk = ax.checker
     local c = chk.cfg
     if c.telegram ~= t or tostring(c.sources.telegram):find("length", 1, true) then

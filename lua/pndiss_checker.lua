@@ -301,7 +301,7 @@ function C.config_from_settings(s, kw)
   end
   if truthy(kw.cycle_ns) then
     c.cycle_ns = kw.cycle_ns
-    src.cycle_ns = "Connect (SendClockFactor x ReductionRatio)"
+    src.cycle_ns = kw.cycle_source or "Connect (SendClockFactor x ReductionRatio)"
   end
   return c
 end

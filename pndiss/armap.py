@@ -64,6 +64,8 @@ class FrameMap:
     # a system redundancy AR (ARType 0x0020, S2/R1): the device acts on the AR its controller holds as primary;
     # a frame of it whose DataStatus.State says Backup (bit 0 clear, wire.md §2.3) carries no cycle it acts on
     primary_only: bool = False
+    # no Connect (a map found from the content): the stream's cycle from its cycle counter step, when confirmed
+    learnt_cycle_ns: int | None = None
 
     @property
     def cycle_time_ns(self) -> int | None:

@@ -13,6 +13,7 @@ from __future__ import annotations
 from . import rules
 from . import telegrams as tg
 from .encoder import Checker, EncoderConfig
+from .encoder.config import CONNECT_CYCLE, COUNTER_CYCLE
 from .proto.eth import NO_DST
 
 BF00_INDEXES = (0xBF00, 0xFFFF)
@@ -71,8 +72,12 @@ class AxisTracking:
         fid = fm.frame_id
         if fid is not None:
             iso = tg_is_irt(fid)
-        cfg = EncoderConfig.from_settings(self.s, profile=ax.profile, telegram=o.telegram, cycle_ns=fm.cycle_time_ns,
-                                          iso=iso, profile_reason=ax.reason, telegram_source=o.source)
+        cycle, cycle_source = fm.cycle_time_ns, CONNECT_CYCLE
+        if cycle is None and fm.learnt_cycle_ns:
+            cycle, cycle_source = fm.learnt_cycle_ns, COUNTER_CYCLE
+        cfg = EncoderConfig.from_settings(self.s, profile=ax.profile, telegram=o.telegram, cycle_ns=cycle,
+                                          cycle_source=cycle_source, iso=iso, profile_reason=ax.reason,
+                                          telegram_source=o.source)
         ax.checker = Checker(cfg, info)
         ax.checker.io_len[fr.direction] = do.length
         self._refine_profile(ax)
@@ -97,7 +102,8 @@ class AxisTracking:
         if ax is None:
             return
         ax.telegram, ax.source, ax.ambiguous = t, o.source, False
-        ax.sp = ax.sp_before = None  # decoded with the old layout
+        ax.sp = ax.sp_before = None  # decoded with the old layout, as a held setpoint and a waiting actual value are
+        ax.held = ax.pend = None
         c = ax.checker.cfg
         if c.telegram != t or "length" in str(c.sources.get("telegram")):
             c.telegram = t

@@ -175,6 +175,13 @@ class GapTracker:
         st = self.streams.get(key)
         return st.step * UNIT_NS if st is not None and st.step and st.uniform else None
 
+    def confirmed_period_ns(self, key) -> int | None:
+        """The stream's cycle in ns once its step is the Connect's or was seen LEARN times (uniform counter)."""
+        st = self.streams.get(key)
+        if st is None or not st.step or not st.uniform or not (st.known or st.seen >= LEARN):
+            return None
+        return st.step * UNIT_NS
+
     def same_step(self, a, b) -> bool:
         """Both streams advance by one confirmed step per cycle (a setpoint and an actual stream of one
         AR at one reduction ratio): each actual value then has its own setpoint."""

@@ -159,13 +159,17 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
     def add_inferred(self, res: dict) -> None:
         """Frame maps found from the cyclic content (pndiss/infer.py): used like a Connect's, source said."""
         station = self.station_name(res["device_mac"])
+        # the cycle the encoder reports in: its input stream's counter step (else the output's), once confirmed
+        period = self.a.cyclic.gaps.confirmed_period_ns
+        keys = {s["direction"]: (s["frame_id"], s["src"], s["dst"]) for s in res["streams"]}
+        cycle = period(keys["input"]) or period(keys["output"])
         for s in res["streams"]:
             do = armap.DataObject(api=0, slot=0, subslot=0, offset=s["offset"], length=s["length"],
                                   telegram=res["telegram"], telegram_source=res["source"])
             self.maps[(s["frame_id"], s["src"], s["dst"])] = armap.FrameMap(
                 frame_id=s["frame_id"], direction=s["direction"], controller_mac=res["controller_mac"],
                 device_mac=res["device_mac"], station=station, data_length=s["c_sdu_len"], objects=[do],
-                source="content")
+                source="content", learnt_cycle_ns=cycle)
         self.map_generation += 1   # (lookup's fallback cache follows the generation)
         self.a.emit({"frame": res["frame"], "ts_ns": res["ts_ns"], "kind": "ar", "source": res["source"],
                      "station": station, "device_mac": res["device_mac"], "controller_mac": res["controller_mac"],

@@ -245,3 +245,28 @@ def test_capture_from_the_start_up_without_its_connect(tmp_path):
         from test_lua_plugin import compare
         n, bad, lua_viol, viol = compare(path)
         assert n and not bad and lua_viol == viol
+
+
+def test_cycle_time_learnt_from_the_counter_without_a_connect(tmp_path):
+    """No Connect in the capture, 250 us cycle: the deadlines in cycles (D_preset = 10 ms / T + L_max) follow the
+    cycle the counter step shows, not behaviour.md's 1 ms for an unknown cycle -- which gave a correct encoder 12
+    cycles (3 ms) for a preset it may take 10 ms for. The capture ends 20 cycles (5 ms) after a preset request no
+    acknowledgement answered yet: within the deadline, so no PRESET-ACK-MISSING -- in both paths and the plugin."""
+    path, want = _mid(str(tmp_path), "irt", ["--scenario", "preset", "--cycle-time", "0.25", "--cycles", "900",
+                                              "--inject", "PRESET-ACK-MISSING@500"], 100)
+    (req,) = [f for r, f in want if r == "PRESET-ACK-MISSING"]   # the request's frame, renumbered
+    cut = str(tmp_path / "irt-cut.pcapng")
+    capedit.rewrite(path, cut, lambda fn, d: fn <= req + 40)     # two frames a cycle: 20 cycles after it
+    got = {}
+    for fast in (True, False):
+        evs = []
+        a = analyze_file(cut, Settings(fast_path=fast), sink=lambda e: evs.append(e) if e["kind"] == "violation" else None)
+        (enc,) = a.summary()["cyclic"]["encoders"]
+        assert enc["settings"]["cycle_ns"]["value"] == 250_000 and "cycle counter" in enc["settings"]["cycle_ns"]["source"]
+        assert enc["settings"]["D_preset"]["value"] == 42
+        got[fast] = [(e["rule"], e["frame"]) for e in evs]
+    assert got[True] == got[False] == []
+    if shutil.which("tshark"):
+        from test_lua_plugin import compare
+        n, bad, lua_viol, py_viol = compare(cut)
+        assert n > 1000 and not bad and lua_viol == py_viol == set()

@@ -22,6 +22,12 @@ def next_ls(v: int) -> int:
     return (v % 15) + 1
 
 
+CONNECT_CYCLE = "Connect (SendClockFactor x ReductionRatio)"
+# no Connect in the capture (mid-session, content inference): the cycle counter's step is the provider's cycle
+# (wire.md §2.3), confirmed over several frames (pndiss/gaps.py) -- better than the 1 ms of behaviour.md §0.1
+COUNTER_CYCLE = "learnt from the cycle counter step of the encoder's input frames (no Connect in the capture)"
+
+
 @dataclass
 class EncoderConfig:
     profile: str = "generic"
@@ -150,6 +156,7 @@ class EncoderConfig:
     @classmethod
     def from_settings(cls, settings=None, *, profile: str = "generic", telegram: int = 81,
                       bf00: dict | None = None, cycle_ns: int | None = None, iso: bool | None = None,
+                      cycle_source: str = CONNECT_CYCLE,
                       profile_reason: str | None = None, telegram_source: str | None = None) -> "EncoderConfig":
         c = cls(profile=profile if profile in tg.PROFILE_DEFAULTS else "generic", telegram=telegram)
         src = c.sources
@@ -189,5 +196,5 @@ class EncoderConfig:
             src["iso"] = "settings.iso"
         if cycle_ns:
             c.cycle_ns = cycle_ns
-            src["cycle_ns"] = "Connect (SendClockFactor x ReductionRatio)"
+            src["cycle_ns"] = cycle_source
         return c
