@@ -1060,7 +1060,7 @@ function Checker:cycle_std(sp, ac)
       self.bf00_due = nil
     elseif n >= bd[1] then
       -- #70: an invalid parameter set must be reported (000_37bf2397999f1108.txt:2636-2639)
-      self:emit("BF00-ERROR-NOT-REPORTED", self.f, self.ts,
+      self:emit("BF00-ERROR-NOT-REPORTED", bd[3] or self.f, bd[4] or self.ts,   -- from the write to the deciding frame
                 fmt("0xBF00 was invalid (%s) but data exchange runs with no 0x1002 sensor error", bd[2]), self.f)
       self.bf00_due = nil
     end
@@ -1653,7 +1653,7 @@ local function record(chk, ev)
   chk:apply_cfg()
   if #problems > 0 then
     chk.bf00_invalid = table.concat(problems, "; ")
-    chk.bf00_due = {chk.n + chk.D, chk.bf00_invalid}
+    chk.bf00_due = {chk.n + chk.D, chk.bf00_invalid, ev.frame, ev.ts_ns}   -- (+ the write: #70's trigger)
     chk.bf00_valid_frame = nil
   else
     chk.bf00_invalid = nil

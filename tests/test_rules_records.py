@@ -160,3 +160,10 @@ def test_record_rules_lua_same():
         test_parameter_lists_and_pnu_zero_are_no_unknown_pnu()
         test_invalid_bf00_is_not_the_configuration()
     assert "P965-VERSION-MISMATCH" in lua_same(table)
+
+
+def test_bf00_error_not_reported_names_the_write_and_the_deciding_cycle():
+    """#70 is a deadline rule: its frame is the trigger (the invalid write), its last frame the cycle that decides,
+    as PRESET-ACK-MISSING's (an independent audit: it named the deciding cycle twice)."""
+    (v,) = [e for e in run([bf00({"mupr": 0}), (G, 15)]) if e["rule"] == "BF00-ERROR-NOT-REPORTED"]
+    assert v["frame"] == 0 and v["last_frame"] > 1

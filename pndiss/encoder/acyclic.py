@@ -111,7 +111,7 @@ def _record(chk, ev: dict) -> None:
     chk.reconfigure()
     if problems:
         chk.bf00_invalid = "; ".join(problems)
-        chk.bf00_due = (chk.n + chk.D, chk.bf00_invalid)
+        chk.bf00_due = (chk.n + chk.D, chk.bf00_invalid, ev.get("frame"), ev.get("ts_ns"))   # (+ the write: #70's trigger)
         chk.bf00_valid_frame = None
     else:
         chk.bf00_invalid = None

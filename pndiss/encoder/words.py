@@ -291,12 +291,13 @@ class WordRules:
 
         # ---- 9.9 0xBF00 reaction (#70, #71) -----------------------------------------------------
         if self.bf00_due is not None:
-            due, why = self.bf00_due
+            due, why, f0, ts0 = self.bf00_due
             if SERR and X2 == E_PARAM:
                 self.bf00_due = None
             elif n >= due:
-                # 70: an invalid parameter set must be reported (000_37bf2397999f1108.txt:2636-2639)
-                self._emit("BF00-ERROR-NOT-REPORTED", self.f, self.ts,
+                # 70: an invalid parameter set must be reported (000_37bf2397999f1108.txt:2636-2639); from the
+                # write (the trigger, as the other deadline rules name theirs) to the deciding frame
+                self._emit("BF00-ERROR-NOT-REPORTED", self.f if f0 is None else f0, self.ts if ts0 is None else ts0,
                            f"0xBF00 was invalid ({why}) but data exchange runs with no 0x1002 sensor error", last=self.f)
                 self.bf00_due = None
         self._timeline(CTRL, PREQ, PDONE, PKA, SERR, X2)
