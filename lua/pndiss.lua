@@ -347,7 +347,11 @@ end
 local function gap_step_from(key, cycle_ns)
     local st = gap_stream(key)
     local step = cycle_ns and math.floor(cycle_ns / 31250) or 0
-    if step > 0 and step < 0x10000 and st.step == 0 then st.step, st.known = step, true end
+    if step > 0 and step < 0x10000 and (st.step ~= step or not st.known) then
+        -- the Connect says it: a learnt step, or an earlier AR's on the same frame ID, gives way (gaps.py)
+        if st.step ~= step then st.seen, st.irregular, st.uniform = 0, 0, true end
+        st.step, st.known = step, true
+    end
 end
 local function gcd(a, b)
     while b ~= 0 do a, b = b, a % b end
@@ -727,7 +731,12 @@ local function connect_response(key, pinfo)
                 local mine = e[direction] or {0, 1}
                 local obj = {api = o.api, slot = o.slot, subslot = o.subslot, offset = o.offset, length = mine[1]}
                 -- session._assign_telegram: P922 read before > both directions' lengths
-                local pt = p922_of[table.concat({device, o.api or 0, o.slot or 0, o.subslot or 0}, "|")]
+                local pk = table.concat({device, o.api or 0, o.slot or 0, o.subslot or 0}, "|")
+                local pt = p922_of[pk]
+                if pt ~= nil and T.telegrams[pt] and ((e.output and tg_len(pt, "setpoint") ~= e.output[1])
+                                                     or (e.input and tg_len(pt, "actual") ~= e.input[1])) then
+                    p922_of[pk], pt = nil, nil   -- an earlier connection's P922 these lengths contradict: stale
+                end
                 obj.locked = not e.shared_input and locked[ek] or nil   -- for now (judged when GOOD, no #66)
                 if e.shared_input then
                     obj.telegram_source = NOT_OWNED   -- another AR controls the encoder
@@ -1782,6 +1791,35 @@ end
 -- cyclic_axes.on_reconnect: the AR's axes go on with the new frame maps, each checker starts a new
 -- connection (Checker.new_connection); the ended connection's 0xBF00 is the previous one (#31)
 function on_reconnect(ar, dev, keys, fn)
+    -- cyclic_axes._reconnect_config: the new Connect's telegram and cycle for the axis' submodule (a project
+    -- downloaded with another telegram or cycle time reconnects with the same AR UUID); the lengths come again
+    local function reconnect_config(ax, keys, fn)
+        local chk = ax.checker
+        local c = chk.cfg
+        chk.io_len = {}
+        local changed = false
+        for _, k in ipairs(keys) do
+            for _, d in ipairs(k[4].objects) do
+                if d.api == ax.info.api and d.slot == ax.info.slot and d.subslot == ax.info.subslot
+                        and T.telegrams[d.telegram] and d.telegram ~= c.telegram then
+                    c.telegram = d.telegram
+                    c.sources.telegram = d.telegram_source or "Connect"
+                    ax.telegram, ax.source = d.telegram, d.telegram_source
+                    changed = true
+                end
+            end
+        end
+        local cyc = ax.fm and ax.fm.cycle_ns
+        if cyc and cyc ~= c.cycle_ns then
+            c.cycle_ns = cyc
+            c.sources.cycle_ns = "Connect (SendClockFactor x ReductionRatio)"
+            changed = true
+        end
+        if changed then
+            refine_profile(ax, fn)
+            chk:apply_cfg()
+        end
+    end
     local old = bf00_last[dev]
     if old ~= nil and old.ar == ar then
         prev_bf00[dev] = old.decoded
@@ -1798,6 +1836,7 @@ function on_reconnect(ar, dev, keys, fn)
             ax.sp, ax.sp_frame, ax.sp_before, ax.pend, ax.ac_key, ax.held = nil, nil, nil, nil, nil, nil   -- the pairing starts afresh
             ax.sp_ok, ax.sp_new, ax.sp_break = false, false, false
             note(ax.checker:new_connection(prev_bf00[dev]), fn)
+            reconnect_config(ax, keys, fn)
         end
     end
 end

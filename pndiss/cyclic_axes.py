@@ -250,6 +250,29 @@ class AxisTracking:
             ax.sp = ax.sp_frame = ax.sp_before = ax.pend = ax.ac_key = ax.held = None   # the pairing starts afresh
             ax.sp_ok = ax.sp_new = ax.sp_break = False
             self._out(ax.checker.new_connection(self.prev_bf00.get(dev)))
+            self._reconnect_config(ax, maps)
+
+    def _reconnect_config(self, ax, maps) -> None:
+        """The new Connect's telegram and cycle for the axis' submodule: a project downloaded with another telegram
+        or cycle time reconnects with the same AR UUID (an independent audit: the old telegram's lengths stayed,
+        a false TELEGRAM-SELECTION-MISMATCH); the data lengths come again with the new connection's frames."""
+        chk = ax.checker
+        c = chk.cfg
+        chk.io_len.clear()
+        changed = False
+        for fm in maps:
+            for do in fm.objects:
+                if (do.api, do.slot, do.subslot) == ax.key[1:] and do.telegram in tg.TELEGRAMS and do.telegram != c.telegram:
+                    c.telegram, c.sources["telegram"] = do.telegram, do.telegram_source or "Connect"
+                    ax.telegram, ax.source = do.telegram, do.telegram_source
+                    changed = True
+        cyc = ax.fm.cycle_time_ns if ax.fm is not None else None
+        if cyc and cyc != c.cycle_ns:
+            c.cycle_ns, c.sources["cycle_ns"] = cyc, CONNECT_CYCLE
+            changed = True
+        if changed:
+            self._refine_profile(ax)
+            chk.reconfigure()
 
     # -- records -----------------------------------------------------------------------------------
     def on_write_result(self, ev: dict) -> None:

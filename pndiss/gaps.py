@@ -70,7 +70,11 @@ class GapTracker:
         st = self.streams.get(key)
         if st is None:
             st = self.streams[key] = Stream()
-        if step and 0 < step < WRAP and st.step == 0:
+        if step and 0 < step < WRAP and (st.step != step or not st.known):
+            # the Connect says it: a step learnt before, or an earlier AR's on the same frame ID (a project
+            # downloaded with another cycle time reconnects on the same IDs), gives way
+            if st.step != step:
+                st.seen, st.irregular, st.uniform = 0, 0, True
             st.step, st.known = step, True
 
     def restart(self, key) -> None:

@@ -10,6 +10,7 @@ A mixin of pndiss.session.SessionTracker: the tracker's own tables and counts.
 from __future__ import annotations
 
 from . import armap
+from . import telegrams as tg
 from .session_records import MAX_RECORD_ROWS
 
 API_PROFIDRIVE = 0x3A00  # spec/network.md §1.7
@@ -274,6 +275,12 @@ class ArLayer:
                 do.telegram, do.telegram_source = t, "map"
                 return None
         t = self.telegram_p922.get((device, do.api, do.slot, do.subslot))
+        if t in tg.TELEGRAMS and any(tg.length(t, d) != e[w][0] for w, d in (("output", "setpoint"), ("input", "actual"))
+                                     if w in e):
+            # an earlier connection's P922: this Connect's lengths say another telegram (a project downloaded with
+            # a new one reconnects the same submodule), so it is stale
+            del self.telegram_p922[(device, do.api, do.slot, do.subslot)]
+            t = None
         if t is not None:
             do.telegram, do.telegram_source = t, "P922"
             return None

@@ -191,6 +191,14 @@ def prm_end_pair(seq: int = 1, plc: tuple = PLC) -> tuple[bytes, bytes]:
     return _pair(4, ndr_request(body(0x0110, 0x0001)), ndr_response(body(0x8110, 0x0008)), plc, seq)
 
 
+def release_pair(seq: int = 1, plc: tuple = PLC) -> tuple[bytes, bytes]:
+    """(request, response) of the controller's Release: IODReleaseReq 0x0114, ControlCommand 0x0004 (Release), and
+    the device's 0x8114 with Done 0x0008 (wire.md §6.8)."""
+    def body(bt, cmd):
+        return block(bt, b"\0\0" + uuid_bytes(plc[2]) + struct.pack(">HHHH", 1, 0, cmd, 0))
+    return _pair(1, ndr_request(body(0x0114, 0x0004)), ndr_response(body(0x8114, 0x0008)), plc, seq)
+
+
 def write_pair(index: int, data: bytes, *, seq: int = 2, api: int = 0x3D00, slot: int = 1, subslot: int = 1,
                plc: tuple = PLC, status: bytes = b"\0\0\0\0"):
     """(request, response) of a record write from the controller to the device: positive, or refused with the
