@@ -655,18 +655,20 @@ local function connect_response(key, pinfo)
     local device = tostring(pinfo.dl_src)
     local res_fid = {}
     local server_name
-    local locked = {}   -- "api/slot/subslot" -> another AR owns it (session_ar._owner, ModuleDiffBlock)
+    local locked = {}   -- "api/slot/subslot" -> another AR owns it (session_ar.diff_state, ModuleDiffBlock)
     for _, b in ipairs(bl) do
         if b.type == 0x8104 then
             local ba, bs, bss = inside(all("pn_io.api"), b), inside(all("pn_io.slot_nr"), b), inside(all("pn_io.subslot_nr"), b)
             for _, st in ipairs(inside(all("pn_io.submodule_state"), b)) do
                 local v = st.value
                 local why
-                if bit.band(v, 0x8000) ~= 0 then
+                if bit.band(v, 0x8000) ~= 0 then   -- (or the submodule plugged is wrong / none: no parameters either)
                     why = ({[2] = "superordinated locked", [3] = "locked by IO controller",
                             [4] = "locked by IO supervisor"})[bit.band(bit.rshift(v, 7), 0xF)]
-                elseif bit.band(v, 0x7FFF) == 2 then
-                    why = "locked by IO controller"
+                          or ({[2] = "wrong submodule", [3] = "no submodule"})[bit.band(bit.rshift(v, 11), 0xF)]
+                else
+                    why = ({[2] = "locked by IO controller", [0] = "no submodule",
+                            [1] = "wrong submodule"})[bit.band(v, 0x7FFF)]
                 end
                 if why then
                     locked[table.concat({before(ba, st.offset) or 0, before(bs, st.offset) or 0,

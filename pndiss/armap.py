@@ -26,7 +26,9 @@ class DataObject:
     submodule_ident: int | None = None
     telegram: int | None = None          # PROFIdrive telegram number, when known
     telegram_source: str | None = None   # 'P922' | 'gsdml' | 'map' | 'length' (a guess) | ...
-    locked: str | None = None            # the Connect response's ModuleDiffBlock: another AR owns it (for now)
+    # the Connect response's ModuleDiffBlock: not this AR's working submodule (for now): another AR owns it, or the
+    # submodule plugged is wrong / none (session_ar.diff_state); judged only while its IOPS are GOOD, no #66
+    locked: str | None = None
 
 
 @dataclass

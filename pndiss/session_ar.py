@@ -106,7 +106,7 @@ class ArLayer:
                             ln = 0   # this AR's IO data object has no data bytes (wire.md §6.6)
                         e[dd["direction"] or "other"] = (ln, dd["length_iops"], dd["length_iocs"])
                     expected[(a["api"], a["slot_nr"], s["subslot_nr"])] = e
-        locked = {(a["api"], m["slot_nr"], sm["subslot_nr"]): _owner(sm["submodule_state"])
+        locked = {(a["api"], m["slot_nr"], sm["subslot_nr"]): diff_state(sm["submodule_state"])
                   for b in sb.get(0x8104, []) for a in b["apis"] for m in a["modules"] for sm in m["submodules"]}
         res_fid = {b["iocr_reference"]: b["frame_id"] for b in sb.get(0x8102, [])}
         station = arq.get("cminitiator_station_name")
@@ -236,7 +236,7 @@ class ArLayer:
 
     def _taken_over(self, frame_maps, arq, controller: str, device: str, fn: int, ts: int) -> None:
         """Another controller's AR that owns an encoder module this accepted Connect owns too ended unseen: a
-        device gives a submodule to one AR (the other's would be locked, session_ar._owner); system
+        device gives a submodule to one AR (the other's would be locked, session_ar.diff_state); system
         redundancy's two ARs own the same modules by design."""
         if arq.get("artype_req") in (SYSRED_AR_TYPE, SUPERVISOR_AR_TYPE):
             return   # (a supervisor takes the module for a while and gives it back)
@@ -359,12 +359,14 @@ def _replaces(arq: dict, iocrs) -> bool:
     return arq.get("artype_req") != SUPERVISOR_AR_TYPE and bool(iocrs)
 
 
-def _owner(state: int) -> str | None:
-    """What a ModuleDiffBlock SubmoduleState says when another AR owns the submodule (wire.md §6.7), else None."""
+def diff_state(state: int) -> str | None:
+    """What a ModuleDiffBlock SubmoduleState says when this AR has no working submodule of its own there (wire.md
+    §6.7): another AR owns it, or the plugged submodule is the wrong one or none -- the controller then writes it
+    no parameters (an independent audit: a false STARTUP-NO-PARAM-RECORD for a missing encoder). Else None."""
     if state & 0x8000:
-        return {2: "superordinated locked", 3: "locked by IO controller",
-                4: "locked by IO supervisor"}.get((state >> 7) & 0xF)
-    return "locked by IO controller" if state & 0x7FFF == 2 else None
+        return ({2: "superordinated locked", 3: "locked by IO controller", 4: "locked by IO supervisor"}.get((state >> 7) & 0xF)
+                or {2: "wrong submodule", 3: "no submodule"}.get((state >> 11) & 0xF))
+    return {2: "locked by IO controller", 0: "no submodule", 1: "wrong submodule"}.get(state & 0x7FFF)
 
 
 def _do_row(do: armap.DataObject) -> dict:

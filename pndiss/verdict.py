@@ -11,6 +11,7 @@ from collections import Counter
 
 from . import telegrams as tg
 from .armap import NOT_OWNED
+from .session_ar import diff_state as _diff_state
 from .encoder.config import DEFAULT_SOURCE
 from .rules import RULES
 
@@ -130,6 +131,9 @@ def one_line(summary: dict, log: ViolationLog, with_name: bool = True) -> str:
 MODE_RULES = frozenset(i for i, r in RULES.items() if "compat" in r["condition"])
 
 
+MODULE_STATES = {0: "no module", 1: "a wrong module"}   # ModuleDiffBlock ModuleState (wire.md §6.7); 2 proper, 3 substitute
+
+
 def trust(summary: dict) -> list[str]:
     """Signals on how far the capture can be trusted: gaps, unmapped streams, malformed frames."""
     out = []
@@ -177,6 +181,16 @@ def trust(summary: dict) -> list[str]:
                    "content): give them with --map or --set telegram=N")
     if acc.get("malformed"):
         out.append(f"malformed frames: {acc['malformed']:,} (listed below)")
+    for ar in (summary.get("session") or {}).get("ars", []):
+        for m in ar.get("module_diff") or ():
+            subs = {x["subslot"]: _diff_state(x["state"]) for x in m.get("submodules", ())}
+            what = MODULE_STATES.get(m.get("module_state"))
+            bad = sorted(f"{m['slot']}/{k} {v}" for k, v in subs.items() if v in ("wrong submodule", "no submodule"))
+            if what or bad:
+                out.append(f"{ar.get('station') or ar.get('device_mac')} reports {what or 'its module'} in slot {m['slot']}"
+                           + (f" ({', '.join(bad)})" if bad else "") + f" (ModuleDiffBlock of the Connect response, frame "
+                           f"{ar.get('frame')}): the configuration does not match what is plugged; the controller writes "
+                           "such a submodule no parameters, and its cycles are judged only while its IOPS are GOOD")
     for e in cyc.get("encoders", []):
         who = f"{e.get('station') or e.get('device_mac')} {e['slot']}/{e['subslot']}"
         tsrc = _source(e, "telegram", e.get("telegram_source"))

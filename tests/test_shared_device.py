@@ -196,6 +196,23 @@ def test_locked_submodule_needs_no_user_parameters(tmp_path):
     assert len(s["cyclic"]["encoders"]) == 2 and sum(e["cycles"] for e in s["cyclic"]["encoders"]) == 300, judged
 
 
+@pytest.mark.parametrize("module_state,sub_state,words", [(1, 0x9000, "a wrong module"), (0, 0x9800, "no module")])
+def test_wrong_or_missing_module_needs_no_user_parameters(tmp_path, module_state, sub_state, words):
+    """The device answers the Connect with a ModuleDiffBlock: the encoder module in slot 1 is the wrong one
+    (IdentInfo 2) or missing (IdentInfo 3); the controller rightly writes it no 0xBF00 and its IOPS stay bad. No
+    STARTUP-NO-PARAM-RECORD, and the Trust section says what the device reported (an independent audit: the PLC
+    was blamed, the mismatch not mentioned)."""
+    subs = [struct.pack(">HIH", ss, ident, sub_state) for ss, ident in ((1, MAP), (2, T81))]
+    diff = R.block(0x8104, struct.pack(">HIHHIHH", 1, 0x3D00, 1, 1, 0x100, module_state, 2) + b"".join(subs))
+    a = Ar(PLC_A, encoder(1), (0x8000, 0x8001), diff=diff, locked={(1, 1), (1, 2)})
+    a.frames += a.call(R.prm_end_pair)
+    path = write(tmp_path / f"diff{module_state}.pcap", a.frames + cycles([a], 0, 100))
+    viol, s, _ars = judge(path)
+    assert viol == []
+    from pndiss.verdict import trust
+    assert any(f"reports {words} in slot 1" in line for line in trust(s)), trust(s)
+
+
 # -- 3, 4: a device with two encoder modules, each owned by another controller -----------------------------
 
 def two_owners():
