@@ -135,9 +135,13 @@ class RpcLayer:
         stub = None
         if hdr["dg_flags1"] & dcerpc.F1_FRAG:
             self.counts["rpc_fragments"] += 1
-            got = self.rpcr.add(fn, ts, hdr, data)
+            copy = self.rpcr.completed(hdr, ts)   # a resend of a completed call's fragment (tshark: "reas: #N")
+            got = None if copy else self.rpcr.add(fn, ts, hdr, data)
             ev["fragment"] = {"num": hdr["dg_frag_num"], "last": bool(hdr["dg_flags1"] & dcerpc.F1_LAST),
                               "complete": got is not None}
+            if copy:
+                ev["fragment"]["resent"] = True
+                self.counts["rpc_fragments_resent"] = self.counts.get("rpc_fragments_resent", 0) + 1
             self._report_dropped(self.rpcr.expire(ts), "dcerpc")
             if got is not None:
                 stub, frames = got

@@ -196,6 +196,23 @@ def test_dcerpc_fragments_reassembled_and_records_named():
     assert rec[0]["index_name"] and a.records == rec
 
 
+def test_a_resent_fragment_of_a_completed_call_is_a_copy():
+    """A CL client resends the last request fragment the slow server did not acknowledge yet (an independent
+    audit's S7 capture; tshark: "[DCE/RPC fragment, reas: #N]"): a copy of the completed call's fragment, decoded
+    and counted as resent -- not a new call that never completes (it was reported malformed at the end)."""
+    stub = rf.ndr_request(rf.rw_header(0x0008, 0xBF00, 40) + bytes(range(40)))
+    parts = [stub[:50], stub[50:]]
+    a = FakeAnalyzer()
+    frames = [rf.frame(rf.CONTROLLER_MAC, rf.DEVICE_MAC, rf.CONTROLLER_IP, rf.DEVICE_IP, 49153, 34964,
+                       rf.dcerpc(0, 3, p, seq=4, flags1=0x24 | (0x02 if i else 0), frag_num=i))
+              for i, p in enumerate(parts)]
+    for fn, fr in enumerate(frames + frames[1:], 1):
+        assert a.feed(fn, fn * 1000, fr) == "decoded"
+    a.session.finish()
+    assert not a.malformed and a.session.counts["rpc_fragments_resent"] == 1
+    assert len([e for e in a.events if e["kind"] == "record"]) == 1
+
+
 def test_udp_rt_class_goes_to_pn_rt():
     fr = rf.frame(rf.DEVICE_MAC, rf.CONTROLLER_MAC, rf.DEVICE_IP, rf.CONTROLLER_IP, 0x8892, 0x8892,
                   b"\x80\x00" + b"\0" * 44)

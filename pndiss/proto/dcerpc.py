@@ -110,6 +110,14 @@ class FragmentReassembler(PendingBuffers):
         self.max_calls = max_calls
         self.max_bytes = max_bytes
         self.max_call_bytes = max_call_bytes
+        # calls completed within the time-out: key -> (time, last fragment number). A client resends a fragment
+        # not yet acknowledged (FACK) when the server is slow; one of a completed call is a copy, not a new call
+        self.done: dict[tuple, tuple[int, int]] = {}
+
+    def completed(self, h: dict, ts: int) -> bool:
+        """The fragment belongs to a call completed less than the time-out ago (a resend): nothing to add."""
+        d = self.done.get((h["dg_act_id"], h["dg_seqnum"], h["pkt_type"]))
+        return d is not None and ts - d[0] <= self.timeout_ns and h["dg_frag_num"] <= d[1]
 
     def add(self, fn: int, ts: int, h: dict, data: bytes) -> tuple[bytes, list[int]] | None:
         """Add one fragment; returns (whole body, frames) when the last one closes the set.
@@ -144,4 +152,8 @@ class FragmentReassembler(PendingBuffers):
             return None
         del self.pending[key]
         self.bytes -= p["bytes"]
+        self.done.pop(key, None)
+        self.done[key] = (ts, p["last"])
+        while len(self.done) > 4 * self.max_calls:   # bounded: the oldest go first
+            del self.done[next(iter(self.done))]
         return b"".join(p["parts"][i] for i in range(p["last"] + 1)), p["frames"]
