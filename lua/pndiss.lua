@@ -1529,8 +1529,13 @@ end
 -- one a response answers, that the holder left unanswered: a replaced device, its name / IP is free
 local function dcp_gone(mac, seen, xid)
     local S_ = dcp_state
+    local heard = {}   -- askers one of whose Identifies shows an answer: responses to them reach the capture
     for _, idf in ipairs(S_.identifies) do
-        if idf.frame > seen and idf.xid ~= xid and next(idf.answered) ~= nil and not idf.answered[mac]
+        if next(idf.answered) ~= nil then heard[idf.asker] = true end
+    end
+    for _, idf in ipairs(S_.identifies) do
+        if idf.frame > seen and idf.xid ~= xid and (next(idf.answered) ~= nil or heard[idf.asker])
+                and not idf.answered[mac]
                 and (idf.all or (idf.name ~= nil and idf.name == S_.mac_name[mac])
                      or (idf.ip ~= nil and idf.ip == S_.mac_ip[mac])) then
             return true
@@ -1542,7 +1547,7 @@ end
 local function dcp_identify(d, src, fn)
     local S_ = dcp_state
     if d.stype == 0 then
-        local idf = {xid = d.xid, frame = fn, answered = {}}
+        local idf = {xid = d.xid, frame = fn, answered = {}, asker = src}
         for _, b in ipairs(d.blocks) do
             if b.opt == 0xFF and b.sub == 0xFF then idf.all = true
             elseif b.name ~= nil then idf.name = b.name

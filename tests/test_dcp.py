@@ -340,6 +340,11 @@ def test_replaced_device_gives_its_name_and_ip_to_the_new_one():
     # an Identify nobody answered in the capture (its responses go to a tool on another port) says nothing
     v = _run([old, _ident_req(2), _set(DEV2, name="enc-1")])
     assert [x["rule"] for x in v] == ["DCP-NAME-DUPLICATE"]
+    # ... unless another Identify of the same controller shows its answers reach the capture: the name Identify
+    # nobody answered, then one (by AliasName, the neighbour's port) the replacement answers -- an S7's replacement
+    # without exchangeable medium (an independent audit: a false DCP-NAME-DUPLICATE)
+    assert _run([old, _ident_req(2, "enc-1"), _ident_req(3, "port-002.plc-1"), _ident_rsp_x(3, "", "0.0.0.0", DEV2),
+                 _set(DEV2, name="enc-1"), _set(DEV2, ip="10.0.0.5")]) == []
     # an Identify for another name says nothing about the holder
     v = _run([old, _ident_req(2, "enc-2"), _set(DEV2, name="enc-1")])
     assert [x["rule"] for x in v] == ["DCP-NAME-DUPLICATE"]

@@ -102,7 +102,7 @@ class DcpTracker:
         self.mac_name: dict[str, str] = table()
         self.mac_ip: dict[str, str] = table()
         self.reported: set = set()
-        # the latest Identify requests: [xid, frame, filter {"all"/"name"/"ip": value}, MACs that answered]
+        # the latest Identify requests: [xid, frame, filter {"all"/"name"/"ip": value}, MACs that answered, asker]
         self.identifies: deque = deque(maxlen=16)
 
     def on_dcp(self, ev: dict, src: str, dst: str) -> list[dict]:
@@ -140,7 +140,7 @@ class DcpTracker:
                     flt["name"] = b["nameofstation"]
                 elif b.get("option") == 1 and b.get("suboption") == 2 and b.get("ip"):
                     flt["ip"] = b["ip"]
-            self.identifies.append([ev.get("xid"), ev.get("frame", 0), flt, set()])
+            self.identifies.append([ev.get("xid"), ev.get("frame", 0), flt, set(), src])
         else:
             for idf in self.identifies:
                 if idf[0] == ev.get("xid"):
@@ -148,10 +148,13 @@ class DcpTracker:
 
     def _gone(self, mac_: str, seen: int, xid) -> bool:
         """Did an Identify after frame ``seen`` that the holder ``mac_`` had to answer (for all, for its name
-        or its IP) go unanswered? (The Identify a response answers is still open: not judged with it.)"""
-        for idf_xid, frame, flt, answered in self.identifies:
-            # answered by someone: its responses reach the capture (they go to the asker only)
-            if frame > seen and idf_xid != xid and answered and mac_ not in answered and (
+        or its IP) go unanswered? (The Identify a response answers is still open: not judged with it.) Responses
+        go to the asker only: they reach the capture when one of that asker's Identifies shows an answer -- an
+        Identify for the name nobody answered, then one by AliasName (the neighbour's port, LLDP) the new device
+        answers, is how a controller finds the replacement of a failed device (behaviour.md §5.4 item 6)."""
+        heard = {idf[4] for idf in self.identifies if idf[3]}
+        for idf_xid, frame, flt, answered, asker in self.identifies:
+            if frame > seen and idf_xid != xid and (answered or asker in heard) and mac_ not in answered and (
                     flt.get("all") or flt.get("name", False) == self.mac_name.get(mac_)
                     or flt.get("ip", False) == self.mac_ip.get(mac_)):
                 return True
