@@ -319,10 +319,11 @@ end
 
 -- cyclic.py _Obj: one data object of a mapped frame (d = the map's DataObject, shared with the map
 -- so that a P922 relabel is seen on the next frame)
-local function new_obj(d, telegram, source, dir, key)
+local function new_obj(d, telegram, source, dir, key, iocs_at)
     local L = layout(telegram, dir)
     return {d = d, telegram = telegram, source = source, rows = L.rows, len = L.len, key = key,
-            stop = d.offset + d.length, sig = nil, length_checked = false, rejected = nil, ax = nil}
+            stop = d.offset + d.length, sig = nil, length_checked = false, rejected = nil, ax = nil,
+            iocs_at = iocs_at}   -- (an actual value's frame: the device's IOCS of the setpoints, cyclic.py _Obj)
 end
 
 -- like pndiss/cyclic.py CyclicTracker._frame/on_cyclic: a layout, once found, stays (with its objects)
@@ -472,7 +473,13 @@ local function lookup(fid, src, dst)
                 if t ~= nil and T.telegrams[t] then
                     local axkey = table.concat({fm.ar or (fm.controller .. "/" .. fm.device), d.api or 0,
                                                 d.slot or 0, d.subslot or 0}, "|")
-                    objs[#objs + 1] = new_obj(d, t, source, dir, axkey)
+                    local iocs_at = nil
+                    if dir == "actual" then
+                        for _, c in ipairs(fm.iocs or {}) do
+                            if c.api == d.api and c.slot == d.slot and c.subslot == d.subslot then iocs_at = c.offset end
+                        end
+                    end
+                    objs[#objs + 1] = new_obj(d, t, source, dir, axkey, iocs_at)
                 end
             end
         end
@@ -603,11 +610,15 @@ local function connect_request(key, pinfo)
             local cr = {type = first("pn_io.iocr_type"), ref = first("pn_io.iocr_reference"),
                         frame_id = first("pn_io.frame_id"), data_length = first("pn_io.data_length"),
                         mcast = first("pn_io.iocr_multicast_mac_add"), scf = first("pn_io.send_clock_factor"),
-                        rr = first("pn_io.reduction_ratio"), objects = {}}
+                        rr = first("pn_io.reduction_ratio"), objects = {}, iocs = {}}
             local ba, bs, bss = inside(api, b), inside(slot, b), inside(sub, b)
             for _, fo in ipairs(inside(all("pn_io.io_data_object.frame_offset"), b)) do
                 cr.objects[#cr.objects + 1] = {api = before(ba, fo.offset), slot = before(bs, fo.offset),
                                                subslot = before(bss, fo.offset), offset = fo.value}
+            end
+            for _, fo in ipairs(inside(all("pn_io.iocs_frame_offset"), b)) do   -- armap.IocsEntry
+                cr.iocs[#cr.iocs + 1] = {api = before(ba, fo.offset), slot = before(bs, fo.offset),
+                                         subslot = before(bss, fo.offset), offset = fo.value}
             end
             req.iocrs[#req.iocrs + 1] = cr
         elseif b.type == 0x0104 then
@@ -726,7 +737,8 @@ local function connect_response(key, pinfo)
                         station = station, source = "connect", objects = {}, phase = "parameterisation",
                         primary_only = req.ar_type == 0x0020,   -- armap.FrameMap.primary_only: system redundancy
                         -- armap.FrameMap.cycle_time_ns: SendClockFactor x ReductionRatio x 31.25 us
-                        cycle_ns = (cr.scf and cr.scf > 0 and cr.rr and cr.rr > 0) and cr.scf * cr.rr * 31250 or nil}
+                        cycle_ns = (cr.scf and cr.scf > 0 and cr.rr and cr.rr > 0) and cr.scf * cr.rr * 31250 or nil,
+                        iocs = cr.iocs}
             for _, o in ipairs(cr.objects) do
                 local ek = table.concat({o.api or 0, o.slot or 0, o.subslot or 0}, "/")
                 local e = req.expected[ek] or {}
@@ -2101,6 +2113,9 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok, miss, key)
         if not skip then
             local iops = (o.stop < n_csdu) and tvb(o.stop, 1):uint() or nil
             local ok = ds_ok and iops ~= nil and bit.band(iops, 0x80) ~= 0
+            if ok and o.iocs_at ~= nil then   -- the device consumes the setpoints: its IOCS of them is GOOD
+                ok = o.iocs_at < n_csdu and bit.band(tvb(o.iocs_at, 1):uint(), 0x80) ~= 0
+            end
             local ax = o.ax
             if ax == nil then
                 ax = axes[o.key]

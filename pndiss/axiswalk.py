@@ -43,6 +43,8 @@ class AxisWalk:
         if iops is None or fr.fm.phase in NOT_JUDGED_PHASES:
             return np.zeros(len(c.p), dtype=bool)
         ok = c.ds & ((iops & IOPS_GOOD) != 0)
+        if o.iocs_at is not None:   # cyclic.py: the device's IOCS of the setpoints it consumes
+            ok &= c.good(o.iocs_at)
         return ok & c.primary() if fr.fm.primary_only else ok   # cyclic.py: a backup AR's frames not judged
 
     def _columns(self) -> bool:

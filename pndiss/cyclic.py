@@ -46,10 +46,10 @@ HELD_MAX = 3   # held-setpoint pairings in a row (_own_setpoint): more is clock 
 class _Obj:
     """One data object of a mapped frame, compiled once."""
 
-    __slots__ = ("do", "telegram", "source", "layout", "start", "end", "iops_at", "key", "last", "sig", "bits",
-                 "length_checked", "rejected", "ax")
+    __slots__ = ("do", "telegram", "source", "layout", "start", "end", "iops_at", "iocs_at", "key", "last", "sig",
+                 "bits", "length_checked", "rejected", "ax")
 
-    def __init__(self, do, telegram, source, layout, key):
+    def __init__(self, do, telegram, source, layout, key, iocs_at=None):
         self.do = do
         self.telegram = telegram
         self.source = source
@@ -57,6 +57,9 @@ class _Obj:
         self.start = do.offset
         self.end = do.offset + do.length
         self.iops_at = do.offset + do.length
+        # an actual value's frame carries the device's IOCS of the same submodule's outputs: BAD = it does not
+        # consume the setpoints (IOxS DataState, wire.md §2.5), so the pair is not judged
+        self.iocs_at = iocs_at
         self.key = key
         self.last = None
         self.sig = None
@@ -155,7 +158,9 @@ class CyclicTracker(AxisTracking):
             if telegram not in tg.TELEGRAMS:
                 continue
             ax_key = (fm.ar_uuid or (fm.controller_mac, fm.device_mac), do.api, do.slot, do.subslot)
-            objs.append(_Obj(do, telegram, source, tg.layout(telegram, direction, self.byte_order), ax_key))
+            iocs_at = next((c.offset for c in fm.iocs if (c.api, c.slot, c.subslot) == (do.api, do.slot, do.subslot)),
+                           None) if direction == "actual" else None
+            objs.append(_Obj(do, telegram, source, tg.layout(telegram, direction, self.byte_order), ax_key, iocs_at))
         fr = _Frame(fm, direction, objs)
         self.frames[key] = fr
         return fr
@@ -235,6 +240,8 @@ class CyclicTracker(AxisTracking):
                 o.bits = None
             iops = csdu[o.iops_at] if o.iops_at < n_csdu else None
             ok = ds_ok and iops is not None and iops & IOPS_GOOD
+            if o.iocs_at is not None and ok:   # the device consumes the setpoints (its IOCS of them is GOOD)
+                ok = o.iocs_at < n_csdu and csdu[o.iocs_at] & IOPS_GOOD
             ax = o.ax
             if ax is None:
                 ax = self.axes.get(o.key)

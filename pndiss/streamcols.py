@@ -58,6 +58,12 @@ class Cols:
         self.M = self.w.u8[ix]
         return True
 
+    def good(self, k: int):
+        """Per row: the IOxS byte at C_SDU offset ``k`` says GOOD (False where the C_SDU ends before it)."""
+        if k >= self.L:
+            return np.zeros(len(self.p), dtype=bool)
+        return (self.w.u8[self.d + self.off + 2 + k] & 0x80) != 0
+
     def iops(self, o):
         """Per row the IOPS byte of the data object, or None when the C_SDU ends before it."""
         return self.M[:, o.iops_at - self.start] if o.iops_at < self.L else None

@@ -287,7 +287,8 @@ def not_checked(summary: dict) -> list[str]:
                    "(before its Connect response, or before the telegram was inferred from the content): not judged")
     gated = sum(e.get("gated_cycles", 0) for e in encs if not e.get("telegram_unsure"))
     if gated:
-        out.append(f"{gated:,} cycles not judged (provider stopped, DataValid 0, TransferStatus not 0 or IOPS bad)")
+        out.append(f"{gated:,} cycles not judged (provider stopped, DataValid 0, TransferStatus not 0, IOPS bad, or "
+                   "the device's IOCS of the setpoints bad: outputs it does not consume)")
     io = summary.get("cyclic", {}).get("frames_no_telegram", 0)
     if io:
         out.append(f"{io:,} cyclic frames of ARs without an encoder telegram (ordinary IO devices): decoded "

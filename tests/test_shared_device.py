@@ -213,6 +213,30 @@ def test_wrong_or_missing_module_needs_no_user_parameters(tmp_path, module_state
     assert any(f"reports {words} in slot 1" in line for line in trust(s)), trust(s)
 
 
+@pytest.mark.parametrize("consumed", [False, True])
+def test_outputs_the_device_does_not_consume_are_not_judged(tmp_path, consumed):
+    """A Codesys-style controller sends GOOD outputs from the start; the device says with its IOCS of them (in its
+    input frame) that it does not consume them until its ApplicationReady, and does not react to them until then:
+    those cycles are not judged (an independent audit: CTRLREQ-MISMATCH and ABSVAL-ACK-MISSING against a correct
+    encoder). The same reaction while its IOCS says GOOD is the encoder's fault."""
+    a = owner_a()
+
+    def enc(slot, i):   # control requested (ZSW2_ENC.9) only from cycle 60 on
+        sp, act = still(slot, i)
+        return sp, (act[:2] if i >= 60 else struct.pack(">H", struct.unpack(">H", act[:2])[0] & ~0x0200)) + act[2:]
+    items = list(a.frames)
+    for i in range(200):
+        fr = a.cycle(i, enc)
+        if i < 60 and not consumed:   # C_SDU byte 14 of the input frame: IOCS of slot 1/2's outputs (connect_pair)
+            fr[1] = fr[1][:16 + 14] + b"\0" + fr[1][16 + 15:]
+        items += fr + [800]
+    viol, s, _ars = judge(write(tmp_path / f"iocs{int(consumed)}.pcap", items))
+    assert viol == ([("CTRLREQ-MISMATCH", 1)] if consumed else [])
+    if not consumed:
+        (e,) = s["cyclic"]["encoders"]
+        assert e["gated_cycles"] >= 59
+
+
 # -- 3, 4: a device with two encoder modules, each owned by another controller -----------------------------
 
 def two_owners():
