@@ -337,7 +337,12 @@ class Window:
     def _present(self, i: int, j: int) -> list:
         """The known streams with a frame in [i, j), in stream order. From each stream's sorted frame
         indices, not np.unique over the range: a segment cut short (a stream waiting for content inference
-        stops it at its resume frame) would otherwise pay for the whole rest of the window again."""
+        stops it at its resume frame) would otherwise pay for the whole rest of the window again -- unless the
+        range is short against the number of streams (a plant's parameter reads every few dozen frames: one
+        unique of those frames, not a search per stream)."""
+        if j - i < 8 * len(self.pos):
+            u = np.unique(self.sid[i:j])
+            return u[u >= 0].tolist()
         out = []
         for k, p in enumerate(self.pos):
             a = int(np.searchsorted(p, i))
