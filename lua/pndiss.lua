@@ -335,7 +335,7 @@ local misses
 -- capture loss, as pndiss/gaps.py: per (frame ID, src, dst) stream the CycleCounter of its last frame;
 -- round(advance / step) - 1 cycles are missing, once the step is known (Connect) or seen LEARN times
 local gap_streams
-local gap_last_ts      -- time of the frame that ended the latest capture gap (gaps.GapTracker.last_ts)
+local gap_last_ts      -- MAC -> time of the latest capture gap of a stream to or from it (gaps.GapTracker.last_by_mac)
 local GAP_LEARN, GAP_IRREGULAR_MAX = 4, 3
 local function gap_stream(key)
     local st = gap_streams[key]
@@ -384,7 +384,12 @@ local function gap_advance(key, cc, ts, last, fn)
         -- the counter may have wrapped during the gap: the time stamps tell the cycles (pndiss/gaps.py)
         local period = st.step * GAP_UNIT_NS
         local k = math.floor((ts - pts + math.floor(period / 2)) / period) - 1
-        if k > 0 then gap_last_ts = ts; return k end
+        if k > 0 then
+            for mac in key:gmatch("|([^|]*)") do   -- gaps.GapTracker._lost_at: per MAC of the stream
+                if gap_last_ts[mac] == nil or ts > gap_last_ts[mac] then gap_last_ts[mac] = ts end
+            end
+            return k
+        end
     end
     if d == 0 then return 0 end
     if st.step == 0 then st.step = d; return 0 end
@@ -407,7 +412,9 @@ local function gap_advance(key, cc, ts, last, fn)
         end
         return 0
     end
-    gap_last_ts = ts
+    for mac in key:gmatch("|([^|]*)") do   -- gaps.GapTracker._lost_at
+        if gap_last_ts[mac] == nil or ts > gap_last_ts[mac] then gap_last_ts[mac] = ts end
+    end
     return math.floor(d / st.step) - 1
 end
 -- both streams advance by one confirmed step per cycle: each actual value has its own setpoint
@@ -1297,10 +1304,12 @@ local function deep_eq(a, b)
 end
 
 -- ParamPairer.request: a new request overwrites an unanswered one (kept, in case its write is refused)
-local function pair_request(key, dec, fn, ts)
+local function pair_request(key, dec, fn, ts, device)
     local old = pairer[key]
-    -- pending from before the capture lost frames: its response may have been read there (forgotten, not overwritten)
-    if old and gap_last_ts ~= nil and gap_last_ts > old.ts then old = nil end
+    -- pending from before the capture lost frames (in the device's streams): its response may have been read there
+    -- (forgotten, not overwritten)
+    local lost = gap_last_ts[device or ""]
+    if old and lost ~= nil and lost > old.ts then old = nil end
     if old and deep_eq(old.req, dec) then return end   -- the same request again: the first stays pending
     if old then
         superseded[key] = superseded[key] or {}
@@ -1416,7 +1425,7 @@ local function record_items(pinfo, recs)
         local key = table.concat({nil_ar and (controller .. "/" .. device) or r.ar, r.api, r.slot, r.subslot}, "|")
         if (r.index == 0xB02E or r.index == 0xB02F) and dec then
             if r.op == "write" then
-                pair_request(key, dec, fn, ts)
+                pair_request(key, dec, fn, ts, device)
             else
                 local pev = pair_response(key, dec, fn, ts, profile)
                 pev.frame, pev.ts_ns, pev.kind, pev.index = fn, ts, "param", r.index
@@ -1916,7 +1925,8 @@ end
 
 -- cyclic.py _length_check: #64, the data object's length fits its telegram
 local function length_check(o, fr, fn)
-    if o.source == "length (guess)" then return end
+    if o.source == "length (guess)" or o.d.length_checked_for == o.telegram then return end
+    o.d.length_checked_for = o.telegram   -- once per data object and telegram (cyclic.py _length_check)
     if tg_len(o.telegram, fr.dir) ~= o.d.length then
         note_violation(fn, "TELEGRAM-LENGTH-MISMATCH", fn, false, string.format(
             "telegram %d %s is %d bytes, the AR maps %d (telegram from %s)", o.telegram, fr.dir,
@@ -2671,7 +2681,7 @@ local function reset_state()
     bf00_resp, answered, wrote = {}, {}, {}
     req_body, answered_body, bf00_before, answered_at, alarm_seq = {}, {}, {}, {}, {}
     gap_streams = {}
-    gap_last_ts = nil
+    gap_last_ts = {}
     infer_streams, infer_list = {}, {}
     viol, viol_seen, late, finished = {}, {}, {}, false
     dcp_state = {name_at = {}, ip_at = {}, mac_name = {}, mac_ip = {}, reported = {}, station = {}, identifies = {}}

@@ -29,6 +29,7 @@ class DataObject:
     # the Connect response's ModuleDiffBlock: not this AR's working submodule (for now): another AR owns it, or the
     # submodule plugged is wrong / none (session_ar.diff_state); judged only while its IOPS are GOOD, no #66
     locked: str | None = None
+    length_checked_for: int | None = None  # the telegram its length was checked against (cyclic.py, #64 once)
 
 
 @dataclass

@@ -36,6 +36,7 @@ class AxisWalk:
         self.sigS = self.sigA = None
         self.okS = self.okA = None
         self.bad_cols = False
+        self.q = self.fails = 0      # where run() stopped (it resumes there)
 
     # -- columns, once per segment ------------------------------------------------------------------
     def _ok(self, c: Cols, o, fr):
@@ -60,14 +61,14 @@ class AxisWalk:
         return True
 
     # -- the walk ----------------------------------------------------------------------------------
-    def run(self) -> None:
-        N = len(self.typ)
-        q = 0
-        fails = 0
+    def run(self, stop=None) -> None:
+        """The axis' frames before window index ``stop`` (None: all); a later call goes on from there."""
+        N = len(self.typ) if stop is None else int(np.searchsorted(self.idx, stop))
+        q, fails = self.q, self.fails
         while q < N:
             k = 1
             if q + 1 < N and self._clean():
-                e = self._stretch(q) if self._columns() else 0
+                e = self._stretch(q, N) if self._columns() else 0
                 if e:
                     self._bulk(q, e)
                     q += 2 * e
@@ -77,7 +78,8 @@ class AxisWalk:
                 k = min(RETRY_MAX, 1 << min(fails - 1, 6))
             for i in range(q, min(N, q + k)):
                 self.w.single(int(self.idx[i]), self.S.s if self.typ[i] == 0 else self.A.s)
-            q += k
+            q = min(N, q + k)
+        self.q, self.fails = max(self.q, q), fails
 
     def _clean(self) -> bool:
         """The axis' state lets the next two frames pair from scratch, and nothing about its data objects
@@ -97,9 +99,9 @@ class AxisWalk:
                 return False
         return self.t.gaps.same_step(self.S.s.key, self.A.s.key)
 
-    def _stretch(self, q: int) -> int:
-        """How many pairs from merged position q the reference would only advance through (0: none)."""
-        T = self.typ[q:q + 2 * BLOCK]
+    def _stretch(self, q: int, N: int) -> int:
+        """How many pairs from merged position q (before N) the reference would only advance through (0: none)."""
+        T = self.typ[q:min(N, q + 2 * BLOCK)]
         P = len(T) // 2
         distinct = T[0:2 * P:2] != T[1:2 * P:2]
         if not distinct.all():

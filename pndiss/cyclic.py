@@ -384,8 +384,11 @@ class CyclicTracker(AxisTracking):
         self.a.emit(ev)
 
     def _length_check(self, o: _Obj, fr: _Frame, fn: int, ts: int) -> None:
-        if o.source == "length (guess)":
+        # once per data object and telegram: the layouts are compiled again whenever any AR's maps change (a
+        # Connect of another device), which is no new finding
+        if o.source == "length (guess)" or o.do.length_checked_for == o.telegram:
             return
+        o.do.length_checked_for = o.telegram
         words = tg_length_problem(o.telegram, fr.direction, o.do.length)
         if words:
             # 64: IO data length fits the telegram (000_37bf2397999f1108.txt:1474-1538)

@@ -28,7 +28,7 @@ import numpy as np
 
 from . import frameindex
 from .cyclic import RELOOKUP_EVERY
-from .pairing import Group, walk_group
+from .pairing import Group, walker
 from .proto.common import Malformed
 from .proto.rt import judgeable
 from .session_rpc import PORT_RPC
@@ -222,7 +222,9 @@ class Window:
         other = ~pn & ~lldp & (et != 0x0008) & (et != 0x0081)        # (a second tag: looked at one by one)
         self._ip = big & (et == 0x0008)
         self._rt_ports = set(self.e.a.session.rt_ports)
-        self._kind0 = np.where(big & (ptcp | other | (et == 0xE388)), 1, np.where(big & (dcp | lldp), 2, 0)).astype(np.int8)
+        alarm = pn & ((fid == 0xFC01) | (fid == 0xFE01))
+        self._kind0 = np.where(big & (ptcp | other | (et == 0xE388)), 1,
+                               np.where(big & (dcp | lldp), 2, np.where(big & alarm, 3, 0))).astype(np.int8)
         self.tagged = tagged
         self.nkind = self._kinds()
         h = (w[0].astype(np.uint64) | (w[1].astype(np.uint64) << np.uint64(32))) * K2
@@ -247,14 +249,17 @@ class Window:
         kind = self._kind0.copy()
         ii = np.flatnonzero(self._ip)
         if len(ii):
-            kind[ii[self._ip_neutral(ii)]] = 1
+            neutral, local = self._ip_neutral(ii)
+            kind[ii[neutral]] = 1
+            kind[ii[local]] = 3
         return kind
 
     def _ip_neutral(self, ii):
         """Of the IPv4 frames ``ii``: those no PNIO layer takes (session_rpc: TCP, ICMP, UDP that is neither
         RT_CLASS_UDP nor connectionless DCE/RPC, version 4), so no cyclic judgement depends on them. An IT
         network's SNMP polls, OPC UA or HTTP on the PROFINET segment then no longer end a segment (an independent
-        audit: 0.8 % IPv4 frames made the engine slower than the reference path). Fragments stay global."""
+        audit: 0.8 % IPv4 frames made the engine slower than the reference path). Fragments stay global.
+        Returns (neutral, local): local = a whole UDP datagram that may be connectionless DCE/RPC."""
         u8 = self.u8
         d = self.data[ii].astype(np.int64)
         end = d + self.cap[ii]
@@ -272,8 +277,18 @@ class Window:
         sp = (u8[l4].astype(np.int64) << 8) | u8[l4 + 1]
         dp = (u8[l4 + 2].astype(np.int64) << 8) | u8[l4 + 3]
         ports = np.array(sorted(self._rt_ports | {PORT_RPC}), dtype=np.int64)
+        rt = np.isin(sp, ports[ports != PORT_RPC]) | np.isin(dp, ports[ports != PORT_RPC])
         maybe = (u8[l4 + 8] == 4) | np.isin(sp, ports) | np.isin(dp, ports)
-        return ok & np.where(udp, uok & ~maybe, True)
+        # connectionless DCE/RPC other than Connect / Release (opnum 0 / 1, they change the AR maps every walk
+        # reads): one device's records, parameters and controls -- local (_segment). The opnum is header bytes
+        # 68-69, in the byte order drep byte 0 says (wire.md §5.1)
+        hdr = uok & (l4 + 8 + 70 <= end)
+        h = np.where(hdr, l4 + 8, 0)
+        little = (u8[h + 4] & 0x10) != 0
+        opnum = np.where(little, u8[h + 68].astype(np.int64) | (u8[h + 69].astype(np.int64) << 8),
+                         (u8[h + 68].astype(np.int64) << 8) | u8[h + 69])
+        rpc = hdr & (u8[h] == 4) & ~rt & (opnum > 1)
+        return ok & np.where(udp, uok & ~maybe, True), rpc
 
     def _resolve(self) -> bool:
         """Look the window's distinct prefixes up in the stream table (again after it learnt streams)."""
@@ -307,7 +322,8 @@ class Window:
         g = order[:counts[0]]                            # frames of no known stream, in order
         nk = self.nkind[g]
         self.glob = g[nk == 0]                           # ... that end a segment
-        self.neutral = g[nk != 0]                        # ... that do not (processed inside it, events held)
+        self.neutral = g[(nk == 1) | (nk == 2)]          # ... that do not (processed inside it, events held)
+        self.local = g[nk == 3]                          # ... one device's (RPC, alarms): inside it, in order
         self.pos = [order[bounds[k + 1]:bounds[k + 2]] for k in range(len(self.ss))]
 
     def frame(self, i: int):
@@ -347,7 +363,13 @@ class Window:
                     j = int(named[0])
                     neutral = neutral[neutral < j]
             if j > i:
-                self._segment(i, j, cats, neutral)
+                a, b = np.searchsorted(self.local, (i, j))
+                end = self._segment(i, j, cats, neutral, self.local[a:b])
+                if end < j:   # a local frame of an unmapped stream ended it: on from there
+                    i = end
+                    if len(self.e.streams) != self.known:
+                        self._resolve()
+                    continue
             if j < m:
                 self._global(j)
                 j += 1
@@ -430,24 +452,80 @@ class Window:
         self.e.frames_global += 1
         self.e.feed_one(self.fn(i), int(self.ts[i]), 1, self.frame(i))
 
-    def _segment(self, i: int, j: int, cats, neutral) -> None:
-        """Frames [i, j): known streams, each in a settled category, and frames no judgement depends on;
-        each group walked on its own, events held and released in processing order."""
+    def _segment(self, i: int, j: int, cats, neutral, local) -> int:
+        """Frames [i, j): known streams, each in a settled category, frames no judgement depends on, and
+        ``local`` frames (a DCE/RPC datagram other than Connect / Release, an alarm: one device's records,
+        parameters, AR control). Each group is walked on its own; the groups of the device a local frame names
+        are walked up to it, then it goes on its own, then their walks go on with fresh columns (its AR phase may
+        have moved); every other group runs through it, as nothing of theirs depends on that device's frame.
+        Events are held and released in frame order. Returns where the segment ended: before j when a local
+        frame names an unmapped stream (content inference, a Connect it waits for): it then ends the segment
+        as a global frame. Connect and Release, which change the maps every walk reads, are global frames."""
         a = self.e.a
         groups = Group.build(self, i, j, cats)
+        walks = [walker(self, g) for g in groups]
+        end = j
         held = a.hold()
+        one = self.e.feed_one
+        todo, nxt = neutral.tolist(), [0]
+
+        def neutral_before(stop: int) -> None:
+            """The neutral frames before ``stop`` not taken yet (only those before the segment's end: their
+            events are released with its other events, in frame order)."""
+            k = nxt[0]
+            while k < len(todo) and todo[k] < stop:
+                a.hold_at(self.fn(todo[k]))
+                one(self.fn(todo[k]), int(self.ts[todo[k]]), 1, self.frame(todo[k]))
+                k += 1
+            self.e.frames_global += k - nxt[0]
+            nxt[0] = k
         try:
-            one = self.e.feed_one
-            for k in neutral.tolist():
-                a.hold_at(self.fn(k))
-                one(self.fn(k), int(self.ts[k]), 1, self.frame(k))
-            self.e.frames_global += len(neutral)
-            for g in groups:
-                walk_group(self, g)
+            for L in local.tolist():
+                neutral_before(L)
+                macs = self._macs(L)
+                touched = [n for n, g in enumerate(groups) if g.device() in macs
+                           or (g.device() is None and macs & {x for st in g.streams for x in st.key[1:]})]
+                if any(groups[n].device() is None for n in touched):
+                    # an unmapped stream of those MACs (content inference, a Connect it waits for): as a global frame
+                    for wk in walks:
+                        wk.run(L)
+                    a.hold_at(self.fn(L))
+                    self._global(L)
+                    end = L + 1
+                    break
+                phases = []
+                for n in touched:
+                    walks[n].run(L)
+                    phases.append([fr.fm.phase for fr in groups[n].fr if fr is not None])
+                gen = a.session.map_generation
+                a.hold_at(self.fn(L))
+                self._global(L)
+                if a.session.map_generation != gen:
+                    # the device's maps changed (a P922 read relabels its telegram): its streams' categories are
+                    # stale -- every group up to the frame, and the segment ends there (the next looks them up)
+                    for wk in walks:
+                        wk.run(L)
+                    end = L + 1
+                    break
+                for n, ph in zip(touched, phases):
+                    if [fr.fm.phase for fr in groups[n].fr if fr is not None] != ph:
+                        # the device's AR moved (PrmEnd, ApplicationReady): its walk gates on the phase, afresh
+                        groups[n] = groups[n].part(L + 1, j)
+                        walks[n] = walker(self, groups[n])
+            else:
+                neutral_before(j)
+                for wk in walks:
+                    wk.run(None)
         finally:
             a.release(held)
         if self.e.col is not None:
-            self.e.col.flush(self.fn(j - 1))
+            self.e.col.flush(self.fn(end - 1))
+        return end
+
+    def _macs(self, i: int) -> set:
+        p = int(self.data[i])
+        b = self.buf
+        return {bytes(b[p + 6:p + 12]).hex(":"), bytes(b[p:p + 6]).hex(":")}
 
     def single(self, i: int, s) -> None:
         """Frame i of known stream s the frame-by-frame way (pndiss/fast.py)."""

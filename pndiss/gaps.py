@@ -63,6 +63,9 @@ class GapTracker:
         self.first_duplicate = None   # (frame, the frame it copies)
         self.stale = 0        # other frames whose counter is not newer (``duplicate``)
         self.last_ts = None   # time of the frame that ended the latest gap (what else the capture may have lost)
+        # per MAC of a stream with a gap, the latest such time: a device's parameter request asks about its own
+        # streams (the engine walks those up to the request; every other stream may be ahead or behind)
+        self.last_by_mac: dict = {}
         self.first_stale = None       # (frame, the frame it is not newer than)
 
     def step_from(self, key, step: int | None) -> None:
@@ -125,7 +128,7 @@ class GapTracker:
             period = st.step * UNIT_NS
             k = (ts - pts + period // 2) // period - 1
             if k > 0:
-                self.last_ts = ts
+                self._lost_at(key, ts)
                 return self._count(st, k)
         if d == 0:
             return 0              # a repeated counter: no new cycle, nothing to say
@@ -153,8 +156,19 @@ class GapTracker:
                 if st.irregular >= IRREGULAR_MAX:
                     st.uniform = False
             return 0
-        self.last_ts = ts
+        self._lost_at(key, ts)
         return self._count(st, d // st.step - 1)
+
+    def _lost_at(self, key, ts: int) -> None:
+        self.last_ts = ts if self.last_ts is None else max(self.last_ts, ts)   # (streams are walked apart)
+        for mac in key[1:]:
+            old = self.last_by_mac.get(mac)
+            if old is None or ts > old:
+                self.last_by_mac[mac] = ts
+
+    def last_gap(self, mac: str):
+        """When a stream to or from ``mac`` last showed capture loss (None: never)."""
+        return self.last_by_mac.get(mac)
 
     def _count(self, st: Stream, k: int) -> int:
         st.gaps += 1

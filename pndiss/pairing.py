@@ -86,27 +86,61 @@ class Group:
         return out
 
 
-def walk_group(w, g: Group) -> None:
+    def part(self, i: int, j: int) -> "Group":
+        """The same group with its members' frames in window range [i, j) only (members without any dropped, as
+        build() does: an axis with one direction left goes one by one)."""
+        keep = [(s, p[np.searchsorted(p, i):np.searchsorted(p, j)], fr) for s, p, fr in zip(self.streams, self.pos, self.fr)]
+        keep = [m for m in keep if len(m[1])]
+        kind = "single" if self.kind == "axis" and len(keep) < len(self.streams) else self.kind
+        return Group(kind, [m[0] for m in keep], [m[1] for m in keep], [m[2] for m in keep], self.ax)
+
+    def device(self):
+        """The device MAC of a mapped group (its frame maps'); None for an unmapped stream."""
+        for fr in self.fr:
+            if fr is not None and fr.fm.device_mac:
+                return fr.fm.device_mac
+        return None
+
+
+def walker(w, g: Group):
+    """The walk of one group: ``run(stop)`` takes its frames before window index ``stop`` (None: all of them),
+    and may be called again for the next stretch (a device's record exchange between, pndiss/engine.py)."""
+    if not g.streams:
+        return SinglesWalk(w, g)
     if g.kind in ("count", "sample"):
-        _walk_count(w, g)
-    elif g.kind == "axis":
-        AxisWalk(w, g).run()
-    else:
-        _singles(w, g, 0, None)
+        return CountWalk(w, g)
+    if g.kind == "axis":
+        return AxisWalk(w, g)
+    return SinglesWalk(w, g)
 
 
-def _singles(w, g: Group, start: int, stop) -> None:
+def walk_group(w, g: Group) -> None:
+    walker(w, g).run(None)
+
+
+class SinglesWalk:
     """Members' frames one by one in capture order (merged)."""
-    if len(g.pos) == 1:
-        s, p = g.streams[0], g.pos[0]
-        for i in p[start:stop]:
-            w.single(int(i), s)
-        return
-    idx = np.concatenate(g.pos)
-    who = np.concatenate([np.full(len(p), k) for k, p in enumerate(g.pos)])
-    o = np.argsort(idx, kind="stable")
-    for i, k in zip(idx[o].tolist(), who[o].tolist()):
-        w.single(i, g.streams[k])
+
+    def __init__(self, w, g: Group):
+        self.w = w
+        if not g.pos:
+            self.idx, self.who = np.zeros(0, dtype=np.int64), None
+        elif len(g.pos) == 1:
+            self.idx, self.who = g.pos[0], None
+        else:
+            idx = np.concatenate(g.pos)
+            who = np.concatenate([np.full(len(p), k) for k, p in enumerate(g.pos)])
+            o = np.argsort(idx, kind="stable")
+            self.idx, self.who = idx[o], who[o]
+        self.streams = g.streams
+        self.q = 0
+
+    def run(self, stop) -> None:
+        end = len(self.idx) if stop is None else int(np.searchsorted(self.idx, stop))
+        single, streams = self.w.single, self.streams
+        for q in range(self.q, end):
+            single(int(self.idx[q]), streams[0 if self.who is None else int(self.who[q])])
+        self.q = max(self.q, end)
 
 
 def _offer(w, s, idx) -> None:
@@ -119,15 +153,26 @@ def _offer(w, s, idx) -> None:
         offer(s.key, w.fn(i), data[off + 2:len(data) - 4], int(w.ts[i]), data[-2])
 
 
-def _walk_count(w, g: Group) -> None:
+class CountWalk:
     """A stream without encoder data: frame counts and the gap tracker; a frame the tracker must look at
     (a counter that is not one step on, a length change) goes the reference way."""
+
+    def __init__(self, w, g: Group):
+        self.w, self.g = w, g
+        self.c = Cols(w, g.streams[0], g.pos[0])
+        self.r = self.fails = 0
+
+    def run(self, stop) -> None:
+        p = self.g.pos[0]
+        n = len(p) if stop is None else int(np.searchsorted(p, stop))
+        if self.r < n:
+            self.r, self.fails = _walk_count(self.w, self.g, self.c, self.r, n, self.fails)
+
+
+def _walk_count(w, g: Group, c, r: int, n: int, fails: int) -> tuple[int, int]:
+    """Rows [r, n) of the stream's columns ``c``; returns (the row reached, the backoff's failures)."""
     t = w.e.t
     s, p, fr = g.streams[0], g.pos[0], g.fr[0]
-    c = Cols(w, s, p)
-    n = len(p)
-    r = 0
-    fails = 0
     while r < n:
         e = min(n, r + BLOCK)
         bad = c.gaps_bad(t.gaps, r, e) | c.capbad[r:e]
@@ -156,3 +201,4 @@ def _walk_count(w, g: Group) -> None:
         for i in p[r:k]:
             w.single(int(i), s)
         r = k
+    return r, fails

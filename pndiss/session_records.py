@@ -68,12 +68,16 @@ class RecordLayer:
                 continue
             ev = self._rec_event(fn, ts, hb, "write", bytes.fromhex(hb["data"]), dst, src, fn)
             self.counts["records"] += 1
-            self.a.emit(ev)
+            # the event as written now; the report's row (ev) gets the response's result later (_write_results),
+            # the event stream has it as a record_result event -- not on an event a sink may still hold
+            self.a.emit(dict(ev))
             self.a.cyclic.on_record(ev)
             if hb["index"] in IDX_PARAM and self.pairer is not None and isinstance(ev.get("decoded"), dict):
-                gaps = getattr(getattr(self.a, "cyclic", None), "gaps", None)   # capture loss since a pending one
+                # capture loss since a pending one, seen in the device's own streams (the engine walks those up to
+                # this frame; another device's may be ahead or behind it)
+                gaps = getattr(getattr(self.a, "cyclic", None), "gaps", None)
                 self.pairer.request(self._param_key(hb, ev["device_mac"], ev["controller_mac"]),
-                                    ev["decoded"], fn, ts, gaps.last_ts if gaps is not None else None)
+                                    ev["decoded"], fn, ts, gaps.last_gap(ev["device_mac"]) if gaps is not None else None)
             evs.append(ev)
             self._row(ev)
         if evs:
@@ -106,8 +110,7 @@ class RecordLayer:
                       "ok": st["ok"], "status": st}
             self.a.emit(res_ev)
             if not st["ok"]:   # a refused write wrote nothing: its record is not in force, its request not pending
-                res_ev["ar_uuid"] = ev.get("ar_uuid")
-                self.a.cyclic.on_write_refused(res_ev)
+                self.a.cyclic.on_write_refused(dict(res_ev, ar_uuid=ev.get("ar_uuid")))   # (not the event emitted)
                 if ev["index"] in IDX_PARAM and self.pairer is not None:
                     self.pairer.refused(self._param_key({"ar_uuid": ev.get("ar_uuid") or pnio_cm.NIL_UUID,
                                                          "api": ev["api"], "slot_nr": ev["slot"],
