@@ -1685,11 +1685,11 @@ local function is_std(t) return T.checker.control_words[t] == true end  -- STW2_
 
 -- a violation on `frame`, decided while dissecting frame `decided`; `open` = a per-cycle run just
 -- opened (its first frame is final; the flush later repeats it), so it is shown at once
-function note_violation(frame, rule, decided, open, message)
+function note_violation(frame, rule, decided, open, message, side)
     local k = frame .. "|" .. rule
     local v = viol_seen[k]
     if v == nil then
-        v = {rule = rule, frame = frame, decided = decided, message = message}
+        v = {rule = rule, frame = frame, decided = decided, message = message, side = side}
         viol_seen[k] = v
         local l = viol[frame]
         if l == nil then l = {}; viol[frame] = l end
@@ -1707,7 +1707,7 @@ end
 local function note(evs, decided)
     if evs == nil then return end
     for _, ev in ipairs(evs) do
-        if ev.rule ~= nil then note_violation(ev.frame, ev.rule, decided, ev.open, ev.message) end
+        if ev.rule ~= nil then note_violation(ev.frame, ev.rule, decided, ev.open, ev.message, ev.side) end
     end
 end
 
@@ -1930,7 +1930,8 @@ local function length_check(o, fr, fn)
     if tg_len(o.telegram, fr.dir) ~= o.d.length then
         note_violation(fn, "TELEGRAM-LENGTH-MISMATCH", fn, false, string.format(
             "telegram %d %s is %d bytes, the AR maps %d (telegram from %s)", o.telegram, fr.dir,
-            tg_len(o.telegram, fr.dir), o.d.length, tostring(o.source)))
+            tg_len(o.telegram, fr.dir), o.d.length, tostring(o.source)),
+            fr.dir == "setpoint" and "controller" or "encoder")   -- (cyclic.py: the side by direction)
     end
 end
 
@@ -2711,7 +2712,7 @@ local function violation_lines()
         local r = T.rules[v.rule] or {}
         local at = v.decided == 0 and "end" or tostring(v.decided)
         out[#out + 1] = string.format("%-7d %-29s %-8s %-10s %-7s %s", v.frame, v.rule, r.severity or "",
-            r.side or "", at, visible(v.message or r.section or ""))
+            v.side or r.side or "", at, visible(v.message or r.section or ""))
     end
     return out, #rows
 end
@@ -2719,7 +2720,12 @@ end
 local function violations_text()
     local lines, n = violation_lines()
     local bar = string.rep("=", 72)
-    return table.concat({bar, "pndiss violations: " .. n, bar, table.concat(lines, "\n"), bar}, "\n") .. "\n"
+    local head = "pndiss violations: " .. n
+    if blind then   -- tshark -2 builds no protocol tree for a tap on its first pass: nothing was decoded
+        head = head .. "\nWARNING: the first pass had no protocol tree, so pndiss decoded nothing: add -Y frame"
+            .. " (tshark -2 -q -z pndiss,violations -Y frame), or run without -2"
+    end
+    return table.concat({bar, head, bar, table.concat(lines, "\n"), bar}, "\n") .. "\n"
 end
 
 -- tshark -z pndiss,violations: a tap with a filter makes tshark build the protocol tree the field

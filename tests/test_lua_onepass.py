@@ -102,3 +102,16 @@ def test_info_column_names_rules():
             for r, f in zip(filter(None, late.split(",")), late_fr.split(",")):
                 assert f"{r} (frame {f})" in info, line
 
+
+
+def test_two_pass_tap_without_a_tree_says_so():
+    """tshark -2 builds no protocol tree for a tap on its first pass: the list then says pndiss decoded nothing
+    and how to get it, rather than a clean "0 violations" on a faulty capture (an independent audit); the side of
+    a rule the catalogue leaves open is the event's (TELEGRAM-LENGTH-MISMATCH of an actual value: the encoder)."""
+    path = next(p for p, _ in fault_captures() if os.path.basename(p).startswith("fault-telegram-length-mismatch"))
+    rc, out, err = tshark(path, "-q", "-z", "pndiss,violations")
+    assert rc == 0 and "WARNING: the first pass had no protocol tree" in out and "-Y frame" in out, out
+    rc, out, err = tshark(path, "-q", "-z", "pndiss,violations", "-Y", "frame")
+    assert "WARNING" not in out
+    rows = [x for x in map(ROW.match, out.splitlines()) if x]
+    assert [(r.group(2), r.group(4)) for r in rows] == [("TELEGRAM-LENGTH-MISMATCH", "encoder")]
