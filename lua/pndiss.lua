@@ -188,15 +188,27 @@ local settings = {}
 local function parse_settings(s)
     settings = {}
     for k, v in pairs(SETTING_DEFAULTS) do settings[k] = v end
+    local bad = {}   -- what pndiss --set refuses (a usage error there): said, not silently dropped
     for item in tostring(s or ""):gmatch("[^,%s]+") do
         local k, v = item:match("^([%w_]+)=(.+)$")
-        if k and SETTING_KEYS[k] then
-            if SETTING_BOOLS[k] then
-                settings[k] = ({["1"] = true, ["true"] = true, ["yes"] = true, ["on"] = true})[v:lower()] or false
-            else
-                settings[k] = tonumber(v)
-            end
+        local lv = v and v:lower()
+        if k and SETTING_KEYS[k] and (lv == "none" or lv == "null") then
+            settings[k] = nil   -- as --set KEY=none: from the capture / the default (settings._coerce)
+        elseif k and SETTING_KEYS[k] and SETTING_BOOLS[k] then
+            local b = ({["1"] = true, ["true"] = true, ["yes"] = true, ["on"] = true,
+                        ["0"] = false, ["false"] = false, ["no"] = false, ["off"] = false})[lv]
+            if b == nil then bad[#bad + 1] = item else settings[k] = b end
+        elseif k and SETTING_KEYS[k] and tonumber(v) then
+            settings[k] = tonumber(v)
+        else
+            bad[#bad + 1] = item   -- an unknown key (byte_order: pndiss analyze --set only), or a bad value
         end
+    end
+    settings.ignored = #bad > 0 and table.concat(bad, ", ") or nil
+    if settings.ignored then
+        io.stderr:write("pndiss: Settings preference: ignored " .. settings.ignored .. " (keys: l_max "
+            .. "preset_deadline_ms sol_threshold_ge sol_monitor_rt iso master_cycle_ratio compat class4 st_phys "
+            .. "mt_phys xist1_shift max_position_step p65000; none = from the capture)\n")
     end
 end
 
@@ -2721,6 +2733,7 @@ local function violations_text()
     local lines, n = violation_lines()
     local bar = string.rep("=", 72)
     local head = "pndiss violations: " .. n
+    if settings.ignored then head = head .. "\nWARNING: Settings preference: ignored " .. settings.ignored end
     if blind then   -- tshark -2 builds no protocol tree for a tap on its first pass: nothing was decoded
         head = head .. "\nWARNING: the first pass had no protocol tree, so pndiss decoded nothing: add -Y frame"
             .. " (tshark -2 -q -z pndiss,violations -Y frame), or run without -2"

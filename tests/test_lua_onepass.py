@@ -115,3 +115,18 @@ def test_two_pass_tap_without_a_tree_says_so():
     assert "WARNING" not in out
     rows = [x for x in map(ROW.match, out.splitlines()) if x]
     assert [(r.group(2), r.group(4)) for r in rows] == [("TELEGRAM-LENGTH-MISMATCH", "encoder")]
+
+
+def test_settings_preference_none_and_unknown_keys():
+    """The Settings preference reads KEY=none as --set does (from the capture: iso from the Connect), and says which
+    items it ignored (an unknown key, a bad value) instead of dropping them silently (an independent audit: iso=none
+    turned isochronous mode off and lost every sign-of-life violation)."""
+    path = next(p for p, _ in fault_captures() if os.path.basename(p).startswith("fault-sol-master-skip"))
+    st = sidecar_settings(path)
+    rc, out, err = tshark(path, "-q", "-z", "pndiss,violations", *settings_pref(st), two_pass=False)
+    want = tap_rows(out)
+    assert ("SOL-MASTER-SKIP" in {r for _f, r in want}) and "WARNING" not in out
+    pref = settings_pref(st)[1] + ",iso=none,lmax=3,l_max=abc" if st else "pndiss.settings:iso=none,lmax=3,l_max=abc"
+    rc, out, err = tshark(path, "-q", "-z", "pndiss,violations", "-o", pref, two_pass=False)
+    assert tap_rows(out) == want
+    assert "ignored lmax=3, l_max=abc" in out and "ignored lmax=3, l_max=abc" in err
