@@ -422,5 +422,6 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
             # decimal resolutions up to ns are a plain multiply: the hot loop inlines it
             mult = 10 ** (9 - resol) if resol <= 9 else 0
             # (link type, ts -> ns, offset, multiplier, snaplen, fast-multiply limit, record conversion or None)
-            ifaces.append((lt, _tsres_to_ns(resol), tsoff, mult, snap, _ts_limit(mult, tsoff), _convert(lt, fcs)))
+            # (+ the FCS length: the engine cuts an Ethernet FCS itself, pndiss/engine.py)
+            ifaces.append((lt, _tsres_to_ns(resol), tsoff, mult, snap, _ts_limit(mult, tsoff), _convert(lt, fcs), fcs))
         b.pos = p + blen

@@ -63,20 +63,28 @@ class Engine:
         BIG = 1 << 62
 
         def fits(i) -> bool:
-            """Ethernet without an FCS to cut, and time stamps the plain multiply keeps in int64 (else the
-            reader takes them)."""
-            return i[0] == 1 and i[6] is None and 0 < i[3] < BIG and -BIG < i[2] < BIG and i[5] >= 0
+            """Ethernet (an FCS the engine cuts as the reader does: capture._convert), and time stamps the plain
+            multiply keeps in int64 (else the reader takes them)."""
+            return i[0] == 1 and (i[6] is None or len(i) > 7) and 0 < i[3] < BIG and -BIG < i[2] < BIG and i[5] >= 0
 
         ok = [fits(i) for i in ifaces]
+        fcs = np.array([(i[7] or 0) if k and len(i) > 7 else 0 for i, k in zip(ifaces, ok)], dtype=np.int64)
+        cut_fcs = bool(fcs.any())
         lts = np.array([1 if k else 0 for k in ok], dtype=np.int64)
         mult = np.array([i[3] if k else 0 for i, k in zip(ifaces, ok)], dtype=np.int64)
         off = np.array([i[2] if k else 0 for i, k in zip(ifaces, ok)], dtype=np.int64)
         lim = np.array([min(i[5], (1 << 63) - 1) if k else -1 for i, k in zip(ifaces, ok)], dtype=np.int64)
 
+        span = [1 << 62]   # bytes indexed per call: smaller while windows end early (frames the reader takes)
+
         def take(buf, pos, end, n):
-            ix = frameindex.pcapng(buf, pos, end, bo, nif)
+            stop = min(end, pos + span[0])
+            ix = frameindex.pcapng(buf, pos, stop, bo, nif)
             m = len(ix)
             if m < MIN_FRAMES:
+                if stop < end:   # the span held too few frames: the whole window next time
+                    span[0] = 1 << 62
+                    return take(buf, pos, end, n)
                 return 1
             # frames the reader must take itself: not Ethernet, a time stamp it would clamp (and count), or cut by
             # the snap length (a cyclic frame's APDU status is its last 4 bytes on the wire: analyzer._pn_rt)
@@ -86,12 +94,21 @@ class Engine:
                 & (ix.cap == ix.orig)
             if not good.all():
                 m = int(np.argmin(good))
+                # runs of frames the window takes between frames the reader must take (a cooked interface beside
+                # Ethernet ones): index about what is taken, not the whole window again each time (quadratic)
+                span[0] = max(1 << 12, 2 * int(ix.block[m]) - 2 * pos) if m < len(ix) else 1 << 62
                 if m < MIN_FRAMES:   # the reader takes every frame up to the next run the window can take
                     return _to_next_run(good)   # at once: not one re-index per frame (cooked, FCS, mixed NICs)
+            else:
+                span[0] = 1 << 62
             ifid = ix.ifid[:m]
             ts = raw[:m].astype(np.int64) * mult[ifid] + off[ifid]
-            return self._window(buf, n, ix.data[:m], ix.cap[:m], ts,
-                                ix.end if m == len(ix) else int(ix.block[m]), ix.orig[:m])
+            cap, orig = ix.cap[:m], ix.orig[:m]
+            if cut_fcs:   # an FCS interface (a TAP's port beside plain NICs): the frame without its FCS, as read
+                f = fcs[ifid]
+                f = np.where(cap > f, f, 0)
+                cap, orig = cap - f, orig - f
+            return self._window(buf, n, ix.data[:m], cap, ts, ix.end if m == len(ix) else int(ix.block[m]), orig)
         return take
 
     def pcap(self, bo: str, linktype: int, mult: int, conv=None):
