@@ -497,12 +497,15 @@ class Window:
             self.e.frames_global += k - nxt[0]
             nxt[0] = k
         try:
+            by_dev: dict = {}   # device MAC -> its groups; None: unmapped streams (by their MACs)
+            for n, g in enumerate(groups):
+                by_dev.setdefault(g.device(), []).append(n)
+            unmapped = [(n, {x for st in groups[n].streams for x in st.key[1:]}) for n in by_dev.pop(None, ())]
             for L in local.tolist():
                 neutral_before(L)
                 macs = self._macs(L)
-                touched = [n for n, g in enumerate(groups) if g.device() in macs
-                           or (g.device() is None and macs & {x for st in g.streams for x in st.key[1:]})]
-                if any(groups[n].device() is None for n in touched):
+                touched = [n for mac in macs for n in by_dev.get(mac, ())]
+                if any(macs & m for _n, m in unmapped):
                     # an unmapped stream of those MACs (content inference, a Connect it waits for): as a global frame
                     for wk in walks:
                         wk.run(L)
