@@ -273,22 +273,22 @@ def test_failures_recorded_and_interruption_leaves_nothing(tmp_path, monkeypatch
     monkeypatch.undo()
     # ... and interrupted in the middle of the analysis, with the cycles file open
     calls = []
+    opened = []
 
     def killed_late(self, batch, orig=sink_mod.ParquetSink.cycle_batch):
         calls.append(1)
-        if len(calls) > 1:
+        if opened:   # the first batch after one was written (how the engine batches is not this test's business)
             raise KeyboardInterrupt
         orig(self, batch)
     monkeypatch.setattr(sink_mod.ParquetSink, "cycle_batch", killed_late)
     monkeypatch.setattr("pndiss.dataset.cycles.ROW_GROUP", 16)
     monkeypatch.setattr("pndiss.dataset.cycles.COALESCE", 1)
-    opened = []
     real_write = CycleTable._write
     monkeypatch.setattr(CycleTable, "_write", lambda self: (real_write(self), opened.append(self.writer)))
     with pytest.raises(KeyboardInterrupt):
         dataset.write_capture(cap, ds, cycles="full")
     monkeypatch.undo()
-    assert len(calls) == 2 and opened and opened[-1] is not None   # the cycles file was open
+    assert len(calls) >= 2 and opened and opened[-1] is not None   # the cycles file was open
     h = dataset.content_hash(cap)
     assert h not in dataset.done_hashes(ds)
     assert not [n for t in TABLES for n in os.listdir(os.path.join(ds, t)) if n.startswith(".")]
