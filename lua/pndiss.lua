@@ -2665,6 +2665,13 @@ function pndiss.dissector(tvb, pinfo, tree)
     if cyclic_frame ~= pinfo.number then   -- the heuristic handled cyclic data
         local items = rec_cache[pinfo.number]
         if items == nil and not pinfo.visited then
+            -- a PROFINET frame (EtherType 0x8892, after one tag too) without a FrameID field: tshark -2's first
+            -- pass builds no tree, so nothing is extracted -- say so (the heuristic says it for cyclic frames)
+            if not blind and tvb:len() >= 20 then
+                local et = tvb(12, 2):uint()
+                if et == 0x8100 then et = tvb(16, 2):uint() end
+                if et == 0x8892 and X["pn_rt.frame_id"]() == nil then blind = true end
+            end
             items = first_pass(pinfo) or false
             rec_cache[pinfo.number] = items
         end

@@ -130,3 +130,19 @@ def test_settings_preference_none_and_unknown_keys():
     rc, out, err = tshark(path, "-q", "-z", "pndiss,violations", "-o", pref, two_pass=False)
     assert tap_rows(out) == want
     assert "ignored lmax=3, l_max=abc" in out and "ignored lmax=3, l_max=abc" in err
+
+
+def test_two_pass_without_a_tree_noted_on_a_capture_without_cyclic_data(tmp_path):
+    """A capture of DCP frames only (a commissioning tool's scan): tshark -2 -V without a display filter learns
+    nothing on its first pass; every frame then carries the note saying so, as on cyclic captures (an independent
+    audit: such captures looked clean)."""
+    import capedit
+    src = os.path.join(os.path.dirname(__file__), "..", "captures", "startup-t81-generic.pcapng")
+    if not os.path.exists(src):
+        pytest.skip("captures/startup-t81-generic.pcapng is missing")
+    dcp = str(tmp_path / "dcp.pcapng")
+    capedit.rewrite(src, dcp, lambda fn, d: d[12:14] == b"\x88\x92" and d[14] == 0xFE and d[15] >= 0xFC)
+    rc, out, err = tshark(dcp, "-V")
+    assert rc == 0 and "the first pass had no protocol tree" in out
+    rc, out, err = tshark(dcp, "-V", "-Y", "frame")
+    assert "the first pass had no protocol tree" not in out
