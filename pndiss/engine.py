@@ -370,7 +370,19 @@ class Window:
                 continue
             present = self._present(i, j)
             cats = self._categories(present, self.fn(i))
-            j = self._stream_stop(i, j, cats)
+            stop = self._stream_stop(i, j, cats)
+            if stop - i < SMALL:
+                # the next frames must go on their own (streams not looked up since an AR's maps changed, at a
+                # start-up): a stretch one by one, cheaper than a segment's set-up for each of them
+                stop = min(j, i + SMALL)
+                for k in range(i, stop):
+                    one(self.fn(k), int(self.ts[k]), 1, self.frame(k))
+                self.e.frames_global += stop - i
+                if len(self.e.streams) != self.known:
+                    self._resolve()
+                i = stop
+                continue
+            j = stop
             a, b = np.searchsorted(self.neutral, (i, j))
             neutral = self.neutral[a:b]
             if len(neutral) and any(c is not None and c[1] is None for c in cats.values()):
@@ -476,8 +488,8 @@ class Window:
         are walked up to it, then it goes on its own, then their walks go on with fresh columns (its AR phase may
         have moved); every other group runs through it, as nothing of theirs depends on that device's frame.
         Events are held and released in frame order. Returns where the segment ended: before j when a local
-        frame names an unmapped stream (content inference, a Connect it waits for): it then ends the segment
-        as a global frame. Connect and Release, which change the maps every walk reads, are global frames."""
+        frame relabels a telegram (P922): its device's categories are stale, the segment ends after it. Connect
+        and Release, which change the maps every walk reads, are global frames."""
         a = self.e.a
         groups = Group.build(self, i, j, cats)
         walks = [walker(self, g) for g in groups]
@@ -500,19 +512,12 @@ class Window:
             by_dev: dict = {}   # device MAC -> its groups; None: unmapped streams (by their MACs)
             for n, g in enumerate(groups):
                 by_dev.setdefault(g.device(), []).append(n)
-            unmapped = [(n, {x for st in groups[n].streams for x in st.key[1:]}) for n in by_dev.pop(None, ())]
+            by_dev.pop(None, None)   # unmapped streams: counted, offered to content inference, which a local frame
+            #                          does not touch (a Connect, which it asks about, is a global frame)
             for L in local.tolist():
                 neutral_before(L)
                 macs = self._macs(L)
                 touched = [n for mac in macs for n in by_dev.get(mac, ())]
-                if any(macs & m for _n, m in unmapped):
-                    # an unmapped stream of those MACs (content inference, a Connect it waits for): as a global frame
-                    for wk in walks:
-                        wk.run(L)
-                    a.hold_at(self.fn(L))
-                    self._global(L)
-                    end = L + 1
-                    break
                 phases = []
                 for n in touched:
                     walks[n].run(L)
