@@ -129,8 +129,12 @@ class Analyzer:
         if cut is not None:   # not the sender's fault: the capture kept only the first bytes (tshark: "Packet size limited")
             reason = f"{reason} (the capture cut the frame: {cut[0]} of {cut[1]} bytes kept, snap length)"
         ev = {"frame": fn, "ts_ns": ts, "kind": "malformed", "layer": layer, "reason": reason}
-        if len(self.malformed) < MAX_KEPT_MALFORMED:
-            self.malformed.append(ev)
+        # the first MAX_KEPT_MALFORMED in frame order: the engine processes a device's DCE/RPC datagrams and alarms
+        # before other devices' earlier frames (as gaps.GapTracker.keep)
+        self.malformed.append(ev)
+        if len(self.malformed) >= 2 * MAX_KEPT_MALFORMED:
+            self.malformed.sort(key=lambda m: m["frame"])
+            del self.malformed[MAX_KEPT_MALFORMED:]
         self.emit(ev)
 
     # -- input ----------------------------------------------------------------------------
@@ -264,7 +268,7 @@ class Analyzer:
             "frame_classes": dict(self.frame_classes),
             "stations": self.stations.as_list(),
             "activity": self.activity.summary(),
-            "malformed": self.malformed,
+            "malformed": sorted(self.malformed, key=lambda m: m["frame"])[:MAX_KEPT_MALFORMED],
             "violations": self.violations.totals(),
             "session": self.session.summary(),
             "cyclic": self.cyclic.summary(),

@@ -236,7 +236,8 @@ class Window:
         ptcp = pn & ((fid < 0x0100) | ((fid >= 0xFF00) & (fid < 0xFF80)))
         dcp = pn & (fid >= 0xFEFC) & (fid <= 0xFEFF)
         lldp = et == 0xCC88
-        other = ~pn & ~lldp & (et != 0x0008) & (et != 0x0081)        # (a second tag: looked at one by one)
+        # (a second 802.1Q tag, or an outer QinQ TPID 0x88A8 / 0x9100 the decoder peels: looked at one by one)
+        other = ~pn & ~lldp & (et != 0x0008) & (et != 0x0081) & (w3 != 0xA888) & (w3 != 0x0091)
         self._ip = big & (et == 0x0008)
         self._rt_ports = set(self.e.a.session.rt_ports)
         alarm = pn & ((fid == 0xFC01) | (fid == 0xFE01))
@@ -385,8 +386,9 @@ class Window:
             j = stop
             a, b = np.searchsorted(self.neutral, (i, j))
             neutral = self.neutral[a:b]
-            if len(neutral) and any(c is not None and c[1] is None for c in cats.values()):
-                # an unmapped stream's capture gaps are named from DCP / LLDP: those end the segment here
+            if len(neutral) and any(c is not None and (c[1] is None or c[1].fm.station is None) for c in cats.values()):
+                # the capture gaps of a stream whose map names no station (unmapped, or inferred from the content)
+                # are named from DCP / LLDP: those end the segment here
                 named = neutral[self.nkind[neutral] == 2]
                 if len(named):
                     j = int(named[0])
@@ -527,7 +529,10 @@ class Window:
                 self._global(L)
                 if a.session.map_generation != gen:
                     # the device's maps changed (a P922 read relabels its telegram): its streams' categories are
-                    # stale -- every group up to the frame, and the segment ends there (the next looks them up)
+                    # stale -- every group up to the frame, and the segment ends there (the next looks them up).
+                    # (The other groups' frames before it now meet the new generation: the tracker compiles their
+                    # unchanged layouts again -- caches only, #64 is once per data object; the review of 2026-11-25
+                    # found no difference on 120 targeted and random sessions)
                     for wk in walks:
                         wk.run(L)
                     end = L + 1

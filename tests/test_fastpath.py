@@ -498,3 +498,16 @@ def test_it_traffic_does_not_stop_the_engine(sessions, tmp_path):
     _write(path, frames, "pcapng-le")
     eng = _same_both_ways(path)
     assert eng.frames_bulk > 10 * eng.frames_single
+
+
+def test_malformed_list_in_frame_order():
+    """The summary's malformed frames are the first ones in frame order, whatever order the engine processed them
+    in (a device's DCE/RPC datagrams and alarms go before other devices' earlier frames; the review of
+    2026-11-25 found the list out of order)."""
+    from pndiss.analyzer import MAX_KEPT_MALFORMED, Analyzer
+    a = Analyzer()
+    frames = [5000, 300, 7] + list(range(10_000, 10_000 + 3 * MAX_KEPT_MALFORMED)) + [1]
+    for fn in frames:
+        a.add_malformed(fn, fn, "test", "bad")
+    got = [m["frame"] for m in a.summary()["malformed"]]
+    assert got == sorted(frames)[:MAX_KEPT_MALFORMED]

@@ -28,6 +28,8 @@ PARTIAL = {
                                "cycles",
     "BF00-VALID-REJECTED": "0x1002 in G1_XIST2 or a 0x9011 diagnosis alarm after a valid record (an AR inferred from content has no slot: its alarms are not correlated)",
     "SOL-MASTER-ZERO": "only with SOLMON (iso from the RT class, or settings.iso / sol_monitor_rt)",
+    "BMP-PIPELINED": "a request pending from before capture loss in the device's own streams is forgotten, not "
+                     "\"overwritten\" (its response may have been read in the lost part)",
     "POSITION-OUT-OF-RANGE": "needs R: 0xBF00 TMR with scaling, or settings st_phys/mt_phys",
     "PRESET860-VALUE-OUT-OF-RANGE": "needs R (as POSITION-OUT-OF-RANGE)",
     "STARTUP-NO-PARAM-RECORD": "decided at the AR's PrmEnd (0xBF00 / PS/PSM 0xFFFF written since the Connect, alone or "
