@@ -93,6 +93,18 @@ def test_a_capture_cut_short_is_reported_then_exit_2(tmp_path):
         assert len(t.stdout.split()) == s["frames"]
 
 
+def test_html_report_of_a_capture_cut_short(tmp_path):
+    """pndiss report writes what was read of a cut capture, then exits 2 as analyze does."""
+    pytest.importorskip("matplotlib")
+    with open(OWN, "rb") as f:
+        raw = f.read()
+    trunc = tmp_path / "trunc.pcapng"
+    trunc.write_bytes(raw[: len(raw) // 2 + 7])
+    out = tmp_path / "r.html"
+    r = run("report", str(trunc), "-o", str(out))
+    assert r.returncode == 2 and out.stat().st_size > 1000 and "reporting what was read" in r.stderr
+
+
 def test_bad_arguments_exit_2():
     assert run("analyze").returncode == 2
     assert run("analyze", OWN, "--set", "nonsense=1").returncode == 2

@@ -34,6 +34,7 @@ def run(args) -> int:
 
     settings = settings_from_args(args)
     col = ReportCollector()
+    damaged = False
     try:
         a = analyze_file(args.capture, settings, col.on_event)
     except NotACapture:
@@ -43,6 +44,7 @@ def run(args) -> int:
         a = getattr(e, "analyzer", None)
         if a is None:
             return 2
+        damaged = True   # the report of what was read, then exit 2 as analyze (and tshark) do
     summary = a.summary()
     summary["capture"] = args.capture
     text = render(summary, col, args.capture)
@@ -52,4 +54,4 @@ def run(args) -> int:
     except OSError as e:
         raise UsageError(f"cannot write {args.output}: {e.strerror}") from None
     print(f"{args.output}: {col.n_violations} violation(s), {len(col.timeline.encoders)} axis/axes", file=sys.stderr)
-    return 0
+    return 2 if damaged else 0
