@@ -2274,14 +2274,13 @@ local function add_object(tree, tvb, c)
     st:add(F["pndiss.slot"], d.slot or 0)
     st:add(F["pndiss.subslot"], d.subslot or 0)
     if c.station then st:add(F["pndiss.station"], c.station) end
-    if tree.visible then   -- shown, not needed for filtering: skipped in plain tshark runs (hot path)
-        st:add(F["pndiss.direction"], c.dir)
-        st:add(F["pndiss.telegram_source"], c.source or "")
-        st:add(F["pndiss.api"], d.api or 0)
-        if c.iops then st:add(F["pndiss.iops"], tvb(d.offset + d.length, 1), c.iops) end
-        st:add(F["pndiss.judged"], c.ok and true or false)
-        st:add(F["pndiss.profile"], c.profile)
-    end
+    -- (always: a display filter dissects with an invisible tree too -- pndiss.judged == 0 is a natural question)
+    st:add(F["pndiss.direction"], c.dir)
+    st:add(F["pndiss.telegram_source"], c.source or "")
+    st:add(F["pndiss.api"], d.api or 0)
+    if c.iops then st:add(F["pndiss.iops"], tvb(d.offset + d.length, 1), c.iops) end
+    st:add(F["pndiss.judged"], c.ok and true or false)
+    st:add(F["pndiss.profile"], c.profile)
     local serr, x2
     for _, row in ipairs(c.rows) do
         local r = tvb(d.offset + row.off, row.size)

@@ -146,3 +146,15 @@ def test_two_pass_without_a_tree_noted_on_a_capture_without_cyclic_data(tmp_path
     assert rc == 0 and "the first pass had no protocol tree" in out
     rc, out, err = tshark(dcp, "-V", "-Y", "frame")
     assert "the first pass had no protocol tree" not in out
+
+
+def test_descriptive_fields_filter_without_a_visible_tree():
+    """pndiss.judged, pndiss.direction ... filter in plain tshark (no -V): a display filter dissects with an invisible
+    tree, in Wireshark too (an independent audit: -Y 'pndiss.judged' matched nothing without -V)."""
+    path = next(p for p, _ in fault_captures() if os.path.basename(p).startswith("fault-absval-ack-missing"))
+    counts = {}
+    for flt in ("pndiss.judged", "pndiss.direction == \"actual\"", "pndiss.telegram"):
+        rc, out, err = tshark(path, "-Y", flt, two_pass=False)
+        counts[flt] = len(out.splitlines())
+    assert counts["pndiss.judged"] == counts["pndiss.telegram"] > 100
+    assert 0 < counts["pndiss.direction == \"actual\""] < counts["pndiss.telegram"]
