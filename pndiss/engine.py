@@ -396,7 +396,7 @@ class Window:
             if j > i:
                 a, b = np.searchsorted(self.local, (i, j))
                 end = self._segment(i, j, cats, neutral, self.local[a:b])
-                if end < j:   # a local frame of an unmapped stream ended it: on from there
+                if end < j:   # a local frame relabelled a telegram: on from there (with fresh categories)
                     i = end
                     if len(self.e.streams) != self.known:
                         self._resolve()
@@ -511,7 +511,7 @@ class Window:
             self.e.frames_global += k - nxt[0]
             nxt[0] = k
         try:
-            by_dev: dict = {}   # device MAC -> its groups; None: unmapped streams (by their MACs)
+            by_dev: dict = {}   # device MAC -> its groups
             for n, g in enumerate(groups):
                 by_dev.setdefault(g.device(), []).append(n)
             by_dev.pop(None, None)   # unmapped streams: counted, offered to content inference, which a local frame

@@ -89,7 +89,8 @@ class Group:
     def part(self, i: int, j: int) -> "Group":
         """The same group with its members' frames in window range [i, j) only (members without any dropped, as
         build() does: an axis with one direction left goes one by one)."""
-        keep = [(s, p[np.searchsorted(p, i):np.searchsorted(p, j)], fr) for s, p, fr in zip(self.streams, self.pos, self.fr)]
+        keep = [(s, p[np.searchsorted(p, i):np.searchsorted(p, j)], fr)
+                for s, p, fr in zip(self.streams, self.pos, self.fr)]
         keep = [m for m in keep if len(m[1])]
         kind = "single" if self.kind == "axis" and len(keep) < len(self.streams) else self.kind
         return Group(kind, [m[0] for m in keep], [m[1] for m in keep], [m[2] for m in keep], self.ax)
@@ -112,10 +113,6 @@ def walker(w, g: Group):
     if g.kind == "axis":
         return AxisWalk(w, g)
     return SinglesWalk(w, g)
-
-
-def walk_group(w, g: Group) -> None:
-    walker(w, g).run(None)
 
 
 class SinglesWalk:
