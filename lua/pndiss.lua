@@ -1711,15 +1711,21 @@ function note_violation(frame, rule, decided, open, message, side)
             if d == nil then d = {}; late[decided] = d end
             d[#d + 1] = v
         end
-    elseif not open and v.message == nil then
-        v.message = message
+    elseif not open and message ~= nil then
+        v.message = message   -- the run's final message replaces what it said when it opened
     end
 end
 
 local function note(evs, decided)
     if evs == nil then return end
     for _, ev in ipairs(evs) do
-        if ev.rule ~= nil then note_violation(ev.frame, ev.rule, decided, ev.open, ev.message, ev.side) end
+        if ev.rule ~= nil then
+            -- an open run's message as its checker formatted it when it opened (one pass shows it; the close
+            -- gives the final one, with its cycles)
+            local m = ev.message
+            if m == nil and ev.open and ev.run and ev.run.msg ~= ev.rule then m = ev.run.msg end
+            note_violation(ev.frame, ev.rule, decided, ev.open, m, ev.side)
+        end
     end
 end
 

@@ -509,7 +509,7 @@ function Checker:hit(rule, controller, side)
   o = {n = self.n, first = f, ts = self.ts, last = f, cycles = 1, msg = rule, side = side}
   self.open[rule] = o
   self.open_order[#self.open_order + 1] = rule
-  push(self, {rule = rule, frame = f, open = true})
+  push(self, {rule = rule, frame = f, open = true, run = o})   -- (run: its message, once the caller set it)
   return o
 end
 

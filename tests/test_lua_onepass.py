@@ -158,3 +158,12 @@ def test_descriptive_fields_filter_without_a_visible_tree():
         counts[flt] = len(out.splitlines())
     assert counts["pndiss.judged"] == counts["pndiss.telegram"] > 100
     assert 0 < counts["pndiss.direction == \"actual\""] < counts["pndiss.telegram"]
+
+
+def test_one_pass_expert_text_is_the_observation():
+    """A run rule's expert info in one pass carries what its checker observed, not the catalogue section's title
+    (an independent audit: "CTRLREQ-MISMATCH: 9.2 Control by PLC / Control requested" in Wireshark's packet list)."""
+    path = next(p for p, _ in fault_captures() if os.path.basename(p).startswith("fault-ctrlreq-mismatch"))
+    rc, out, err = tshark(path, "-q", "-z", "expert", *_settings(path)[1], two_pass=False)
+    lines = [line for line in out.splitlines() if "CTRLREQ-MISMATCH:" in line]
+    assert lines and all("ZSW2_ENC.9" in line for line in lines), lines
