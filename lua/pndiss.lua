@@ -349,9 +349,10 @@ local misses
 local gap_streams
 local gap_last_ts      -- MAC -> time of the latest capture gap of a stream to or from it (gaps.GapTracker.last_by_mac)
 local GAP_LEARN, GAP_IRREGULAR_MAX = 4, 3
-local function gap_stream(key)
+-- restart: gaps.restart -- the stream's AR ended or connects again: a new counter, its step the next Connect's
+local function gap_stream(key, restart)
     local st = gap_streams[key]
-    if st == nil then
+    if st == nil or restart then
         st = {step = 0, known = false, seen = 0, irregular = 0, uniform = true}
         gap_streams[key] = st
     end
@@ -360,9 +361,9 @@ end
 local function gap_step_from(key, cycle_ns)
     local st = gap_stream(key)
     local step = cycle_ns and math.floor(cycle_ns / 31250) or 0
-    if step > 0 and step < 0x10000 and (st.step ~= step or not st.known) then
-        -- the Connect says it: a learnt step, or an earlier AR's on the same frame ID, gives way (gaps.py)
-        if st.step ~= step then st.seen, st.irregular, st.uniform = 0, 0, true end
+    if step > 0 and step < 0x10000 and (st.step == 0 or not (st.known or st.irregular > 0)) then
+        -- the Connect says it; a step the counter contradicted stays (gaps.py step_from)
+        if st.step ~= step then st.seen = 0 end
         st.step, st.known = step, true
     end
 end
@@ -604,8 +605,7 @@ end
 local function restart_gaps(ar)
     for _, k in ipairs(ar_keys[ar]) do
         local sk = k[1] .. "|" .. k[2] .. "|" .. k[3]
-        local st = gap_streams[sk]
-        if st ~= nil and maps[sk] == k[4] then st.cc, st.ts = nil, nil end
+        if gap_streams[sk] ~= nil and maps[sk] == k[4] then gap_stream(sk, true) end
     end
 end
 
@@ -1872,6 +1872,7 @@ function on_reconnect(ar, dev, keys, fn)
         bf00_last[dev] = nil
     end
     bf00_resp[ar] = nil
+    for _, k in ipairs(keys) do gap_stream(k[1] .. "|" .. k[2] .. "|" .. k[3], true) end   -- new counters (gaps.restart)
     for _, ax in ipairs(axis_list) do
         if ax.fm ~= nil and ax.fm.ar == ar then
             local pick
@@ -2385,8 +2386,7 @@ local function heuristic(tvb, pinfo, tree)
         -- a system redundancy AR's frame that says Backup (DataStatus.State, bit 0): the device acts on the primary
         if fr.fm.primary_only and ds ~= nil and ds.value % 2 == 0 then ok_ds = false end
         if ph == "released" or ph == "aborted" then   -- gaps.restart: a later AR here is no capture loss
-            local st = gap_streams[key]
-            if st ~= nil then st.cc, st.ts, st.last = nil, nil, nil end
+            if gap_streams[key] ~= nil then gap_stream(key, true) end
         end
         cached = on_cyclic(pinfo, tvb, fr, ok_ds, miss, key)
         cyc_cache[pinfo.number] = cached

@@ -241,6 +241,7 @@ class AxisTracking:
             self.prev_bf00[dev] = old[1]     # what the next 0xBF00 is compared with (#31)
             del self.bf00[dev]
         self.bf00_unseen.pop((dev, uid), None)
+        self.restart_gaps(key for key, _fm in self.a.session.frame_keys(ar))   # a new connection: new counters
         maps = [fm for _key, fm in self.a.session.frame_keys(ar)]
         for ax in self.axes.values():
             if ax.key[0] != uid:

@@ -65,10 +65,10 @@ class Engine:
         def fits(i) -> bool:
             """Ethernet (an FCS the engine cuts as the reader does: capture._convert), and time stamps the plain
             multiply keeps in int64 (else the reader takes them)."""
-            return i[0] == 1 and (i[6] is None or len(i) > 7) and 0 < i[3] < BIG and -BIG < i[2] < BIG and i[5] >= 0
+            return i[0] == 1 and 0 < i[3] < BIG and -BIG < i[2] < BIG and i[5] >= 0
 
         ok = [fits(i) for i in ifaces]
-        fcs = np.array([(i[7] or 0) if k and len(i) > 7 else 0 for i, k in zip(ifaces, ok)], dtype=np.int64)
+        fcs = np.array([i[7] if k else 0 for i, k in zip(ifaces, ok)], dtype=np.int64)   # (Ethernet's conversion)
         cut_fcs = bool(fcs.any())
         lts = np.array([1 if k else 0 for k in ok], dtype=np.int64)
         mult = np.array([i[3] if k else 0 for i, k in zip(ifaces, ok)], dtype=np.int64)
@@ -227,7 +227,7 @@ class Window:
         w4 = np.where(tagged, w[4], 0)
         # frames no cyclic stream's judgement depends on (pndiss.engine: they do not end a segment): PTCP and
         # DCP FrameIDs, LLDP, MRP, non-PROFINET EtherTypes other than IPv4 (RPC), IPv4 that cannot be PNIO
-        # (_ip_neutral); 2 = DCP / LLDP, which name stations (a capture gap of an unmapped stream is named from
+        # (_ip_kinds); 2 = DCP / LLDP, which name stations (a capture gap of an unmapped stream is named from
         # them: then they end a segment)
         et = np.where(tagged, w[4] & 0xFFFF, w3)                      # byte-swapped EtherType (inside one tag)
         fid_w = np.where(tagged, w[4] >> 16, w[3] >> 16)              # byte-swapped FrameID
@@ -262,17 +262,17 @@ class Window:
         self.unknown = int(np.count_nonzero(cand[first] & (self.uid_sid < 0)))
 
     def _kinds(self):
-        """nkind with the IPv4 frames that cannot be PNIO made neutral (_ip_neutral, with the RT_CLASS_UDP ports the
+        """nkind with the IPv4 frames that cannot be PNIO made neutral, DCE/RPC ones local (_ip_kinds, with the RT_CLASS_UDP ports the
         session knows now: a Connect may add one, then run() asks again)."""
         kind = self._kind0.copy()
         ii = np.flatnonzero(self._ip)
         if len(ii):
-            neutral, local = self._ip_neutral(ii)
+            neutral, local = self._ip_kinds(ii)
             kind[ii[neutral]] = 1
             kind[ii[local]] = 3
         return kind
 
-    def _ip_neutral(self, ii):
+    def _ip_kinds(self, ii):
         """Of the IPv4 frames ``ii``: those no PNIO layer takes (session_rpc: TCP, ICMP, UDP that is neither
         RT_CLASS_UDP nor connectionless DCE/RPC, version 4), so no cyclic judgement depends on them. An IT
         network's SNMP polls, OPC UA or HTTP on the PROFINET segment then no longer end a segment (an independent

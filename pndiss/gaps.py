@@ -62,9 +62,9 @@ class GapTracker:
         self.duplicates = 0   # copies of frames (``duplicate``)
         self.first_duplicate = None   # (frame, the frame it copies)
         self.stale = 0        # other frames whose counter is not newer (``duplicate``)
-        self.last_ts = None   # time of the frame that ended the latest gap (what else the capture may have lost)
-        # per MAC of a stream with a gap, the latest such time: a device's parameter request asks about its own
-        # streams (the engine walks those up to the request; every other stream may be ahead or behind)
+        # per MAC of a stream with a gap, the time of the frame that ended its latest gap (what else the capture
+        # may have lost): a device's parameter request asks about its own streams (the engine walks those up to
+        # the request; every other stream may be ahead or behind)
         self.last_by_mac: dict = {}
         self.first_stale = None       # (frame, the frame it is not newer than)
 
@@ -73,19 +73,22 @@ class GapTracker:
         st = self.streams.get(key)
         if st is None:
             st = self.streams[key] = Stream()
-        if step and 0 < step < WRAP and (st.step != step or not st.known):
-            # the Connect says it: a step learnt before, or an earlier AR's on the same frame ID (a project
-            # downloaded with another cycle time reconnects on the same IDs), gives way
+        if step and 0 < step < WRAP and (st.step == 0 or not (st.known or st.irregular)):
+            # the Connect says it (a step learnt from a clean counter gives way; one the counter contradicted
+            # stays: a free-running counter is not made uniform again by every map change). An earlier AR's
+            # step on the same frame ID was forgotten when it ended (restart): a project downloaded with another
+            # cycle time reconnects on the same IDs
             if st.step != step:
-                st.seen, st.irregular, st.uniform = 0, 0, True
+                st.seen = 0
             st.step, st.known = step, True
 
     def restart(self, key) -> None:
-        """The stream's AR ended (Release / abort): its counter starts afresh with the next AR, the pause
-        between them is not capture loss."""
+        """The stream's AR ended (Release / abort, or connects again): its counter starts afresh with the next AR,
+        the pause between them is not capture loss, and its step is the next Connect's (or learnt again)."""
         st = self.streams.get(key)
         if st is not None:
             st.cc = st.frame = st.ts = st.last = None
+            st.step, st.known, st.seen, st.irregular, st.uniform = 0, False, 0, 0, True
 
     def duplicate(self, key, fn: int, ts: int, cc: int, last: tuple) -> bool:
         """Frame ``fn`` is one a consumer discards: its counter is not newer than the stream's previous captured
@@ -160,7 +163,6 @@ class GapTracker:
         return self._count(st, d // st.step - 1)
 
     def _lost_at(self, key, ts: int) -> None:
-        self.last_ts = ts if self.last_ts is None else max(self.last_ts, ts)   # (streams are walked apart)
         for mac in key[1:]:
             old = self.last_by_mac.get(mac)
             if old is None or ts > old:

@@ -429,3 +429,26 @@ def test_whole_wraps_lost_engine_same(tmp_path):
     gaps = [e for e in evs if e["kind"] == "capture_gap"]
     assert gaps and all(abs(e["cycles_missing"] - 2048) <= 1 for e in gaps), [e["cycles_missing"] for e in gaps]
     assert not [e for e in evs if e["kind"] == "violation"]
+
+
+def test_a_counter_that_contradicts_its_connect_is_not_trusted_again_at_every_map_change():
+    """A provider whose cycle counter does not step by SendClockFactor x ReductionRatio (free-running): once its
+    advances contradicted the Connect's step, a lookup of the maps again (any P922 read, any other Connect) does
+    not make that step trusted again -- that gave capture gaps where an advance happened to be a multiple of it.
+    A new AR on the stream (restart) takes its own Connect's step: a project downloaded with another cycle time."""
+    from pndiss.gaps import GapTracker
+    g, key = GapTracker(), (0x8000, "02:00:00:00:01:01", "02:00:00:00:00:01")
+    g.step_from(key, 32)
+    cc, fn = 0, 0
+    for d in (32, 48, 40, 56, 48):   # off the step: irregular
+        cc, fn = (cc + d) % 65536, fn + 1
+        g.advance(key, fn, fn * 1_000_000, cc)
+    g.step_from(key, 32)             # the maps looked up again
+    cc, fn = (cc + 96) % 65536, fn + 1
+    assert g.advance(key, fn, fn * 1_000_000, cc) == 0 and g.count == 0
+    g.restart(key)                   # the AR ended; the next one connects at 2 ms
+    g.step_from(key, 64)
+    for d in (64, 64, 128):
+        cc, fn = (cc + d) % 65536, fn + 1
+        got = g.advance(key, fn, fn * 2_000_000, cc)
+    assert got == 1 and g.count == 1

@@ -232,7 +232,7 @@ class ParamPairer:
         self.refused_early: dict = {}  # key -> frames of new requests the device refused while one was open
 
     def request(self, key, decoded_request: dict, frame: int, ts: int, gap_ts: int | None = None) -> None:
-        """A request written; ``gap_ts``: when the capture last lost frames (gaps.GapTracker.last_ts) -- a request
+        """A request written; ``gap_ts``: when the device's streams last lost frames (GapTracker.last_gap) -- a request
         pending from before that may have had its response read in the lost part: not overwritten, forgotten."""
         old = self.pending.get(key)
         if old is not None and gap_ts is not None and gap_ts > old[2]:
