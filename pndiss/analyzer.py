@@ -161,6 +161,16 @@ class Analyzer:
             status = "malformed"
         self.counts[status] += 1
 
+    def count_inert(self, n: int, fn: int, ts: int, first_ts: int) -> None:
+        """``n`` frames feed() would only count as not PROFINET (pndiss/engine.py: an IT network's TCP, ARP,
+        IPv6 ... on the PROFINET segment), the last of them frame ``fn`` at ``ts``."""
+        self.frames += n
+        self.counts["not_profinet"] += n
+        self.cur_frame, self.cur_ts = fn, ts
+        if self.first_ts is None:
+            self.first_ts = first_ts
+        self.last_ts = ts
+
     def finish(self) -> None:
         """End of capture: flush pending reassemblies, open handshakes and state machines."""
         self.session.finish()

@@ -69,13 +69,14 @@ class AxisWalk:
             k = 1
             if q + 1 < N and self._clean():
                 e = self._stretch(q, N) if self._columns() else 0
-                if e:
+                if e > 0:
                     self._bulk(q, e)
                     q += 2 * e
                     fails = 0
                     continue
-                fails += 1
-                k = min(RETRY_MAX, 1 << min(fails - 1, 6))
+                if e == 0:   # the columns said no: back off (an attempt's column work is dear)
+                    fails += 1
+                    k = min(RETRY_MAX, 1 << min(fails - 1, 6))
             for i in range(q, min(N, q + k)):
                 self.w.single(int(self.idx[i]), self.S.s if self.typ[i] == 0 else self.A.s)
             q = min(N, q + k)
@@ -100,7 +101,8 @@ class AxisWalk:
         return self.t.gaps.same_step(self.S.s.key, self.A.s.key)
 
     def _stretch(self, q: int, N: int) -> int:
-        """How many pairs from merged position q (before N) the reference would only advance through (0: none)."""
+        """How many pairs from merged position q (before N) the reference would only advance through (0: none,
+        -1: none because of the checker's state, known before any column work: the next frame may try again)."""
         T = self.typ[q:min(N, q + 2 * BLOCK)]
         P = len(T) // 2
         distinct = T[0:2 * P:2] != T[1:2 * P:2]
@@ -115,31 +117,37 @@ class AxisWalk:
         judged = not ax.ambiguous and bool(self.okS[sr] and self.okA[ar])
         # the checker's state first: while it cannot be advanced at once, no column work (retries are many)
         if judged and (not chk.bulk_ready() or self.frA.fm.phase in JUDGED_FIRST):
-            return 0
+            return -1
         if judged:
             sg, ag = self.sigS.get, self.sigA.get
             key0 = tuple(int(c[r]) & m if c is not None else 0 for c, r, m in (
                 (sg("stw2_enc"), sr, 0x0FFF), (sg("g1_stw"), sr, -1), (ag("zsw2_enc"), ar, 0x0FFF), (ag("g1_zsw"), ar, -1)))
             if key0 != chk.prev_key:
-                return 0
+                return -1
         if not judged and not chk.idle():
-            return 0
+            return -1
         S, A = self.S, self.A
+        if judged:
+            # the key's first change ends the stretch: found first, so the costlier columns below are computed
+            # only for the rows a bulk step can take (a preset, parking or error every few hundred cycles)
+            sg, ag = self.sigS.get, self.sigA.get
+            keydiff = np.zeros(P, dtype=bool)
+            for c, r, m in ((sg("stw2_enc"), sr, 0x0FFF), (sg("g1_stw"), sr, -1), (ag("zsw2_enc"), ar, 0x0FFF),
+                            (ag("g1_zsw"), ar, -1)):
+                if c is not None:
+                    k = c[r:r + P] & m
+                    keydiff[1:] |= k[1:] != k[:-1]
+            if keydiff.any():
+                P = int(np.argmax(keydiff))
         gaps = self.t.gaps
         ok = self.okS[sr:sr + P] & self.okA[ar:ar + P]
         bad = S.gaps_bad(gaps, sr, sr + P) | A.gaps_bad(gaps, ar, ar + P) | S.capbad[sr:sr + P] | A.capbad[ar:ar + P]
         if judged:
-            sS = {k: v[sr:sr + P] for k, v in self.sigS.items()}
-            sA = {k: v[ar:ar + P] for k, v in self.sigA.items()}
-            z = np.zeros(P, dtype=np.int64)
-            key = (sS.get("stw2_enc", z) & 0x0FFF, sS.get("g1_stw", z), sA.get("zsw2_enc", z) & 0x0FFF,
-                   sA.get("g1_zsw", z))
-            keydiff = np.zeros(P, dtype=bool)
-            for k in key:
-                keydiff[1:] |= k[1:] != k[:-1]
             ident = S.same_prev(self.frS.last_csdu, sr, sr + P) & A.same_prev(self.frA.last_csdu, ar, ar + P)
-            bad |= ~ok | ident | keydiff
+            bad |= ~ok | ident
             if not bad[0]:   # the value rules' vectorised twins (pndiss/encoder/registry.py)
+                sS = {k: v[sr:sr + P] for k, v in self.sigS.items()}
+                sA = {k: v[ar:ar + P] for k, v in self.sigA.items()}
                 bad |= chk.vector_unsafe({**sS, **sA}, "g1_stw" in sS and "g1_zsw" in sA)
         elif not ax.ambiguous:
             bad |= ok

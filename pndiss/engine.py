@@ -56,6 +56,7 @@ class Engine:
         self.frames_bulk = 0        # diagnostics (bench/NOTES.md)
         self.frames_single = 0
         self.frames_global = 0
+        self.frames_inert = 0       # counted in bulk (Window._segment)
 
     # -- reader interface (pndiss/capture.py) ------------------------------------------------------
     def pcapng(self, bo: str, ifaces: list):
@@ -241,8 +242,10 @@ class Window:
         self._ip = big & (et == 0x0008)
         self._rt_ports = set(self.e.a.session.rt_ports)
         alarm = pn & ((fid == 0xFC01) | (fid == 0xFE01))
-        self._kind0 = np.where(big & (ptcp | other | (et == 0xE388)), 1,
-                               np.where(big & (dcp | lldp), 2, np.where(big & alarm, 3, 0))).astype(np.int8)
+        # 4 = inert: Analyzer.feed only counts it as not PROFINET (no decoder, no state): counted in bulk (_segment)
+        inert = other & (et != 0xE388) & (et != 0xA888) & (et != 0x0091)   # (an inner QinQ TPID is peeled too)
+        self._kind0 = np.where(big & inert, 4, np.where(big & (ptcp | other | (et == 0xE388)), 1,
+                               np.where(big & (dcp | lldp), 2, np.where(big & alarm, 3, 0)))).astype(np.int8)
         self.tagged = tagged
         self.nkind = self._kinds()
         h = (w[0].astype(np.uint64) | (w[1].astype(np.uint64) << np.uint64(32))) * K2
@@ -267,8 +270,9 @@ class Window:
         kind = self._kind0.copy()
         ii = np.flatnonzero(self._ip)
         if len(ii):
-            neutral, local = self._ip_kinds(ii)
+            neutral, local, inert = self._ip_kinds(ii)
             kind[ii[neutral]] = 1
+            kind[ii[inert]] = 4
             kind[ii[local]] = 3
         return kind
 
@@ -277,7 +281,8 @@ class Window:
         RT_CLASS_UDP nor connectionless DCE/RPC, version 4), so no cyclic judgement depends on them. An IT
         network's SNMP polls, OPC UA or HTTP on the PROFINET segment then no longer end a segment (an independent
         audit: 0.8 % IPv4 frames made the engine slower than the reference path). Fragments stay global.
-        Returns (neutral, local): local = a whole UDP datagram that may be connectionless DCE/RPC."""
+        Returns (neutral, local, inert): local = a whole UDP datagram that may be connectionless DCE/RPC; inert =
+        not UDP (session_rpc.on_ipv4 counts it and looks no further, fragments too)."""
         u8 = self.u8
         d = self.data[ii].astype(np.int64)
         end = d + self.cap[ii]
@@ -306,7 +311,7 @@ class Window:
         opnum = np.where(little, u8[h + 68].astype(np.int64) | (u8[h + 69].astype(np.int64) << 8),
                          (u8[h + 68].astype(np.int64) << 8) | u8[h + 69])
         rpc = hdr & (u8[h] == 4) & ~rt & (opnum > 1)
-        return ok & np.where(udp, uok & ~maybe, True), rpc
+        return ok & np.where(udp, uok & ~maybe, True), rpc, fits & ~udp
 
     def _resolve(self) -> bool:
         """Look the window's distinct prefixes up in the stream table (again after it learnt streams)."""
@@ -340,7 +345,7 @@ class Window:
         g = order[:counts[0]]                            # frames of no known stream, in order
         nk = self.nkind[g]
         self.glob = g[nk == 0]                           # ... that end a segment
-        self.neutral = g[(nk == 1) | (nk == 2)]          # ... that do not (processed inside it, events held)
+        self.neutral = g[(nk == 1) | (nk == 2) | (nk == 4)]   # ... that do not (processed inside it, events held)
         self.local = g[nk == 3]                          # ... one device's (RPC, alarms): inside it, in order
         self.pos = [order[bounds[k + 1]:bounds[k + 2]] for k in range(len(self.ss))]
 
@@ -499,17 +504,30 @@ class Window:
         held = a.hold()
         one = self.e.feed_one
         todo, nxt = neutral.tolist(), [0]
+        fed = np.flatnonzero(self.nkind[neutral] != 4).tolist()   # positions in todo of the frames fed one by one
+        nfed = [0]
 
         def neutral_before(stop: int) -> None:
             """The neutral frames before ``stop`` not taken yet (only those before the segment's end: their
-            events are released with its other events, in frame order)."""
+            events are released with its other events, in frame order); the inert ones between two others
+            counted at once, the last of them becoming the analyzer's current frame as if fed."""
             k = nxt[0]
+            f = nfed[0]
             while k < len(todo) and todo[k] < stop:
+                p = fed[f] if f < len(fed) else len(todo)
+                q = p if p < len(todo) and todo[p] < stop else int(np.searchsorted(neutral, stop))
+                if q > k:   # inert frames k .. q-1
+                    last = todo[q - 1]
+                    a.count_inert(q - k, self.fn(last), int(self.ts[last]), int(self.ts[todo[k]]))
+                    self.e.frames_inert += q - k
+                    k = q
+                    continue
                 a.hold_at(self.fn(todo[k]))
                 one(self.fn(todo[k]), int(self.ts[todo[k]]), 1, self.frame(todo[k]))
+                self.e.frames_global += 1
                 k += 1
-            self.e.frames_global += k - nxt[0]
-            nxt[0] = k
+                f += 1
+            nxt[0], nfed[0] = k, f
         try:
             by_dev: dict = {}   # device MAC -> its groups
             for n, g in enumerate(groups):

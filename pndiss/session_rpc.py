@@ -30,6 +30,9 @@ class RpcLayer:
     def on_ipv4(self, fn, ts, data, off, src, dst) -> str:
         if len(data) - off >= 20 and data[off + 9] != ip.PROTO_UDP:
             return "not_profinet"  # TCP, ICMP, IGMP ...: no header work for traffic we do not decode
+        if self._plain_udp(data, off):
+            self._expire(ts)       # (as the full path below does for every whole datagram)
+            return "not_profinet"
         try:
             h = ip.decode_ipv4(data, off)
         except Malformed:
@@ -42,6 +45,29 @@ class RpcLayer:
         if h["proto"] != ip.PROTO_UDP:
             return "not_profinet"
         return self._udp(fn, ts, data, h["payload_off"], h["payload_end"], h, src, dst)
+
+    def _plain_udp(self, b: bytes, off: int) -> bool:
+        """A whole, well-formed UDP datagram (the checks of decode_ipv4 and decode_udp) on no PNIO port whose
+        payload cannot be connectionless DCE/RPC: what the path through _udp returns "not_profinet" for, without
+        building its header dicts (an IT network's SNMP, mDNS, NetBIOS on the PROFINET segment)."""
+        n = len(b) - off
+        if n < 28:
+            return False
+        ihl = (b[off] & 0x0F) * 4
+        total = (b[off + 2] << 8) | b[off + 3]
+        if b[off] >> 4 != 4 or ihl < 20 or total < ihl or total > n or (b[off + 6] & 0x3F) or b[off + 7]:
+            return False
+        u, end = off + ihl, off + total
+        if end - u < 8:
+            return False
+        length = (b[u + 4] << 8) | b[u + 5]
+        if length < 8 or u + length > end:
+            return False
+        ports = self.rt_ports
+        sp, dp = (b[u] << 8) | b[u + 1], (b[u + 2] << 8) | b[u + 3]
+        if sp in ports or dp in ports or sp == PORT_RPC or dp == PORT_RPC:
+            return False
+        return length - 8 < dcerpc.HDR_LEN or b[u + 8] != 4
 
     def _ip_fragment(self, fn, ts, data, h, src, dst) -> str:
         if h["proto"] != ip.PROTO_UDP:

@@ -498,6 +498,69 @@ def test_it_traffic_does_not_stop_the_engine(sessions, tmp_path):
     _write(path, frames, "pcapng-le")
     eng = _same_both_ways(path)
     assert eng.frames_bulk > 10 * eng.frames_single
+    assert eng.frames_inert > 0   # TCP, ICMP, ARP: counted at once, not fed one by one
+
+
+def _odd_it_frames():
+    """Frames at the edge of 'only counted': a UDP length beyond the datagram (malformed), an IP total length
+    beyond the frame, a TCP fragment, an 802.3 frame (STP), an inner QinQ TPID, a UDP datagram starting with 4."""
+    import rpc_frames as R
+    pc, sw = "02:00:00:00:0a:01", "02:00:00:00:0a:02"
+    bad_udp = R.ipv4("10.0.0.1", "10.0.0.2", struct.pack(">HHHH", 50000, 161, 200, 0) + bytes(30))
+    long_ip = bytearray(R.ipv4("10.0.0.1", "10.0.0.2", R.udp(50000, 161, bytes(30))))
+    long_ip[2:4] = (1400).to_bytes(2, "big")
+    tcp_frag = R.ipv4("10.0.0.1", "10.0.0.2", bytes(40), proto=6, flags_frag=0x2000)
+    stp = bytes.fromhex("0180c2000000020000000a01") + (39).to_bytes(2, "big") + bytes.fromhex("424203") + bytes(36)
+    qinq_inner = bytes.fromhex("ffffffffffff020000000a018100000a88a8000b0806") + bytes(28)
+    return [R.eth(pc, sw, bad_udp), R.eth(pc, sw, bytes(long_ip)), R.eth(pc, sw, tcp_frag), stp, qinq_inner,
+            R.eth(pc, sw, R.ipv4("10.0.0.1", "10.0.0.2", R.udp(5353, 5353, b"\x04" + bytes(90))))]
+
+
+def test_odd_it_frames_counted_as_the_reference_does(sessions, tmp_path):
+    """The frames at the edge of what the engine counts in bulk (Window._kinds: 4) and what the plain-UDP
+    shortcut (session_rpc._plain_udp) passes: the same accounting, malformed frames and events as the reference."""
+    odd = _odd_it_frames()
+    frames = []
+    for k, (fn, ts, lt, data) in enumerate(sessions["plant"]):
+        frames.append((fn, ts, lt, data))
+        if k % 50 == 49:
+            frames.append((0, ts + 1000, 1, odd[(k // 50) % len(odd)]))
+    path = str(tmp_path / "odd.pcapng")
+    _write(path, frames, "pcapng-le")
+    _same_both_ways(path)
+    s = _run_file(path, True)[0]
+    assert s["accounting"]["malformed"] > 0   # the UDP length beyond its datagram
+
+
+@hsettings(max_examples=300, deadline=None)
+@given(st.binary(min_size=28, max_size=80), st.sampled_from([0x45, 0x46, 0x44, 0x55]), st.integers(0, 0x3FFF),
+       st.integers(0, 120), st.integers(0, 120), st.sampled_from([161, 34962, 34964, 5353, 49152]))
+def test_plain_udp_shortcut_is_the_full_path(body, vihl, ff, total, ulen, port):
+    """session_rpc._plain_udp says "only counted" exactly where the full path (decode_ipv4, decode_udp, the port and
+    DCE/RPC checks) returns not_profinet without raising."""
+    from pndiss.proto.common import Malformed
+    b = bytearray(bytes(14) + body)
+    o = 14
+    b[o] = vihl
+    b[o + 2:o + 4] = total.to_bytes(2, "big")
+    b[o + 6:o + 8] = ff.to_bytes(2, "big")
+    b[o + 9] = 17
+    u = o + (vihl & 15) * 4
+    if u + 8 <= len(b):
+        b[u + 2:u + 4] = port.to_bytes(2, "big")
+        b[u + 4:u + 6] = ulen.to_bytes(2, "big")
+    data = bytes(b)
+    a = Analyzer()
+    ses = a.session
+    if not ses._plain_udp(data, o):
+        return
+    try:
+        h = __import__("pndiss.proto.ip", fromlist=["ip"]).decode_ipv4(data, o)
+        assert not h["flags_mf"] and not h["frag_offset"]
+        st_ = ses._udp(0, 0, data, h["payload_off"], h["payload_end"], h, "a", "b")
+    except Malformed as e:
+        raise AssertionError(f"the full path raises {e}")
+    assert st_ == "not_profinet"
 
 
 def test_malformed_list_in_frame_order():
