@@ -108,6 +108,20 @@ def test_uuid_little_endian_drep():
     assert dcerpc.get_uuid(rf.uuid_bytes(rf.DEVICE_IF), 0, "big") == rf.DEVICE_IF
 
 
+@given(st.binary(min_size=16, max_size=24), st.integers(0, 8), st.sampled_from(["big", "little"]))
+def test_uuid_text_is_the_uuid_modules(b, off, order):
+    """get_uuid writes the text itself (three in every header): the uuid module's text, both byte orders."""
+    import struct as _s
+    import uuid as _u
+    if off + 16 > len(b):
+        with pytest.raises(_s.error):
+            dcerpc.get_uuid(b, off, order)
+        return
+    a, m, c = _s.unpack_from(">IHH" if order == "big" else "<IHH", b, off)
+    want = str(_u.UUID(int=(a << 96) | (m << 80) | (c << 64) | int.from_bytes(b[off + 8:off + 16], "big")))
+    assert dcerpc.get_uuid(b, off, order) == want == dcerpc.get_uuid(memoryview(b), off, order)
+
+
 @pytest.mark.parametrize("little", [False, True])
 def test_header_both_byte_orders(little):
     pdu = rf.dcerpc(0, 3, b"\x01\x02", seq=0x01020304, little=little, frag_num=7)

@@ -5,7 +5,9 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import os
 import shutil
+import sys
 import struct
 import subprocess
 
@@ -54,7 +56,7 @@ def test_help_lists_every_scenario_and_option(capsys):
     for opt in ("--scenario", "--profile", "--telegram", "--cycle-time", "--cycles", "--duration",
                 "--encoders", "--inject", "--seed", "-o", "--startup", "--records", "--good-before-prmend",
                 "--restart", "--restart-scaling", "--restart-gap", "--capture-loss", "--start-mid-session",
-                "--drift-ppm", "--jitter-us", "--irt", "--io-devices"):
+                "--drift-ppm", "--jitter-us", "--irt", "--io-devices", "--param-polls", "--it-traffic"):
         assert opt in out
     for rule in list(INJECTIONS)[:5]:
         assert rule in out
@@ -83,6 +85,8 @@ def test_help_lists_every_scenario_and_option(capsys):
     ["--io-devices", "1", "--startup", "tidy"],
     ["--good-before-prmend", "--startup", "tidy"],
     ["--drift-ppm", "-1"],
+    ["--param-polls", "5"],
+    ["--it-traffic", "-3"],
 ])
 def test_impossible_combinations_exit_2(tmp_path, capsys, args):
     assert main(["simulate", "-o", str(tmp_path / "x.pcapng"), "--cycles", "50", *args]) == 2
@@ -525,3 +529,29 @@ def test_restart_by_abort(tmp_path):
         and len(tshark(p, "-Y", "pn_io.control_command.release == 1").splitlines()) == 1   # only at the end
     exp = json.loads((tmp_path / "a.expected.json").read_text())
     assert exp["stations"][0]["ars"][0]["ended_by"] == "abort" and exp["clean"]
+
+
+def test_plant_traffic_parameter_polls_and_it_frames(tmp_path):
+    """--param-polls / --it-traffic (sim/plant.py, bench set (d)): every poll is a base-mode read pndiss decodes
+    as a parameter with the truth's value, the IT frames are counted as not PROFINET (none malformed), tshark
+    decodes every frame cleanly, the engine equals the reference path, and a correct plant has no violation."""
+    sys.path.insert(0, os.path.dirname(__file__))
+    from test_fastpath import _same_both_ways
+    p = sim(tmp_path, "plant.pcapng", "--scenario", "motion", "--encoders", "2", "--io-devices", "2",
+            "--cycle-time", "1,2", "--param-polls", "50", "--it-traffic", "2000", "--duration", "1.5")
+    truth = json.loads((tmp_path / "plant.expected.json").read_text())
+    polls = [x for x in truth["params"] if x["pnu"] in (964, 965, 979)]
+    assert len(polls) > 2 * 20   # the start-up reads and about 25 polls per encoder
+    if HAVE_TSHARK:
+        assert tshark(p, "-Y", BAD_FILTER) == ""
+    eng = _same_both_ways(str(p))
+    assert eng.frames_inert > 1000
+    jl = tmp_path / "ev.jsonl"
+    assert main(["analyze", str(p), "-q", "--no-progress", "--jsonl", str(jl), "--events", "param,violation",
+                 "--summary-json", str(tmp_path / "s.json")]) == 0
+    evs = [json.loads(x) for x in jl.read_text().splitlines()]
+    assert not [e for e in evs if e["kind"] == "violation"]
+    params = [e for e in evs if e["kind"] == "param"]
+    assert len(params) == len(truth["params"])
+    acc = json.loads((tmp_path / "s.json").read_text())["accounting"]
+    assert acc["malformed"] == 0 and acc["not_profinet"] == truth["frame_kinds"]["it"]

@@ -44,6 +44,12 @@ def add_parser(sub) -> None:
     p.add_argument("--io-devices", type=int, default=0, metavar="N",
                    help="ordinary IO devices (8 digital inputs / 8 digital outputs) with their own DCP, Connect "
                         "and cyclic frames on the same wire (default 0, max 16)")
+    p.add_argument("--param-polls", type=float, default=0.0, metavar="MS", dest="param_polls_ms",
+                   help="per encoder a PROFIdrive base-mode parameter read (P964, P965, P979 in turn) every MS ms "
+                        "while the shaft turns, as an HMI polls (at least 10; default 0: none)")
+    p.add_argument("--it-traffic", type=float, default=0.0, metavar="FPS", dest="it_fps",
+                   help="IT frames per second on the segment: OPC UA over TCP, SNMP polls, ARP, mDNS, ICMP "
+                        "(default 0: none, at most 100000)")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--cycles", type=int, metavar="N", help="number of IO cycles (default 2000)")
     g.add_argument("--duration", type=float, metavar="S", help="cyclic run in seconds")
@@ -117,6 +123,10 @@ def run(args) -> int:
         raise UsageError(f"--cycle-time: {e}") from None
     if not 0 <= args.io_devices <= 16:
         raise UsageError("--io-devices must be 0..16")
+    if args.param_polls_ms and not 10 <= args.param_polls_ms <= 3_600_000:
+        raise UsageError("--param-polls must be 0 (none) or within 10..3600000 ms")
+    if not 0 <= args.it_fps <= 100_000:
+        raise UsageError("--it-traffic must be within 0..100000 frames/s")
     if args.drift_ppm < 0 or args.drift_ppm > 1000 or args.jitter_us < 0:
         raise UsageError("--drift-ppm must be within 0..1000 and --jitter-us not negative")
     cycles = args.cycles if args.cycles is not None else \
@@ -177,7 +187,8 @@ def run(args) -> int:
                  restart_mode=args.restart_mode,
                  capture_loss=args.capture_loss, start_mid_session=mid,
                  cycle_list=cycle_list if len(cycle_list) > 1 else None, drift_ppm=args.drift_ppm,
-                 jitter_us=args.jitter_us, irt=args.irt, io_devices=args.io_devices)
+                 jitter_us=args.jitter_us, irt=args.irt, io_devices=args.io_devices,
+                 param_polls_ms=args.param_polls_ms, it_fps=args.it_fps)
     try:
         if cycles >= FAST_THRESHOLD and not injects and args.scenario == "startup" and not cfg.good_before_prmend \
                 and cfg.restart is None and cfg.start_mid_session is None \

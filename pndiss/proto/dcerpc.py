@@ -6,8 +6,8 @@ the three UUIDs (first three UUID fields) and, later, the PNIO NDR header.
 """
 from __future__ import annotations
 
+import functools
 import struct
-import uuid
 from datetime import datetime, timezone
 
 from .common import FrameList, Malformed, PendingBuffers
@@ -33,11 +33,18 @@ _FACK = {"big": struct.Struct(">BxHIIHH"), "little": struct.Struct("<BxHIIHH")}
 
 
 def get_uuid(data: bytes, off: int, order: str = "big") -> str:
-    """A UUID at data[off:off+16]: first three fields in ``order``, last eight bytes as-is."""
-    a, b, c = _UUID3[order].unpack_from(data, off)
-    return str(uuid.UUID(int=(a << 96) | (b << 80) | (c << 64) | int.from_bytes(data[off + 8:off + 16], "big")))
+    """A UUID at data[off:off+16]: first three fields in ``order``, last eight bytes as-is (the text
+    uuid.UUID gives, written directly: three of them in every DCE/RPC header)."""
+    u = bytes(data[off:off + 16])
+    if len(u) < 16:
+        raise struct.error(f"unpack requires a buffer of 16 bytes at offset {off}")
+    if order == "little":
+        u = u[3::-1] + u[5:3:-1] + u[7:5:-1] + u[8:]
+    h = u.hex()
+    return f"{h[:8]}-{h[8:12]}-{h[12:16]}-{h[16:20]}-{h[20:]}"
 
 
+@functools.lru_cache(maxsize=64)   # a server's boot time is the same in every datagram it sends
 def boot_time(v: int) -> str:
     """Server boot time as tshark's ek prints an absolute time (UTC, nanoseconds)."""
     return datetime.fromtimestamp(v, timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.000000000Z")

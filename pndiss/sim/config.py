@@ -34,6 +34,8 @@ class Config:
     jitter_us: float = 20.0           # send-time jitter of each cyclic frame, +-us (at most a quarter cycle)
     irt: bool = False                 # isochronous RT_CLASS_3 (frame IDs 0x0100..), no drift or jitter
     io_devices: int = 0               # ordinary IO devices (DI/DO module) on the same wire
+    param_polls_ms: float = 0.0       # per encoder a base-mode parameter read every this many ms (sim/plant.py)
+    it_fps: float = 0.0               # IT frames per second on the segment: OPC UA, SNMP, ARP, mDNS, ICMP
 
 
 def station_clock(cfg: Config, i: int) -> tuple[int, int]:

@@ -278,6 +278,12 @@ class SimSession:
         while self.ms(t_lldp) < self.cyc_ts(cfg.cycles):
             self.lldp_round(t_lldp + 0.2)
             t_lldp += 5000.0
+        if cfg.param_polls_ms or cfg.it_fps:   # a plant's parameter polls and IT network (sim/plant.py)
+            from . import plant
+            if cfg.param_polls_ms:
+                plant.parameter_polls(self, encs, cfg.param_polls_ms)
+            if cfg.it_fps:
+                plant.it_traffic(self, cfg.it_fps)
         # --- Release at the end
         t_end = self.cyc_ts(cfg.cycles) + 2_000_000
         for st in self.all_stations():
