@@ -306,6 +306,9 @@ local function profile_for(mac)
                          f.im0 and "I&M0" or (f.dcp and "DCP") or "no identity seen"}
         if profiles[mac][1] == "generic" and f.ffff then   -- only PS/PSM keeps its parameters at 0xFFFF
             profiles[mac] = {"psm", "record 0xFFFF written in frame " .. f.ffff .. ": PS/PSM's encoder parameter record"}
+        elseif profiles[mac][1] == "generic" and f.words then   -- an inferred layout's words fit one profile only
+            profiles[mac] = {f.words, "the control/status words of its inferred telegram set bits only profile "
+                             .. f.words .. " defines"}
         end
     end
     return profiles[mac][1], profiles[mac][2]
@@ -845,14 +848,16 @@ local function next_ls(v) return (v % 15) + 1 end
 local function counting(vals)
     local n = #vals
     if n < 2 then return 0.0 end
-    local good, moves = 0, 0
+    local good, moves, through_zero = 0, 0, 0
     for i = 1, n - 1 do
         local a, b = vals[i], vals[i + 1]
+        if a == 15 and b == 0 then through_zero = through_zero + 1 end
         if a ~= 0 and b ~= 0 then
             if b ~= a then moves = moves + 1 end
             if b == next_ls(a) or b == a then good = good + 1 end
         end
     end
+    if through_zero >= 2 then return 0.0 end   -- a 4-bit counter through 0 (infer.py _counting)
     if moves >= math.floor((n - 1) / 4) then return good / (n - 1) end
     return 0.0
 end
@@ -878,7 +883,8 @@ local function placements(samples, n, L)
     for o = 0, n - L - 1 do
         local all_good = true
         for _, c in ipairs(samples) do
-            if c:byte(o + L + 1) ~= CI.iops_good then all_good = false break end
+            -- (a data object starts the C_SDU or follows an IOxS byte: infer.py _placements)
+            if c:byte(o + L + 1) ~= CI.iops_good or (o > 0 and c:byte(o) ~= CI.iops_good) then all_good = false break end
         end
         if all_good then out[#out + 1] = o end
     end
@@ -886,16 +892,26 @@ local function placements(samples, n, L)
 end
 
 local function evidence(S, A, pairs_, os_, oa, spo, aco)
+    -- gate: some one profile reserves none of the bits the four words set (infer.py _evidence); which fit
+    local used = {}
     for _, w in ipairs({{"stw2_enc", S, os_, spo}, {"g1_stw", S, os_, spo}, {"zsw2_enc", A, oa, aco},
                         {"g1_zsw", A, oa, aco}}) do
         local sig, samples, base, offs = w[1], w[2], w[3], w[4]
         if offs[sig] ~= nil then
-            local res, size = CI.reserved[sig], CI.sizes[sig]
-            for _, c in ipairs(samples) do
-                if bit.band(word(c, base + offs[sig], size), res) ~= 0 then return nil end
-            end
+            local u = 0
+            for _, c in ipairs(samples) do u = bit.bor(u, word(c, base + offs[sig], CI.sizes[sig])) end
+            used[sig] = u
         end
     end
+    local fits = {}
+    for _, p in ipairs(CI.profiles) do
+        local ok = true
+        for sig, u in pairs(used) do
+            if bit.band(u, CI.reserved_by_profile[p][sig]) ~= 0 then ok = false break end
+        end
+        if ok then fits[#fits + 1] = p end
+    end
+    if #fits == 0 then return nil end
     local cls, dls = {}, {}
     for i, c in ipairs(S) do cls[i] = bit.rshift(word(c, os_ + spo[CI.sol.setpoint], 2), 12) end
     for i, c in ipairs(A) do dls[i] = bit.rshift(word(c, oa + aco[CI.sol.actual], 2), 12) end
@@ -923,10 +939,10 @@ local function evidence(S, A, pairs_, os_, oa, spo, aco)
             if cv ~= nil then cont = math.max(cont or 0.0, cv) end
         end
     end
-    if math.max(sol_s, sol_a) < 0.8 and mirror < 0.9 then return nil end
+    if math.min(sol_s, sol_a) < 0.8 and (mirror < 0.9 or math.max(sol_s, sol_a) < 0.8) then return nil end
     local sum, n = sol_s + sol_a + mirror, 3
     if cont ~= nil then sum, n = sum + cont, 4 end
-    return sum, {sol_s = sol_s, sol_a = sol_a, mirror = mirror, cont = cont, share = sum / n}
+    return sum, {sol_s = sol_s, sol_a = sol_a, mirror = mirror, cont = cont, share = sum / n, profiles = fits}
 end
 
 local function infer_score(out_s, in_s)
@@ -1027,6 +1043,14 @@ local function infer_try(st, fn)
                                    last = math.max(out_s.frames[#out_s.frames], in_s.frames[#in_s.frames])}}
         s.done = true
         s.samples = {}
+    end
+    local fits = best.ev.profiles
+    local generic = false
+    for _, p in ipairs(fits) do if p == "generic" then generic = true end end
+    if #fits == 1 and not generic then   -- session.add_inferred: profile_for takes the words' profile
+        facts[device] = facts[device] or {}
+        facts[device].words = fits[1]
+        if profiles[device] ~= nil and profiles[device][1] == "generic" then profiles[device] = nil end
     end
     map_generation = map_generation + 1
 end

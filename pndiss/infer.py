@@ -7,14 +7,16 @@ controller's output stream and the device's input stream) both have them, every 
 "content_inference") at every offset of both C_SDUs is scored on what the table says a telegram
 looks like:
 
-- the IOPS byte right after the data object is GOOD (0x80) in every sample (gate);
-- no bit outside the bit maps of every profile is set in the control/status words (gate);
+- the IOPS byte right after the data object is GOOD (0x80) in every sample, and so is the byte before it
+  unless it starts the C_SDU (gate: a data object starts there);
+- the control/status words set no bit one profile reserves, for some one profile (gate; the profiles that
+  fit are evidence too: words that fit only PS/PSM make the device PS/PSM, session.profile_for);
 - the sign-of-life nibbles of STW2_ENC / ZSW2_ENC count 1..15 from frame to frame;
 - ZSW2_ENC "control requested" mirrors STW2_ENC "control by PLC", and is set;
 - the position (G1_XIST1 / G1_XIST3) moves continuously.
 
-A layout passes only with positive evidence (a counting sign-of-life, or control requested mirrored
-and set); all-zero IO data proves nothing. The best candidate becomes an AR map of source
+A layout passes only with positive evidence (the sign-of-life counting in both directions, or control
+requested mirrored and set beside one counting side); all-zero IO data proves nothing. The best candidate becomes an AR map of source
 "inferred from content" (the session's ``add_inferred``) with a confidence and the frames it was
 learnt from; streams nothing fits are listed for a ready-to-edit --map template (docs/map.md).
 Frames used for learning are counted, not judged.
@@ -61,6 +63,11 @@ def _reserved(sig: str) -> int:
     return m
 
 
+def _reserved_in(sig: str, profile: str) -> int:
+    """Bits profile ``profile`` gives no meaning to."""
+    return tg.reserved_mask(sig, profile)
+
+
 def candidates() -> list[int]:
     """Telegrams with the sign-of-life words in both directions, standard ones first (table order)."""
     sp_sig, ac_sig = _CI["sign_of_life"]["setpoint"][0], _CI["sign_of_life"]["actual"][0]
@@ -82,14 +89,17 @@ def _counting(vals: list[int]) -> float:
     """Share of consecutive sign-of-life values that step 1..15 (or hold: k > 1 controller cycles)."""
     if len(vals) < 2:
         return 0.0
-    good = moves = 0
+    good = moves = through_zero = 0
     for a, b in zip(vals, vals[1:]):
+        through_zero += a == 15 and b == 0
         if a == 0 or b == 0:
             continue
         if b != a:
             moves += 1
         if b == next_ls(a) or b == a:
             good += 1
+    if through_zero >= 2:
+        return 0.0   # 15 -> 0 -> 1 again and again: a 4-bit counter (an IO module's heartbeat), no sign-of-life
     return good / (len(vals) - 1) if moves >= (len(vals) - 1) // 4 else 0.0
 
 
@@ -115,6 +125,8 @@ def lua_facts() -> dict:
                       "len_setpoint": tg.length(t, "setpoint"), "len_actual": tg.length(t, "actual")})
     return {"samples": SAMPLES, "max_streams": MAX_STREAMS, "retry_max_doublings": RETRY_MAX_DOUBLINGS, "source": SOURCE, "iops_good": IOPS_GOOD,
             "reserved": {w: _reserved(w) for w in words}, "sizes": {w: tg.SIGNALS[w]["size"] for w in words},
+            "profiles": list(tg.PROFILES),
+            "reserved_by_profile": {p: {w: _reserved_in(w, p) for w in words} for p in tg.PROFILES},
             "sol": {d: _bit(d, "sign_of_life")[0] for d in tg.DIRECTIONS},
             "mirror": {d: {"signal": _bit(d, "mirror")[0], "bits": list(_bit(d, "mirror")[1])} for d in tg.DIRECTIONS},
             "positions": [{"name": n, "size": tg.SIGNALS[n]["size"]} for n in _CI["positions"]],
@@ -290,20 +302,31 @@ class Inference:
 
     @staticmethod
     def _placements(samples, n, L, offs):
-        """Offsets where a data object of length L is followed by an IOPS GOOD in every sample."""
+        """Offsets where a data object of length L starts a data object and is followed by an IOPS GOOD in every
+        sample. A data object starts the C_SDU or follows an IOxS byte (wire.md §2.3): the byte before it is GOOD
+        too -- else the 'object' is the tail of a longer one (a PROFIdrive drive's telegram 3 holds STW2 / G1_STW
+        and ZSW2 / G1_ZSW ... in the middle of its data; an independent audit found drives judged as encoders)."""
         for o in range(0, n - L):
-            if all(c[o + L] == IOPS_GOOD for c in samples):
+            if all(c[o + L] == IOPS_GOOD and (o == 0 or c[o - 1] == IOPS_GOOD) for c in samples):
                 yield o
 
     @staticmethod
     def _evidence(t, S, A, pairs, os_, oa, spo, aco, sp_sol, ac_sol, sp_m, sp_m_bits, ac_m, ac_m_bits):
+        # gate: the words set no bit the profile they are judged with reserves -- some one profile for all four
+        # words (a layout whose words need bits of two profiles is no encoder's); which ones fit is evidence of
+        # the profile too (session.profile_for: a PS/PSM encoder found by its control-requested bit 10)
+        used = {}
         for sig, samples, base, offs in (("stw2_enc", S, os_, spo), ("g1_stw", S, os_, spo),
                                          ("zsw2_enc", A, oa, aco), ("g1_zsw", A, oa, aco)):
             if sig in offs:
-                res = _reserved(sig)
                 size = tg.SIGNALS[sig]["size"]
-                if any(_word(c, base + offs[sig], size) & res for c in samples):
-                    return None
+                u = 0
+                for c in samples:
+                    u |= _word(c, base + offs[sig], size)
+                used[sig] = u
+        fits = [p for p in tg.PROFILES if not any(u & _reserved_in(sig, p) for sig, u in used.items())]
+        if not fits:
+            return None
         cls = [_word(c, os_ + spo[sp_sol], 2) >> 12 for c in S]
         dls = [_word(c, oa + aco[ac_sol], 2) >> 12 for c in A]
         sol_s, sol_a = _counting(cls), _counting(dls)
@@ -323,13 +346,17 @@ class Inference:
                 c = _continuous([_word(x, lo, 4) for x in A], 32)
                 if c is not None:
                     cont = max(cont or 0.0, c)
-        if max(sol_s, sol_a) < 0.8 and mirror < 0.9:
-            return None   # no positive evidence: zeros and constants fit anything
+        if min(sol_s, sol_a) < 0.8 and (mirror < 0.9 or max(sol_s, sol_a) < 0.8):
+            # no positive evidence from both sides: zeros and constants fit anything, one counting nibble is no
+            # encoder's (a drive's STW2 / ZSW2 count alike; in an AR's start-up the IOxS bytes beside a data object
+            # with its IOPS still bad make a wrong layout whose other side's words never count), and two steady
+            # bits are no mirror (an IO module's outputs and inputs): a mirror counts beside a counting side
+            return None
         parts = [sol_s, sol_a, mirror] + ([cont] if cont is not None else [])
         return sum(parts), {"sign_of_life_setpoint": round(sol_s, 2), "sign_of_life_actual": round(sol_a, 2),
                             "control_mirrored": round(mirror, 2),
                             "position_continuous": None if cont is None else round(cont, 2),
-                            "share": sum(parts) / len(parts)}
+                            "profiles": fits, "share": sum(parts) / len(parts)}
 
     def summary(self) -> dict:
         lookup = self.a.session.lookup   # a Connect later in the capture may have mapped a stream since

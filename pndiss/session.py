@@ -40,6 +40,7 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
         self.record_rows: list[dict] = []
         self.pending_writes: dict[tuple, list] = {}  # (act, seq) -> record events awaiting results
         self.profiles: dict[str, tuple[str, str]] = lim.table(s.max_stations, "profiles")
+        self.word_profiles: dict = lim.table(s.max_stations, "profiles")   # device -> (profiles, frames): infer.py
         self.im0: dict[str, dict] = lim.table(s.max_stations, "profiles")   # device MAC -> I&M0 decoded
         self.ffff_writes: dict[str, int] = lim.table(s.max_stations, "profiles")  # device MAC -> frame of a 0xFFFF write
         self.telegram_p922: dict[tuple, int] = lim.table(s.max_stations, "profiles")  # (device mac, api, slot, subslot) -> P922
@@ -170,6 +171,12 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
                 frame_id=s["frame_id"], direction=s["direction"], controller_mac=res["controller_mac"],
                 device_mac=res["device_mac"], station=station, data_length=s["c_sdu_len"], objects=[do],
                 source="content", learnt_cycle_ns=cycle)
+        fits = res["evidence"].get("profiles") or []
+        if fits and "generic" not in fits:
+            # the words set bits only these profiles define (infer.py): profile_for takes it over a generic guess
+            self.word_profiles[res["device_mac"]] = (fits, res["learnt_from"])
+            if self.profiles.get(res["device_mac"], ("",))[0] == "generic":
+                del self.profiles[res["device_mac"]]
         self.map_generation += 1   # (lookup's fallback cache follows the generation)
         self.a.emit({"frame": res["frame"], "ts_ns": res["ts_ns"], "kind": "ar", "source": res["source"],
                      "station": station, "device_mac": res["device_mac"], "controller_mac": res["controller_mac"],

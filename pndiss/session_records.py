@@ -253,5 +253,9 @@ class RecordLayer:
             # (records.md §1, network.md §1.11): a device written there is PS/PSM whatever its IDs
             got = ("psm", f"record 0xFFFF written in frame {self.ffff_writes[device_mac]}: PS/PSM's encoder "
                           f"parameter record (002_d69f444daf0f8af2.txt:982-1020); {got[1]}")
+        words = self.word_profiles.get(device_mac)
+        if got[0] == "generic" and words is not None and len(words[0]) == 1:
+            got = (words[0][0], f"the control/status words of its telegram, inferred from frames {words[1][0]}-"
+                                f"{words[1][1]}, set bits only profile {words[0][0]} defines; {got[1]}")
         self.profiles[device_mac] = got
         return got
