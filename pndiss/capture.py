@@ -184,6 +184,19 @@ def open_capture(path: str, batch=None, info: ReadInfo | None = None,
 NEVER = 1 << 62  # frame number at which to offer records to the batch path when there is none
 
 
+def epb_fcs(buf, o: int, end: int, bo: str) -> int:
+    """The FCS length an Enhanced Packet Block's epb_flags option states (bits 5-8, pcapng spec §4.3.1; a TAP
+    writes it per packet), 0 when it has none. ``o``: its first option, ``end``: its trailing length."""
+    while o + 4 <= end:
+        code, olen = struct.unpack_from(bo + "HH", buf, o)
+        if code == 0:
+            break
+        if code == 2 and olen == 4 and o + 8 <= end:
+            return (struct.unpack_from(bo + "I", buf, o + 4)[0] >> 5) & 0xF
+        o += 4 + ((olen + 3) & ~3)
+    return 0
+
+
 def _convert(linktype: int, fcs: int):
     """How a record of this link type becomes what the decoders take: None (as it is), netanalyzer(),
     or an Ethernet frame with its FCS cut off (pcapng if_fcslen, pcap FCS length bits: tshark 4.0 strips
@@ -330,6 +343,7 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
                     r = take(buf, pos, end, n)
                     if r.__class__ is tuple:
                         pos, n = r
+                        last_ts = info.last_ts   # the engine's last frame's time (an SPB / custom block after it)
                         continue
                     retry = n + r
                 btype, blen, ifid, hi, lo, cap, orig = unpack(buf, pos)
@@ -346,6 +360,12 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
                 else:
                     t = ts_of(n, iface, t)
                 last_ts = t
+                if blen > 32 + ((cap + 3) & ~3) and iface[0] == LINKTYPE_ETHERNET:
+                    f = epb_fcs(buf, pos + 28 + ((cap + 3) & ~3), pos + blen - 4, bo)
+                    if f:   # the packet's own FCS length (epb_flags) over the interface's (tshark does the same)
+                        yield n, t, iface[0], buf[pos + 28:pos + 28 + (cap - f if cap > f else cap)]
+                        pos += blen
+                        continue
                 if iface[6] is None:
                     yield n, t, iface[0], buf[pos + 28:pos + 28 + cap]
                 else:
@@ -380,7 +400,12 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
                 info.cut(n, cap, orig)
             last_ts = ts_of(n, ifaces[ifid], (hi << 32) | lo)
             iface, data = ifaces[ifid], b.buf[body + 20:body + 20 + cap]
-            yield (n, last_ts, iface[0], data) if iface[6] is None else (n, last_ts, *iface[6](data))
+            f = epb_fcs(b.buf, body + 20 + ((cap + 3) & ~3), p + blen - 4, bo) \
+                if btype == BT_EPB and iface[0] == LINKTYPE_ETHERNET and blen > 32 + ((cap + 3) & ~3) else 0
+            if f:   # the packet's own FCS length (epb_flags) over the interface's
+                yield n, last_ts, iface[0], data[:-f] if len(data) > f else data
+            else:
+                yield (n, last_ts, iface[0], data) if iface[6] is None else (n, last_ts, *iface[6](data))
         elif btype == BT_SPB:  # Simple Packet Block: interface 0, no timestamp, no options
             if not ifaces:
                 raise bad("simple packet block before any interface description")
@@ -397,7 +422,10 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
             if cap < orig:
                 info.cut(n, cap, orig)
             iface, data = ifaces[0], b.buf[body + 4:body + 4 + cap]
-            yield (n, 0, iface[0], data) if iface[6] is None else (n, 0, *iface[6](data))
+            # an SPB has no time stamp (tshark shows 1970): the time of the frame before it, so no rule sees a
+            # jump of 55 years and back around it (an independent audit: hundreds of false capture gaps)
+            t = last_ts or 0
+            yield (n, t, iface[0], data) if iface[6] is None else (n, t, *iface[6](data))
         elif btype == BT_CB or btype == BT_CB_NOCOPY or btype == BT_JOURNAL:
             # tshark 4.0 shows custom blocks (any PEN) and systemd journal entries as frames of their
             # own; without counting them every later frame number would be one off Wireshark's

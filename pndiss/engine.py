@@ -105,8 +105,11 @@ class Engine:
             ifid = ix.ifid[:m]
             ts = raw[:m].astype(np.int64) * mult[ifid] + off[ifid]
             cap, orig = ix.cap[:m], ix.orig[:m]
-            if cut_fcs:   # an FCS interface (a TAP's port beside plain NICs): the frame without its FCS, as read
-                f = fcs[ifid]
+            pf = ix.fcs[:m] if ix.fcs is not None else None
+            if cut_fcs or (pf is not None and pf.any()):
+                # an FCS interface (a TAP's port beside plain NICs), or a packet's own FCS length (epb_flags, over the
+                # interface's): the frame without its FCS, as read (capture.epb_fcs)
+                f = fcs[ifid] if pf is None else np.where(pf > 0, pf, fcs[ifid])
                 f = np.where(cap > f, f, 0)
                 cap, orig = cap - f, orig - f
             return self._window(buf, n, ix.data[:m], cap, ts, ix.end if m == len(ix) else int(ix.block[m]), orig)

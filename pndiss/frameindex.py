@@ -28,9 +28,9 @@ MIN_EPB = 32
 class Index:
     """Records of a window: parallel arrays, one entry per frame, in file order."""
 
-    __slots__ = ("block", "data", "cap", "ifid", "raw_ts", "end", "orig")
+    __slots__ = ("block", "data", "cap", "ifid", "raw_ts", "end", "orig", "fcs")
 
-    def __init__(self, block, data, cap, ifid, raw_ts, end: int, orig=None):
+    def __init__(self, block, data, cap, ifid, raw_ts, end: int, orig=None, fcs=None):
         self.block = block      # int64 offset of the record in the buffer
         self.data = data        # int64 offset of its packet data
         self.cap = cap          # int64 captured length
@@ -38,6 +38,7 @@ class Index:
         self.raw_ts = raw_ts    # uint64 raw time stamp: pcapng (hi << 32 | lo) units, pcap (sec, frac) packed
         self.end = end          # buffer offset after the last indexed record
         self.orig = cap if orig is None else orig   # int64 length on the wire (> cap: the capture cut it)
+        self.fcs = fcs          # int64 FCS length its epb_flags option states (0: none), or None: no options
 
     def __len__(self) -> int:
         return len(self.block)
@@ -70,11 +71,31 @@ def pcapng(buf, pos: int, end: int, bo: str, nif: int) -> Index:
     c = _chain(c, c + nwb)
     if not len(c):
         return _empty(pos)
+    fcs = None
+    nwb = (W[c + 1] >> 2).astype(np.int64)
+    opt = c + 7 + ((W[c + 5].astype(np.int64) + 3) >> 2)      # word of the first option
+    if (opt < c + nwb - 1).any():
+        # options (a TAP's epb_flags with the packet's FCS length, pcapng spec §4.3.1): the first three looked at;
+        # a block whose options say nothing within those ends the index (the reader reads it option by option)
+        fcs, todo = np.zeros(len(c), dtype=np.int64), opt < c + nwb - 1
+        for _ in range(3):
+            w = W[np.where(todo, opt, 0)].astype(np.int64)
+            code, olen = (w & 0xFFFF, w >> 16) if bo == "<" else (w >> 16, w & 0xFFFF)
+            hit = todo & (code == 2) & (olen == 4) & (opt + 1 < c + nwb - 1)
+            fcs = np.where(hit, (W[np.where(hit, opt + 1, 0)].astype(np.int64) >> 5) & 0xF, fcs)
+            todo &= ~hit & (code != 0)
+            opt = opt + 1 + ((olen + 3) >> 2)
+            todo &= opt < c + nwb - 1
+        if todo.any():
+            k = int(np.argmax(todo))
+            if k == 0:
+                return _empty(pos)
+            c, fcs = c[:k], fcs[:k]
     last = int(c[-1])
     stop = pos + ((last + int(W[last + 1] >> 2)) << 2)
     raw = (W[c + 3].astype(np.uint64) << np.uint64(32)) | W[c + 4].astype(np.uint64)
     return Index(pos + (c << 2), pos + (c << 2) + 28, W[c + 5].astype(np.int64), W[c + 2].astype(np.int64), raw, stop,
-                 W[c + 6].astype(np.int64))
+                 W[c + 6].astype(np.int64), fcs)
 
 
 def _chain(c, nxt):

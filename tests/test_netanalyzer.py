@@ -94,6 +94,14 @@ def _write_fcs(path: str, frames, kind: str) -> None:
             f.write(_blk(1, struct.pack("<HHI", 1, 0, 0) + opts))   # if_tsresol 9, if_fcslen 4
             for ts, w in fcs:
                 f.write(_blk(6, struct.pack("<IIIII", 0, ts >> 32, ts & 0xFFFFFFFF, len(w), len(w)) + w))
+        elif kind == "pcapng-epb-flags":   # a TAP's way: no if_fcslen, the FCS length in each packet's epb_flags
+            f.write(_blk(0x0A0D0D0A, struct.pack("<IHHq", 0x1A2B3C4D, 1, 0, -1)))
+            f.write(_blk(1, struct.pack("<HHI", 1, 0, 0) + struct.pack("<HHB3x", 9, 1, 9) + struct.pack("<HH", 0, 0)))
+            for k, (ts, w) in enumerate(fcs):
+                flags = struct.pack("<HHI", 2, 4, (4 << 5) | (1 + k % 2))   # FCS length 4, inbound / outbound
+                drops = struct.pack("<HHQ", 4, 8, 0) if k % 3 == 0 else b""   # epb_dropcount first in some
+                body = struct.pack("<IIIII", 0, ts >> 32, ts & 0xFFFFFFFF, len(w), len(w)) + w + b"\0" * (-len(w) % 4)
+                f.write(_blk(6, body + drops + flags + struct.pack("<HH", 0, 0)))
         else:   # link type 1 with the FCS-present bit and 2 x 16 bits of FCS (bits 26, 28-31)
             f.write(struct.pack("<IHHiIII", 0xA1B23C4D, 2, 4, 0, 0, 65535, 1 | 0x04000000 | (2 << 28)))
             for ts, w in fcs:
@@ -106,16 +114,20 @@ def fcs_caps(caps, tmp_path_factory):
     tmp = str(tmp_path_factory.mktemp("fcs"))
     frames = [(ts, bytes(d)) for _fn, ts, _lt, d in open_capture(src)]
     out = {}
-    for kind in ("pcapng", "pcap"):
-        out[kind] = os.path.join(tmp, "fcs." + kind)
+    for kind in ("pcapng", "pcap", "pcapng-epb-flags"):
+        out[kind] = os.path.join(tmp, "fcs." + kind.split("-")[0])
+        if kind != "pcapng" and kind.startswith("pcapng"):
+            out[kind] = os.path.join(tmp, "fcs-flags.pcapng")
         _write_fcs(out[kind], frames, kind)
     return src, out
 
 
-@pytest.mark.parametrize("kind", ("pcapng", "pcap"))
+@pytest.mark.parametrize("kind", ("pcapng", "pcap", "pcapng-epb-flags"))
 def test_fcs_is_cut_like_tshark(fcs_caps, kind):
     """Without cutting the FCS the APDU status (DataStatus, IOPS) was read from it: cycles not judged,
-    the fault unseen, and with no word of it."""
+    the fault unseen, and with no word of it. The FCS length comes from the interface (if_fcslen, pcap's
+    FCS bits) or, as a TAP writes it, from each packet's epb_flags (an independent audit: ignored, every
+    encoder cycle unjudged, a real fault missed)."""
     src, out = fcs_caps
     s0, want = _run(src, False)
     for fast in (False, True):
