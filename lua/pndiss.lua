@@ -892,6 +892,28 @@ local function placements(samples, n, L)
 end
 
 local function evidence(S, A, pairs_, os_, oa, spo, aco)
+    -- infer.py _hold: frames each controller sign-of-life value is held (k), when 80 % of the inner runs agree
+    local function hold_of(vals)
+        local runs, cur, n = {}, nil, 0
+        for _, v in ipairs(vals) do
+            if v == cur then n = n + 1 else
+                if cur ~= nil then runs[#runs + 1] = {cur, n} end
+                cur, n = v, 1
+            end
+        end
+        local inner, count = {}, {}
+        for i = 2, #runs do
+            if runs[i][1] ~= 0 then
+                inner[#inner + 1] = runs[i][2]
+                count[runs[i][2]] = (count[runs[i][2]] or 0) + 1
+            end
+        end
+        if #inner < 3 then return 1 end
+        for r = 2, 14 do
+            if (count[r] or 0) >= 0.8 * #inner then return r end
+        end
+        return 1
+    end
     -- gate: some one profile reserves none of the bits the four words set (infer.py _evidence); which fit
     local used = {}
     for _, w in ipairs({{"stw2_enc", S, os_, spo}, {"g1_stw", S, os_, spo}, {"zsw2_enc", A, oa, aco},
@@ -942,7 +964,8 @@ local function evidence(S, A, pairs_, os_, oa, spo, aco)
     if math.min(sol_s, sol_a) < 0.8 and (mirror < 0.9 or math.max(sol_s, sol_a) < 0.8) then return nil end
     local sum, n = sol_s + sol_a + mirror, 3
     if cont ~= nil then sum, n = sum + cont, 4 end
-    return sum, {sol_s = sol_s, sol_a = sol_a, mirror = mirror, cont = cont, share = sum / n, profiles = fits}
+    return sum, {sol_s = sol_s, sol_a = sol_a, mirror = mirror, cont = cont, share = sum / n, profiles = fits,
+                 hold = hold_of(cls)}
 end
 
 local function infer_score(out_s, in_s)
@@ -1037,6 +1060,7 @@ local function infer_try(st, fn)
         local s = x[1]
         maps[s.key] = {direction = x[2], device = device, controller = controller, frame_id = s.fid, source = "content",
                        station = station, learnt_cycle_ns = cycle,
+                       learnt_k = best.ev.hold > 1 and best.ev.hold or nil,
                        objects = {{api = 0, slot = 0, subslot = 0, offset = x[3], length = x[4], telegram = best.t,
                                    telegram_source = CI.source}},
                        inferred = {confidence = best.confidence, first = math.min(out_s.frames[1], in_s.frames[1]),
@@ -1843,6 +1867,11 @@ local function new_axis(o, fr, fn)
     local cfg = C.config_from_settings(settings, {profile = ax.profile, telegram = o.telegram, cycle_ns = cycle,
                                                   cycle_source = cycle_source, iso = iso, profile_reason = ax.reason,
                                                   telegram_source = o.source})
+    if fm.learnt_k and cfg.k == 1 then   -- cyclic_axes._axis: k held in the inference samples (as record 0x8030)
+        cfg.k = fm.learnt_k
+        cfg.sources.k = "the controller holds each sign-of-life value " .. fm.learnt_k
+            .. " cycles in the frames the telegram was inferred from"
+    end
     ax.checker = C.new(cfg, info)
     ax.checker.io_len[fr.dir] = d.length
     refine_profile(ax, fn)

@@ -69,6 +69,8 @@ class FrameMap:
     primary_only: bool = False
     # no Connect (a map found from the content): the stream's cycle from its cycle counter step, when confirmed
     learnt_cycle_ns: int | None = None
+    # ... and k, the cycles the controller holds each sign-of-life value (infer.py _hold), when more than 1
+    learnt_k: tuple[int, str] | None = None
 
     @property
     def cycle_time_ns(self) -> int | None:

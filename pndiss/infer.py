@@ -103,6 +103,28 @@ def _counting(vals: list[int]) -> float:
     return good / (len(vals) - 1) if moves >= (len(vals) - 1) // 4 else 0.0
 
 
+def _hold(vals: list[int]) -> int:
+    """k: how many consecutive frames the controller holds each sign-of-life value (a controller application cycle
+    of k bus cycles, behaviour.md §0.1, R-CLS-4 001_9461bb7bc8c2767b.txt:1671, 1677) -- the run length of at least
+    80 % of the runs between the first and the last, 2..14; else 1. Without it a mid-session capture (the 0x8030
+    record that says k is written at start-up) blamed the controller for every hold (an independent audit)."""
+    runs, cur, n = [], None, 0
+    for v in vals:
+        if v == cur:
+            n += 1
+        else:
+            if cur is not None:
+                runs.append((cur, n))
+            cur, n = v, 1
+    inner = [m for v, m in runs[1:] if v != 0]   # (the last run is still open: not in runs)
+    if len(inner) < 3:
+        return 1
+    for r in sorted(set(inner)):
+        if 2 <= r <= 14 and inner.count(r) >= 0.8 * len(inner):
+            return r
+    return 1
+
+
 def _continuous(vals: list[int], bits: int) -> float | None:
     """Share of small steps; None when the value never changes (a standstill proves nothing)."""
     m = 1 << bits
@@ -356,7 +378,7 @@ class Inference:
         return sum(parts), {"sign_of_life_setpoint": round(sol_s, 2), "sign_of_life_actual": round(sol_a, 2),
                             "control_mirrored": round(mirror, 2),
                             "position_continuous": None if cont is None else round(cont, 2),
-                            "profiles": fits, "share": sum(parts) / len(parts)}
+                            "profiles": fits, "sign_of_life_hold": _hold(cls), "share": sum(parts) / len(parts)}
 
     def summary(self) -> dict:
         lookup = self.a.session.lookup   # a Connect later in the capture may have mapped a stream since

@@ -164,13 +164,16 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
         period = self.a.cyclic.gaps.confirmed_period_ns
         keys = {s["direction"]: (s["frame_id"], s["src"], s["dst"]) for s in res["streams"]}
         cycle = period(keys["input"]) or period(keys["output"])
+        hold = res["evidence"].get("sign_of_life_hold", 1)
+        learnt_k = (hold, f"the controller holds each sign-of-life value {hold} cycles in the frames the telegram "
+                          f"was inferred from ({res['learnt_from'][0]}-{res['learnt_from'][1]})") if hold > 1 else None
         for s in res["streams"]:
             do = armap.DataObject(api=0, slot=0, subslot=0, offset=s["offset"], length=s["length"],
                                   telegram=res["telegram"], telegram_source=res["source"])
             self.maps[(s["frame_id"], s["src"], s["dst"])] = armap.FrameMap(
                 frame_id=s["frame_id"], direction=s["direction"], controller_mac=res["controller_mac"],
                 device_mac=res["device_mac"], station=station, data_length=s["c_sdu_len"], objects=[do],
-                source="content", learnt_cycle_ns=cycle)
+                source="content", learnt_cycle_ns=cycle, learnt_k=learnt_k)
         fits = res["evidence"].get("profiles") or []
         if fits and "generic" not in fits:
             # the words set bits only these profiles define (infer.py): profile_for takes it over a generic guess

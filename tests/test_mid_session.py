@@ -328,3 +328,17 @@ def test_one_sided_or_zero_wrapping_counters_are_no_sign_of_life():
     out = lambda i: _w(hb(i) | 1) + _w(0) + b"\x80" + bytes(35)
     inn = lambda i: _w(hb(i + 1) | 2) + _w(0) + _w(1000 + 3 * i, 4) + _w(0, 4) + b"\x80" + b"\x80" + bytes(26)
     assert _infer_pair(out, inn) is None
+
+
+@pytest.mark.parametrize("k", [1, 2, 3])
+def test_controller_sign_of_life_hold_learnt_from_the_samples(k):
+    """A controller whose application cycle is k bus cycles holds each C-LS value k cycles (R-CLS-4); the record
+    that says so (0x8030) is written at start-up, so a mid-session capture learns k from the samples (an
+    independent audit: k = 2 gave 476 false SOL-MASTER-STALL against a correct controller)."""
+    out = lambda i: _w(1 << 10 | _ls(i, k) << 12) + _w(0) + b"\x80" + b"\x80" * 4 + bytes(31)
+    inn = lambda i: b"\x80" * 4 + _w(1 << 9 | _ls(i + 3) << 12) + _w(0) + _w(1000 + 8 * i, 4) + _w(0, 4) \
+        + b"\x80" + b"\x80" + bytes(22)
+    r = _infer_pair(out, inn)
+    assert r is not None and r["evidence"]["sign_of_life_hold"] == k
+    assert infer._hold([3, 3, 4, 4, 5, 5, 6, 7, 7, 8, 8, 9, 9]) == 2   # one frame lost: still k = 2
+    assert infer._hold([0] * 20) == 1 and infer._hold([1, 2, 3, 4, 5]) == 1
