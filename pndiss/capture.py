@@ -184,17 +184,21 @@ def open_capture(path: str, batch=None, info: ReadInfo | None = None,
 NEVER = 1 << 62  # frame number at which to offer records to the batch path when there is none
 
 
-def epb_fcs(buf, o: int, end: int, bo: str) -> int:
-    """The FCS length an Enhanced Packet Block's epb_flags option states (bits 5-8, pcapng spec §4.3.1; a TAP
-    writes it per packet), 0 when it has none. ``o``: its first option, ``end``: its trailing length."""
+def epb_options(buf, o: int, end: int, bo: str) -> tuple[int, int]:
+    """(FCS length, packets dropped) an Enhanced Packet Block's options state: epb_flags bits 5-8 (a TAP writes the
+    FCS length per packet) and epb_dropcount (packets the interface and the OS lost between this packet and the one
+    before it; pcapng spec §4.3.1). ``o``: its first option, ``end``: its trailing length."""
+    fcs = drops = 0
     while o + 4 <= end:
         code, olen = struct.unpack_from(bo + "HH", buf, o)
         if code == 0:
             break
         if code == 2 and olen == 4 and o + 8 <= end:
-            return (struct.unpack_from(bo + "I", buf, o + 4)[0] >> 5) & 0xF
+            fcs = (struct.unpack_from(bo + "I", buf, o + 4)[0] >> 5) & 0xF
+        elif code == 4 and olen == 8 and o + 12 <= end:
+            drops = struct.unpack_from(bo + "Q", buf, o + 4)[0]
         o += 4 + ((olen + 3) & ~3)
-    return 0
+    return fcs, drops
 
 
 def _convert(linktype: int, fcs: int):
@@ -302,6 +306,7 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
     ifaces: list[tuple] = []
     info = b.info
     last_ts = 0
+    sections = 0
 
     def bad(what: str) -> CaptureError:
         return CaptureError(f"{path}: corrupt pcapng block after frame {n}: {what} (tshark refuses it too)", n)
@@ -325,6 +330,7 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
             else:
                 raise CaptureError(f"{path}: corrupt pcapng section header after frame {n}", n)
             ifaces = []
+            sections += 1
         blen = struct.unpack_from(bo + "I", b.buf, b.pos + 4)[0]
         if blen < 12 or blen % 4 or blen > MAX_RECORD:
             raise CaptureError(f"{path}: corrupt pcapng block (length {blen}) after frame {n}", n)
@@ -360,9 +366,12 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
                 else:
                     t = ts_of(n, iface, t)
                 last_ts = t
-                if blen > 32 + ((cap + 3) & ~3) and iface[0] == LINKTYPE_ETHERNET:
-                    f = epb_fcs(buf, pos + 28 + ((cap + 3) & ~3), pos + blen - 4, bo)
-                    if f:   # the packet's own FCS length (epb_flags) over the interface's (tshark does the same)
+                if blen > 32 + ((cap + 3) & ~3):
+                    f, drops = epb_options(buf, pos + 28 + ((cap + 3) & ~3), pos + blen - 4, bo)
+                    if drops:
+                        info.tool_dropped(n, drops, t)
+                    if f and iface[0] == LINKTYPE_ETHERNET:
+                        # the packet's own FCS length (epb_flags) over the interface's (tshark does the same)
                         yield n, t, iface[0], buf[pos + 28:pos + 28 + (cap - f if cap > f else cap)]
                         pos += blen
                         continue
@@ -387,6 +396,7 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
         if btype == BT_EPB or btype == BT_PB:
             if btype == BT_EPB:
                 ifid, hi, lo, cap, orig = struct.unpack_from(bo + "IIIII", b.buf, body)
+                _drops = 0
             else:
                 ifid, _drops, hi, lo, cap, orig = struct.unpack_from(bo + "HHIIII", b.buf, body)
             if ifid >= len(ifaces):
@@ -400,9 +410,13 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
                 info.cut(n, cap, orig)
             last_ts = ts_of(n, ifaces[ifid], (hi << 32) | lo)
             iface, data = ifaces[ifid], b.buf[body + 20:body + 20 + cap]
-            f = epb_fcs(b.buf, body + 20 + ((cap + 3) & ~3), p + blen - 4, bo) \
-                if btype == BT_EPB and iface[0] == LINKTYPE_ETHERNET and blen > 32 + ((cap + 3) & ~3) else 0
-            if f:   # the packet's own FCS length (epb_flags) over the interface's
+            f, drops = epb_options(b.buf, body + 20 + ((cap + 3) & ~3), p + blen - 4, bo) \
+                if btype == BT_EPB and blen > 32 + ((cap + 3) & ~3) else (0, 0)
+            if btype == BT_PB and 0 < _drops < 0xFFFF:   # the obsolete Packet Block's drops_count (0xFFFF: unknown)
+                drops = _drops
+            if drops:
+                info.tool_dropped(n, drops, last_ts)
+            if f and iface[0] == LINKTYPE_ETHERNET:   # the packet's own FCS length (epb_flags) over the interface's
                 yield n, last_ts, iface[0], data[:-f] if len(data) > f else data
             else:
                 yield (n, last_ts, iface[0], data) if iface[6] is None else (n, last_ts, *iface[6](data))
@@ -432,6 +446,18 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
             n += 1
             start = body + 4 if btype != BT_JOURNAL else body
             yield n, last_ts, LINKTYPE_NONE, b.buf[start:p + blen - 4]
+        elif btype == BT_ISB:  # Interface Statistics Block: the tool's own counts of what it lost (cumulative)
+            ifid = struct.unpack_from(bo + "I", b.buf, body)[0]
+            o, end = body + 12, p + blen - 4
+            lost = 0
+            while o + 4 <= end:
+                code, olen = struct.unpack_from(bo + "HH", b.buf, o)
+                if code == 0:
+                    break
+                if code in (5, 7) and olen == 8 and o + 12 <= end:   # isb_ifdrop, isb_osdrop
+                    lost += struct.unpack_from(bo + "Q", b.buf, o + 4)[0]
+                o += 4 + ((olen + 3) & ~3)
+            info.interface_dropped((path, sections, ifid), lost)
         elif btype == BT_IDB:  # Interface Description Block
             lt, _res, snap = struct.unpack_from(bo + "HHI", b.buf, body)
             resol, tsoff, fcs = 6, 0, 0

@@ -78,16 +78,22 @@ def pcapng(buf, pos: int, end: int, bo: str, nif: int) -> Index:
         # options (a TAP's epb_flags with the packet's FCS length, pcapng spec §4.3.1): the first three looked at;
         # a block whose options say nothing within those ends the index (the reader reads it option by option)
         fcs, todo = np.zeros(len(c), dtype=np.int64), opt < c + nwb - 1
+        careful = np.zeros(len(c), dtype=bool)
         for _ in range(3):
             w = W[np.where(todo, opt, 0)].astype(np.int64)
             code, olen = (w & 0xFFFF, w >> 16) if bo == "<" else (w >> 16, w & 0xFFFF)
             hit = todo & (code == 2) & (olen == 4) & (opt + 1 < c + nwb - 1)
             fcs = np.where(hit, (W[np.where(hit, opt + 1, 0)].astype(np.int64) >> 5) & 0xF, fcs)
-            todo &= ~hit & (code != 0)
+            # an epb_dropcount the tool filled in: the reader takes that packet (capture.epb_options counts it)
+            drop = todo & (code == 4) & (olen == 8) & (opt + 2 < c + nwb - 1)
+            drop &= (W[np.where(drop, opt + 1, 0)] | W[np.where(drop, opt + 2, 0)]) != 0
+            careful |= drop
+            todo &= ~drop & (code != 0)
             opt = opt + 1 + ((olen + 3) >> 2)
             todo &= opt < c + nwb - 1
-        if todo.any():
-            k = int(np.argmax(todo))
+        careful |= todo
+        if careful.any():
+            k = int(np.argmax(careful))
             if k == 0:
                 return _empty(pos)
             c, fcs = c[:k], fcs[:k]

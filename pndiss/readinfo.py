@@ -15,7 +15,8 @@ class ReadInfo:
     [0, TS_MAX] ns)."""
 
     __slots__ = ("_h", "_known", "complete", "ts_clamped", "ts_clamped_first", "last_ts", "ts_back", "ts_back_max",
-                 "ts_back_first", "cut_n", "cut_first", "cut_to", "_cut_at", "damaged")
+                 "ts_back_first", "cut_n", "cut_first", "cut_to", "_cut_at", "damaged", "tool_drops", "tool_drops_first",
+                 "last_drop_ts", "_isb")
 
     def __init__(self, known_sha256: str | None = None, digest: bool = True):
         # a digest the caller took already (pndiss fleet hashes every input to plan): not taken twice
@@ -38,6 +39,12 @@ class ReadInfo:
         self._cut_at: dict = {}   # frame -> (captured, on the wire), the latest ones (malformed reasons)
         # files whose read ended early (pndiss/driver.py): cut short in the middle of a packet, or corrupt
         self.damaged: list[dict] = []
+        # what the capture tool says it lost: per packet (pcapng epb_dropcount, a Packet Block's drops_count) and
+        # per interface (Interface Statistics Blocks: isb_ifdrop + isb_osdrop, cumulative: the last one counts)
+        self.tool_drops = 0
+        self.tool_drops_first = None
+        self.last_drop_ts = None   # time of the packet after the latest reported loss (parameter pairing forgets)
+        self._isb: dict = {}
 
     def sha256(self) -> str | None:
         """The digest of the whole input, '' when it was not read to its end, None when nobody asked for it."""
@@ -63,6 +70,17 @@ class ReadInfo:
         if ts < self.last_ts:
             self.backwards(fn, 1, self.last_ts - ts)
         self.last_ts = ts
+
+    def tool_dropped(self, fn: int, n: int, ts: int) -> None:
+        """The capture tool lost ``n`` packets between frame ``fn`` and the one before it (it says so)."""
+        self.tool_drops += n
+        if self.tool_drops_first is None:
+            self.tool_drops_first = fn
+        self.last_drop_ts = ts
+
+    def interface_dropped(self, key, n: int) -> None:
+        """An Interface Statistics Block: ``n`` packets the interface and the OS dropped so far."""
+        self._isb[key] = max(self._isb.get(key, 0), n)
 
     def backwards(self, fn: int, n: int, most: int) -> None:
         """``n`` frames from frame ``fn`` on went back in time, by at most ``most`` ns."""
@@ -97,4 +115,5 @@ class ReadInfo:
                 "timestamps_backwards": self.ts_back, "timestamps_backwards_max_ns": self.ts_back_max,
                 "timestamps_backwards_first_frame": self.ts_back_first,
                 "frames_cut": self.cut_n, "frames_cut_first_frame": self.cut_first, "frames_cut_to_bytes": self.cut_to,
-                "damaged": list(self.damaged)}
+                "damaged": list(self.damaged), "tool_dropped": self.tool_drops,
+                "tool_dropped_first_frame": self.tool_drops_first, "interface_dropped": sum(self._isb.values())}

@@ -168,6 +168,17 @@ def trust(summary: dict) -> list[str]:
                    f"bytes at most; first at frame {inp['frames_cut_first_frame']}): what was cut off is not decoded, and "
                    "a layer that runs past the kept bytes counts as malformed -- capture with a larger snap length "
                    "(dumpcap -s 0)")
+    if inp.get("tool_dropped") or inp.get("interface_dropped"):
+        said = []
+        if inp.get("tool_dropped"):
+            said.append(f"{inp['tool_dropped']:,} packet(s) in the packets' drop counts (first before frame "
+                        f"{inp['tool_dropped_first_frame']})")
+        if inp.get("interface_dropped"):
+            said.append(f"{inp['interface_dropped']:,} in its interface statistics")
+        out.append("the capture tool reports packets it dropped: " + " and ".join(said) + " -- frames never "
+                   "written; a cyclic stream's loss shows in its cycle counter, and a parameter request pending across "
+                   "a reported loss is not judged (its response may be among the lost); capture on a less loaded "
+                   "machine, a TAP or a larger buffer (dumpcap -B)")
     if (inp.get("timestamps_backwards_max_ns") or 0) >= BACKWARDS_NS:
         out.append(f"frames out of time order: time goes back {inp['timestamps_backwards']:,} time(s), by up to "
                    f"{inp['timestamps_backwards_max_ns'] / 1e6:,.3f} ms (first at frame "

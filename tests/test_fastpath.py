@@ -606,3 +606,29 @@ def test_simple_packet_blocks_take_the_time_before_them(sessions, tmp_path):
             return d.get("timestamps_backwards") or next((b for v in d.values() for b in [backwards(v)] if b), 0)
         return 0
     assert backwards(runs[True]) == backwards(runs[False]) == 0
+
+
+def test_drop_count_inside_an_engine_window(sessions, tmp_path):
+    """An EPB whose epb_dropcount says the tool lost packets before it, among thousands the engine indexes: the frame
+    index leaves it to the reader, which counts it -- the same summary both ways."""
+    def blk(t, body):
+        body += bytes(-len(body) % 4)
+        return struct.pack("<II", t, 12 + len(body)) + body + struct.pack("<I", 12 + len(body))
+    out = [blk(0x0A0D0D0A, struct.pack("<IHHq", 0x1A2B3C4D, 1, 0, -1)),
+           blk(1, struct.pack("<HHI", 1, 0, 0) + struct.pack("<HHB3x", 9, 1, 9) + struct.pack("<HH", 0, 0))]
+    frames = list(sessions["plant"])[:20000]
+    at = (len(frames) // 3, 2 * len(frames) // 3)
+    for k, (_fn, ts, _lt, d) in enumerate(frames):
+        d = bytes(d)
+        opts = b""
+        if k in at:   # epb_flags (inbound) first, then epb_dropcount
+            opts = struct.pack("<HHI", 2, 4, 1) + struct.pack("<HHQ", 4, 8, 7) + struct.pack("<HH", 0, 0)
+        out.append(blk(6, struct.pack("<IIIII", 0, ts >> 32, ts & 0xFFFFFFFF, len(d), len(d)) + d + bytes(-len(d) % 4)
+                       + opts))
+    path = str(tmp_path / "drops.pcapng")
+    with open(path, "wb") as f:
+        f.write(b"".join(out))
+    eng = _same_both_ways(path)
+    assert eng.frames_bulk > 10 * eng.frames_single
+    s = _run_file(path, True)[0]
+    assert s["input"]["tool_dropped"] == 14 and s["input"]["tool_dropped_first_frame"] == at[0] + 1
