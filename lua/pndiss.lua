@@ -399,8 +399,15 @@ local function gap_advance(key, cc, ts, last, fn)
             and (st.known or st.seen >= GAP_LEARN) then
         -- the counter may have wrapped during the gap: the time stamps tell the cycles (pndiss/gaps.py)
         local period = st.step * GAP_UNIT_NS
-        local k = math.floor((ts - pts + math.floor(period / 2)) / period) - 1
-        if k > 0 then
+        local k0 = math.floor((ts - pts + math.floor(period / 2)) / period) - 1
+        local k = nil   -- gaps.with_counter: the nearest count the counter's advance agrees with, else a clock step
+        for delta = 0, math.max(2, math.floor(k0 / 5000)) do
+            for _, kk in ipairs({k0 - delta, k0 + delta}) do
+                if k == nil and kk >= 0 and ((kk + 1) * st.step - d) % 0x10000 == 0 then k = kk end
+            end
+            if k ~= nil then break end
+        end
+        if k ~= nil and k > 0 then
             for mac in key:gmatch("|([^|]*)") do   -- gaps.GapTracker._lost_at: per MAC of the stream
                 if gap_last_ts[mac] == nil or ts > gap_last_ts[mac] then gap_last_ts[mac] = ts end
             end

@@ -48,6 +48,19 @@ class Stream:
         self.missing = 0
 
 
+def with_counter(k: int, d: int, step: int) -> int | None:
+    """The cycles lost in a pause the time stamps say is ``k`` cycles, made to agree with the counter's advance ``d``
+    (k + 1 steps are d modulo a wrap): the nearest such count within 200 ppm (two clocks' drift) or 2 cycles (jitter)
+    of k, else None -- the counter contradicts the time stamps (the capture's clock stepped). Past some minutes of
+    pause the drift window holds a whole wrap and a step cannot be told from a loss: counted as a loss."""
+    tol = max(2, k // 5000)
+    for delta in range(tol + 1):
+        for kk in (k - delta, k + delta):
+            if kk >= 0 and ((kk + 1) * step - d) % WRAP == 0:
+                return kk
+    return None
+
+
 class GapTracker:
     """Per cyclic stream: the counter of its last captured frame; says how many cycles a new frame skipped."""
 
@@ -67,6 +80,10 @@ class GapTracker:
         # the request; every other stream may be ahead or behind)
         self.last_by_mac: dict = {}
         self.first_stale = None       # (frame, the frame it is not newer than)
+        # pauses of half a counter wrap or more that the counter contradicts (it went on by what no whole number of
+        # wraps fits): the capture's clock stepped (NTP on the capture PC), no frame was lost there
+        self.clock_steps = 0
+        self.clock_step_first = None  # (frame, the stream's frame before it, ns the time jumped)
 
     def step_from(self, key, step: int | None) -> None:
         """The stream's cycle step from its IOCR (SendClockFactor x ReductionRatio), when the Connect says it."""
@@ -129,8 +146,14 @@ class GapTracker:
             # also for an advance of exactly one step (a loss of k x 2.048 s): no provider pauses a second
             # without its consumer's watchdog ending the AR (the engine asks the same, pndiss/streamcols.py)
             period = st.step * UNIT_NS
-            k = (ts - pts + period // 2) // period - 1
-            if k > 0:
+            k = with_counter((ts - pts + period // 2) // period - 1, d, st.step)
+            if k is None:
+                # the time stamps jumped by what the counter's advance contradicts: the capture's clock stepped;
+                # the counter says what was lost (usually nothing) -- not "seen in the cycle counter" cycles
+                self.clock_steps += 1
+                if self.clock_step_first is None or fn < self.clock_step_first[0]:
+                    self.clock_step_first = (fn, self.prev, ts - pts)
+            elif k > 0:
                 self._lost_at(key, ts)
                 return self._count(st, k)
         if d == 0:
@@ -227,4 +250,6 @@ class GapTracker:
         return {"count": self.count, "cycles_missing": self.missing, "streams": streams,
                 "checked": self.enabled, "gaps": self.kept(), "duplicates": self.duplicates,
                 "first_duplicate": list(self.first_duplicate) if self.first_duplicate else None,
-                "stale": self.stale, "first_stale": list(self.first_stale) if self.first_stale else None}
+                "stale": self.stale, "first_stale": list(self.first_stale) if self.first_stale else None,
+                "clock_steps": self.clock_steps,
+                "first_clock_step": list(self.clock_step_first) if self.clock_step_first else None}

@@ -179,12 +179,19 @@ def trust(summary: dict) -> list[str]:
                    "written; a cyclic stream's loss shows in its cycle counter, and a parameter request pending across "
                    "a reported loss is not judged (its response may be among the lost); capture on a less loaded "
                    "machine, a TAP or a larger buffer (dumpcap -B)")
+    if gaps.get("clock_steps"):
+        fc = gaps.get("first_clock_step") or [None, None, 0]
+        out.append(f"the capture's clock stepped: {gaps['clock_steps']:,} time(s) a stream's time stamps jumped by what "
+                   f"its cycle counter contradicts (first at frame {fc[0]}, {fc[2] / 1e9:+,.3f} s after frame {fc[1]}): "
+                   "the capture PC's clock was set (NTP?), no cycles were lost there; time spans across it are wrong")
     if (inp.get("timestamps_backwards_max_ns") or 0) >= BACKWARDS_NS:
         out.append(f"frames out of time order: time goes back {inp['timestamps_backwards']:,} time(s), by up to "
                    f"{inp['timestamps_backwards_max_ns'] / 1e6:,.3f} ms (first at frame "
                    f"{inp['timestamps_backwards_first_frame']}): interfaces or files merged without sorting? Frames "
                    "are judged in file order, so setpoints may pair with the wrong actual values; sort it with "
-                   "`reordercap IN OUT` (Wireshark) and analyse that")
+                   "`reordercap IN OUT` (Wireshark) and analyse that -- unless the same streams go on across a few "
+                   "large steps back: then the capture PC's clock was set back (NTP?), file order is right, and "
+                   "sorting would interleave the two stretches")
     if cyc.get("frames_unmapped"):
         out.append(f"unmapped streams: {cyc['frames_unmapped']:,} cyclic frames of no AR the capture shows "
                    "(no Connect in the capture maps them -- or, in a Linux cooked capture without destination "
