@@ -1545,7 +1545,10 @@ local function dcp_decode(t, off)
     local sid, stype, dlen = u8(t, off), u8(t, off + 1), u16(t, off + 8)
     local start = off + 10
     local e = start + dlen
-    if e > len then return nil end
+    -- a frame the snap length cut: its whole blocks stand (dcp.decode cut=True), a partial one ends them
+    local cut = e > len and t:reported_len() > len
+    if e > len and not cut then return nil end
+    if cut then e = len end
     local d = {sid = sid, stype = stype, xid = t(off + 2, 4):uint(), blocks = {}}
     if sid < GET or sid > HELLO or not DCP_SERVICE_TYPES[stype] then return d end
     local response = stype ~= 0
@@ -1557,27 +1560,27 @@ local function dcp_decode(t, off)
         or (sid == SET and not response)
     local o = start
     while o < e do
-        if o + 4 > e then return nil end
+        if o + 4 > e then return cut and d or nil end
         local opt, sub, blen = u8(t, o), u8(t, o + 1), u16(t, o + 2)
         local vend = o + 4 + blen
-        if vend > e then return nil end
+        if vend > e then return cut and d or nil end
         local b = {opt = opt, sub = sub}
         local vs, vl = o + 4, blen
         if prefix and (DCP_PREFIXED[opt] or (opt == 1 and sub >= 1 and sub <= 3)) then
-            if blen < 2 then return nil end
+            if blen < 2 then return cut and d or nil end
             vs, vl = vs + 2, vl - 2
         end
         if opt == 5 and sid == SET and blen == 0 then
             b.erroneous = true
         elseif opt == 6 then
-            if vl < 2 then return nil end
+            if vl < 2 then return cut and d or nil end
         elseif not (opt == 0xFF and sub == 0xFF) then
             local k = opt .. "|" .. sub
-            if DCP_MIN[k] and vl < DCP_MIN[k] then return nil end
-            if k == "2|5" and vl % 2 == 1 then return nil end
+            if DCP_MIN[k] and vl < DCP_MIN[k] then return cut and d or nil end
+            if k == "2|5" and vl % 2 == 1 then return cut and d or nil end
             if k == "3|61" then
                 local n = u8(t, vs + 1)
-                if n > 0 and vl < 2 + n then return nil end
+                if n > 0 and vl < 2 + n then return cut and d or nil end
             end
             if k == "2|2" then b.name = dcp_string(t, vs, vl) end
             if k == "1|2" or k == "1|3" then b.ip = ipv4(t, vs) end

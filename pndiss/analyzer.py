@@ -219,7 +219,8 @@ class Analyzer:
         self.emit(ev)
         body = off + 2
         if cls.startswith("DCP"):
-            d = dcp.decode(pdu, body, frame_id)
+            d = dcp.decode(pdu, body, frame_id, cut=end is None and self.reader.cut_of(fn) is not None)
+            cut = d.pop("truncated", None)
             d.update(frame=fn, ts_ns=ts, kind="dcp", src=src, dst=dst, frame_id=frame_id)
             extras = d.pop("events", ())  # e.g. invalid NameOfStation
             self.emit(d)
@@ -231,6 +232,8 @@ class Analyzer:
                 self.event(**extra)
             for v in self.dcp_tracker.on_dcp(d, src, dst):  # duplicate name, occupied IP
                 self.emit(v)
+            if cut:   # its whole blocks are used (a station's vendor and name), the frame counts as cut
+                raise Malformed("dcp", cut)
         elif cls.startswith("Alarm"):
             d = alarm.decode(pdu, body, frame_id)
             d.update(frame=fn, ts_ns=ts, kind="alarm", src=src, dst=dst, frame_id=frame_id)

@@ -421,3 +421,29 @@ def test_tracker_never_crashes(fr, muts):
         return
     ev.update(frame=1, ts_ns=1)
     assert isinstance(dcp_rules.DcpTracker().on_dcp(ev, "00:00:00:00:00:01", "00:00:00:00:00:02"), list)
+
+
+def test_identify_response_cut_by_the_snap_length_keeps_its_whole_blocks(tmp_path):
+    """A DCP Identify response the snap length cut: its whole blocks (vendor text, name, DeviceID) are decoded and
+    name the station, as tshark does; the frame counts as cut (malformed, the snap-length note); without the cut a
+    DCPDataLength beyond the frame is malformed as before (an independent audit: the whole frame was dropped, the
+    station went unnamed and the plugin, reading tshark's fields, disagreed)."""
+    blocks = [blk(2, 1, BI + b"Lika XAC77"), blk(2, 2, BI + b"enc-a"), blk(2, 3, BI + b"\x02\x39\x01\x00"),
+              blk(2, 4, BI + b"\x02\x00"), blk(1, 2, BI + ip4("10.0.0.5") + ip4("255.0.0.0") + ip4("0.0.0.0"))]
+    fr = frame(0xFEFF, pdu(5, 1, 7, blocks), dst=CTRL, src=DEV)
+    keep = 16 + 10 + sum(len(b) for b in blocks[:3]) + 3   # DeviceID whole, DeviceRole cut
+    d = dcp.decode(fr[:keep], 16, 0xFEFF, cut=True)
+    assert [b.get("suboption") for b in d["blocks"]] and len(d["blocks"]) == 3 and "truncated" in d
+    with pytest.raises(Malformed):
+        dcp.decode(fr[:keep], 16, 0xFEFF)
+    p = tmp_path / "cut.pcap"
+    with open(p, "wb") as f:
+        f.write(struct.pack("<IHHiIII", 0xA1B2C3D4, 2, 4, 0, 0, keep, 1))
+        f.write(struct.pack("<IIII", 1_700_000_000, 0, keep, len(fr)) + fr[:keep])
+    a = Analyzer()
+    from pndiss.capture import open_capture
+    for fn, ts, lt, data in open_capture(str(p), info=a.reader):
+        a.feed(fn, ts, lt, data)
+    s = a.summary()
+    assert s["accounting"]["malformed"] == 1 and "snap length" in s["malformed"][0]["reason"]
+    assert "enc-a" in str(s["stations"])

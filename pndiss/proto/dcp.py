@@ -17,8 +17,10 @@ from .dcp_rules import name_events
 from .dcp_tables import GET, HELLO, IDENTIFY, LAYER, SERVICE_TYPES, SERVICES, SET
 
 
-def decode(data: bytes, off: int, frame_id: int) -> dict:
-    """Decode the DCP PDU at data[off:] (after the FrameID). Raises Malformed on bad input."""
+def decode(data: bytes, off: int, frame_id: int, cut: bool = False) -> dict:
+    """Decode the DCP PDU at data[off:] (after the FrameID). Raises Malformed on bad input. ``cut``: the capture's
+    snap length cut the frame -- the whole blocks it kept are decoded (as tshark does) and ``truncated`` says the
+    rest is missing (the caller reports the frame as cut)."""
     if len(data) - off < 10:
         raise Malformed(LAYER, f"header needs 10 bytes, {max(len(data) - off, 0)} left")
     sid, stype = data[off], data[off + 1]
@@ -34,7 +36,10 @@ def decode(data: bytes, off: int, frame_id: int) -> dict:
     start = off + 10
     end = start + dlen
     if end > len(data):
-        raise Malformed(LAYER, f"DCPDataLength {dlen} exceeds the {len(data) - start} bytes left")
+        if not cut:
+            raise Malformed(LAYER, f"DCPDataLength {dlen} exceeds the {len(data) - start} bytes left")
+        d["truncated"] = f"DCPDataLength {dlen} exceeds the {len(data) - start} bytes left"
+        end = len(data)
     blocks: list[dict] = []
     d["blocks"] = blocks
     if sid not in (GET, SET, IDENTIFY, HELLO) or stype not in SERVICE_TYPES:
@@ -54,7 +59,12 @@ def decode(data: bytes, off: int, frame_id: int) -> dict:
         prefix = None  # Identify filters, Set responses, Hello "responses"
     o = start
     while o < end:
-        b, o = decode_block(data, o, end, prefix, sid)
+        try:
+            b, o = decode_block(data, o, end, prefix, sid)
+        except Malformed:
+            if "truncated" in d:
+                break   # the block the snap length cut: the ones before it stand
+            raise
         blocks.append(b)
     station = _station(d, sid, response)
     if station:  # the object under its own name: 'station' is a NameOfStation string in every event kind
