@@ -62,11 +62,11 @@ def test_pcapng_interfaces_and_blocks(tmp_path, bo):
     data = (shb(bo) + idb(1, None, bo) + idb(1, 9, bo)
             + epb(0, 1_000_000, ETH, bo)        # us resolution: 1 s
             + epb(1, 2_000_000_000, ETH, bo)    # ns resolution: 2 s
-            + block(3, struct.pack(bo + "I", len(ETH)) + ETH, bo)  # SPB
+            + block(3, struct.pack(bo + "I", len(ETH)) + ETH, bo)  # SPB: no time stamp, the one before it
             + block(2, struct.pack(bo + "HHIIII", 1, 0, 0, 5, len(ETH), len(ETH)) + ETH, bo)  # OPB
-            + block(5, bytes(12), bo))  # ISB: skipped
+            + block(5, bytes(12), bo))  # ISB: no frame
     got = list(open_capture(write(tmp_path, "a.pcapng", data)))
-    assert [(f[0], f[1]) for f in got] == [(1, 10**9), (2, 2 * 10**9), (3, 0), (4, 5)]
+    assert [(f[0], f[1]) for f in got] == [(1, 10**9), (2, 2 * 10**9), (3, 2 * 10**9), (4, 5)]
     assert all(f[3] == ETH for f in got)
 
 
