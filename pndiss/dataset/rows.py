@@ -76,6 +76,13 @@ class TableRows:
             self.data["extra"][-1] = _json(extra)
         self.n += 1
 
+    def clear(self) -> None:
+        """Forget the rows held (they were written); ``n`` goes on counting."""
+        self.data = {k: [] for k in self.names}
+
+    def held(self) -> int:
+        return len(self.data[self.names[0]]) if self.names else 0
+
     def table(self) -> pa.Table:
         schema = arrow_schema(self.name)
         arrays = []
