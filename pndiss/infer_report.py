@@ -9,14 +9,28 @@ from rich.text import Text
 from . import telegrams as tg
 
 
-def map_template(streams: list[dict]) -> str:
-    """A --map file (TOML) listing the streams; the user fills in direction, slot/subslot and telegram."""
+def _controllers(streams: list[dict], known=()) -> set:
+    """MACs that are IO controllers: those the capture's ARs name, and a sender of streams to two or more devices
+    (a controller's outputs go to each of its devices; a device answers one controller)."""
+    dsts: dict = {}
+    for s in streams:
+        dsts.setdefault(s["src"], set()).add(s["dst"])
+    return {m for m in known if m} | {m for m, d in dsts.items() if len(d) >= 2}
+
+
+def map_template(streams: list[dict], controllers=()) -> str:
+    """A --map file (TOML) listing the streams; the user fills in direction, slot/subslot and telegram. The
+    direction is filled in where the controller is known (``controllers``, else guessed by _controllers)."""
     out = ["# pndiss --map template (docs/map.md): one [[frames]] entry per cyclic stream pndiss could not place.",
            "# Set direction (input = device -> controller), the data object's slot/subslot, offset and telegram;",
            "# delete the entries of streams that are not encoders."]
+    ctl = _controllers(streams, controllers)
     for s in streams:
+        direction = ('direction = "output"     # from the controller ' + s["src"] if s["src"] in ctl else
+                     'direction = "input"      # to the controller ' + s["dst"] if s["dst"] in ctl else
+                     'direction = "input"      # or "output": which MAC is the controller is not known')
         out += ["", "[[frames]]", f'frame_id = "0x{s["frame_id"]:04X}"', f'src = "{s["src"]}"', f'dst = "{s["dst"]}"',
-                'direction = "input"      # or "output"',
+                direction,
                 f'# C_SDU length {s["c_sdu_len"]} bytes; seen in frames {s["frames"][0]}..{s["frames"][1]}',
                 "[[frames.objects]]", "api = 0x3D00", "slot = 1", "subslot = 1", "offset = 0",
                 "telegram = 81            # 81..84, 86..89, 100, 101, 860"]
@@ -51,5 +65,6 @@ def sections(summary: dict) -> list:
         out.append(Text(f"{len(failed)} cyclic stream(s) have no AR map (no Connect in the capture) and pndiss could "
                         "not find a telegram in their content. Tell pndiss with --map FILE; a template to edit:",
                         style="yellow"))
-        out.append(Text(map_template(failed)))
+        known = {r.get("controller_mac") for r in inferred} | {e.get("controller_mac") for e in summary.get("encoders", [])}
+        out.append(Text(map_template(failed, known)))
     return out

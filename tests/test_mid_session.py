@@ -342,3 +342,18 @@ def test_controller_sign_of_life_hold_learnt_from_the_samples(k):
     assert r is not None and r["evidence"]["sign_of_life_hold"] == k
     assert infer._hold([3, 3, 4, 4, 5, 5, 6, 7, 7, 8, 8, 9, 9]) == 2   # one frame lost: still k = 2
     assert infer._hold([0] * 20) == 1 and infer._hold([1, 2, 3, 4, 5]) == 1
+
+
+def test_map_template_direction_from_the_controller():
+    """The --map template says which stream is the controller's output where the controller is known (an AR of the
+    capture names it, or it sends streams to several devices), and stays valid TOML (an independent audit: both
+    streams of a pair were marked input)."""
+    import tomllib
+    from pndiss.infer_report import map_template
+    st = lambda fid, src, dst: {"frame_id": fid, "src": src, "dst": dst, "c_sdu_len": 40, "frames": [1, 9]}
+    plc, d1, d2 = "00:1b:1b:00:00:01", "00:0e:cf:00:00:01", "00:0e:cf:00:00:02"
+    streams = [st(0x8001, plc, d1), st(0x8000, d1, plc), st(0x8003, plc, d2), st(0x8002, d2, plc)]
+    got = tomllib.loads(map_template(streams))
+    assert [f["direction"] for f in got["frames"]] == ["output", "input", "output", "input"]
+    one = tomllib.loads(map_template(streams[:2], controllers={plc}))
+    assert [f["direction"] for f in one["frames"]] == ["output", "input"]
