@@ -975,7 +975,7 @@ local function evidence(S, A, pairs_, os_, oa, spo, aco)
                  hold = hold_of(cls)}
 end
 
-local function infer_score(out_s, in_s)
+local function infer_score(out_s, in_s, taken_s, taken_a, need)
     local S, A = out_s.samples, in_s.samples
     local ls, la = math.huge, math.huge
     for _, c in ipairs(S) do ls = math.min(ls, #c) end
@@ -986,24 +986,47 @@ local function infer_score(out_s, in_s)
         while j + 1 <= #out_s.frames and out_s.frames[j + 1] < f do j = j + 1 end
         if j >= 1 then pairs_[#pairs_ + 1] = {j, i} end
     end
-    local best = nil
+    -- infer.py _score: layouts clear of the ones found before (taken_*), fitting every profile of ``need``
+    local function free(o, L, taken)
+        for _, r in ipairs(taken or {}) do if not (o + L <= r[1] or o >= r[2]) then return false end end
+        return true
+    end
+    local function fits_all(ev)
+        if need == nil then return true end
+        for _, p in ipairs(need) do
+            local ok = false
+            for _, q in ipairs(ev.profiles) do if q == p then ok = true end end
+            if not ok then return false end
+        end
+        return true
+    end
+    local found, best = {}, nil
     for _, cand in ipairs(CI.candidates) do
         local spo, aco = cand.setpoint, cand.actual
         for _, os_ in ipairs(placements(S, ls, cand.len_setpoint)) do
-            for _, oa in ipairs(placements(A, la, cand.len_actual)) do
-                local score, ev = evidence(S, A, pairs_, os_, oa, spo, aco)
-                if score ~= nil then
-                    if best == nil or score > best.score + 1e-9 then
-                        best = {t = cand.telegram, cand = cand, os = os_, oa = oa, score = score, ev = ev,
-                                out = out_s, ["in"] = in_s, runner_up = best and best.score or 0.0}
-                    elseif best.runner_up < score then
-                        best.runner_up = score
+            if free(os_, cand.len_setpoint, taken_s) then
+                for _, oa in ipairs(placements(A, la, cand.len_actual)) do
+                    if free(oa, cand.len_actual, taken_a) then
+                        local score, ev = evidence(S, A, pairs_, os_, oa, spo, aco)
+                        if score ~= nil and fits_all(ev) then
+                            local f = {t = cand.telegram, cand = cand, os = os_, oa = oa, score = score, ev = ev,
+                                       out = out_s, ["in"] = in_s}
+                            found[#found + 1] = f
+                            if best == nil or score > best.score + 1e-9 then best = f end
+                        end
                     end
                 end
             end
         end
     end
     if best == nil then return nil end
+    best.runner_up = 0.0   -- the best other layout over some of the same bytes
+    for _, f in ipairs(found) do
+        if f ~= best and (not free(f.os, f.cand.len_setpoint, {{best.os, best.os + best.cand.len_setpoint}})
+                or not free(f.oa, f.cand.len_actual, {{best.oa, best.oa + best.cand.len_actual}})) then
+            best.runner_up = math.max(best.runner_up, f.score)
+        end
+    end
     local margin = best.score - best.runner_up
     local f = margin >= 0.5 and 1.0 or 0.5 + margin
     best.confidence = math.floor(best.ev.share * f * 100 + 0.5) / 100
@@ -1063,15 +1086,33 @@ local function infer_try(st, fn)
             cycle = g.step * GAP_UNIT_NS
         end
     end
-    for _, x in ipairs({{out_s, "output", best.os, best.cand.len_setpoint}, {in_s, "input", best.oa, best.cand.len_actual}}) do
-        local s = x[1]
-        maps[s.key] = {direction = x[2], device = device, controller = controller, frame_id = s.fid, source = "content",
-                       station = station, learnt_cycle_ns = cycle,
-                       learnt_k = best.ev.hold > 1 and best.ev.hold or nil,
-                       objects = {{api = 0, slot = 0, subslot = 0, offset = x[3], length = x[4], telegram = best.t,
-                                   telegram_source = CI.source}},
-                       inferred = {confidence = best.confidence, first = math.min(out_s.frames[1], in_s.frames[1]),
-                                   last = math.max(out_s.frames[#out_s.frames], in_s.frames[#in_s.frames])}}
+    -- infer.py _try: further layouts clear of the ones found are further axes (slot/subslot 0/k)
+    local layouts, taken_s, taken_a = {best}, {{best.os, best.os + best.cand.len_setpoint}}, {{best.oa, best.oa + best.cand.len_actual}}
+    while #layouts < CI.max_axes do
+        local more = infer_score(out_s, in_s, taken_s, taken_a, best.ev.profiles)
+        if more == nil then break end
+        layouts[#layouts + 1] = more
+        taken_s[#taken_s + 1] = {more.os, more.os + more.cand.len_setpoint}
+        taken_a[#taken_a + 1] = {more.oa, more.oa + more.cand.len_actual}
+    end
+    for k, b in ipairs(layouts) do
+        for _, x in ipairs({{out_s, "output", b.os, b.cand.len_setpoint}, {in_s, "input", b.oa, b.cand.len_actual}}) do
+            local s = x[1]
+            local o = {api = 0, slot = 0, subslot = k - 1, offset = x[3], length = x[4], telegram = b.t,
+                       telegram_source = CI.source}
+            if k > 1 and maps[s.key] ~= nil and maps[s.key].source == "content" then
+                local objs = maps[s.key].objects
+                objs[#objs + 1] = o
+            else
+                maps[s.key] = {direction = x[2], device = device, controller = controller, frame_id = s.fid,
+                               source = "content", station = station, learnt_cycle_ns = cycle,
+                               learnt_k = best.ev.hold > 1 and best.ev.hold or nil, objects = {o},
+                               inferred = {confidence = best.confidence, first = math.min(out_s.frames[1], in_s.frames[1]),
+                                           last = math.max(out_s.frames[#out_s.frames], in_s.frames[#in_s.frames])}}
+            end
+        end
+    end
+    for _, s in ipairs({out_s, in_s}) do
         s.done = true
         s.samples = {}
     end

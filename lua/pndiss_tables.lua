@@ -2468,6 +2468,7 @@ T.content_inference = {
     },
   },
   iops_good = 128,
+  max_axes = 4,
   max_streams = 256,
   mirror = {
     actual = {

@@ -36,6 +36,7 @@ from .encoder.config import next_ls
 from .proto.rt import DS_JUDGED
 
 SAMPLES = 48          # C_SDUs per stream before a decision
+MAX_AXES = 4          # encoder layouts one device's pair of streams may hold (a multi-axis device)
 MAX_STREAMS = 256     # streams sampled at once (bounded memory)
 SOURCE = "inferred from content"
 RETRY_MAX_DOUBLINGS = 6   # samplings after the first: at once, then pauses of span x 2, 4, ... 32
@@ -145,7 +146,7 @@ def lua_facts() -> dict:
     for t in candidates():
         cands.append({"telegram": t, "setpoint": _offsets(t, "setpoint"), "actual": _offsets(t, "actual"),
                       "len_setpoint": tg.length(t, "setpoint"), "len_actual": tg.length(t, "actual")})
-    return {"samples": SAMPLES, "max_streams": MAX_STREAMS, "retry_max_doublings": RETRY_MAX_DOUBLINGS, "source": SOURCE, "iops_good": IOPS_GOOD,
+    return {"samples": SAMPLES, "max_streams": MAX_STREAMS, "max_axes": MAX_AXES, "retry_max_doublings": RETRY_MAX_DOUBLINGS, "source": SOURCE, "iops_good": IOPS_GOOD,
             "reserved": {w: _reserved(w) for w in words}, "sizes": {w: tg.SIGNALS[w]["size"] for w in words},
             "profiles": list(tg.PROFILES),
             "reserved_by_profile": {p: {w: _reserved_in(w, p) for w in words} for p in tg.PROFILES},
@@ -241,18 +242,32 @@ class Inference:
                 self._retry(s, fn)
             return
         out_s, in_s = best["out"], best["in"]
-        res = {"frame": fn, "ts_ns": self.ts, "controller_mac": out_s.key[1], "device_mac": out_s.key[2], "telegram": best["t"],
-               "source": SOURCE, "confidence": best["confidence"], "evidence": best["evidence"],
-               "learnt_from": [min(out_s.frames[0], in_s.frames[0]), max(out_s.frames[-1], in_s.frames[-1])],
-               "streams": [{"frame_id": s.key[0], "src": s.key[1], "dst": s.key[2], "direction": d,
-                            "c_sdu_len": len(s.samples[0]), "offset": o, "length": tg.length(best["t"], tdir)}
-                           for s, d, tdir, o in ((out_s, "output", "setpoint", best["os"]),
-                                                 (in_s, "input", "actual", best["oa"]))]}
+        # a device with several encoder submodules (a multi-axis device, two encoder modules in one station): each
+        # further layout that overlaps none found so far and has evidence of its own is one more axis
+        layouts = [best]
+        while len(layouts) < MAX_AXES:
+            # (a device has one profile: a further layout must fit every profile the first fits -- an IO module's
+            # heartbeat word beside an encoder, fitting PS/PSM only, is no second axis of it)
+            more = self._score(out_s, in_s, [(b["os"], b["os"] + tg.length(b["t"], "setpoint")) for b in layouts],
+                               [(b["oa"], b["oa"] + tg.length(b["t"], "actual")) for b in layouts],
+                               best["evidence"]["profiles"])
+            if more is None:
+                break
+            layouts.append(more)
+        for k, b in enumerate(layouts):
+            res = {"frame": fn, "ts_ns": self.ts, "controller_mac": out_s.key[1], "device_mac": out_s.key[2],
+                   "telegram": b["t"], "source": SOURCE, "confidence": b["confidence"], "evidence": b["evidence"],
+                   "axis": k,
+                   "learnt_from": [min(out_s.frames[0], in_s.frames[0]), max(out_s.frames[-1], in_s.frames[-1])],
+                   "streams": [{"frame_id": s.key[0], "src": s.key[1], "dst": s.key[2], "direction": d,
+                                "c_sdu_len": len(s.samples[0]), "offset": o, "length": tg.length(b["t"], tdir)}
+                               for s, d, tdir, o in ((out_s, "output", "setpoint", b["os"]),
+                                                     (in_s, "input", "actual", b["oa"]))]}
+            self.results.append(res)
+            sess.add_inferred(res)
         for s in (out_s, in_s):
             s.done = True
             s.samples = []
-        self.results.append(res)
-        sess.add_inferred(res)
 
     def _retry(self, s: Stream, fn: int) -> None:
         """Nothing fits these samples: listed (for the --map template) and sampled again later."""
@@ -284,7 +299,11 @@ class Inference:
             if not s.done:
                 self._fail(s)
 
-    def _score(self, out_s: Stream, in_s: Stream) -> dict | None:
+    def _score(self, out_s: Stream, in_s: Stream, taken_s=(), taken_a=(), profiles=None) -> dict | None:
+        """The best layout of the pair (None: nothing with evidence), its bytes overlapping none of ``taken_s`` /
+        ``taken_a`` (byte ranges of the layouts found before), its words fitting every one of ``profiles`` (when
+        given). Its confidence is its evidence, less when another layout over the same bytes scores close to it
+        (a layout elsewhere in the frames is another axis)."""
         sp_sol, sp_sol_bits = _bit("setpoint", "sign_of_life")
         ac_sol, ac_sol_bits = _bit("actual", "sign_of_life")
         sp_m, sp_m_bits = _bit("setpoint", "mirror")
@@ -299,24 +318,33 @@ class Inference:
                 j += 1
             if j >= 0:
                 pairs.append((j, i))
-        best = None
+        free = lambda o, L, taken: all(o + L <= a or o >= b for a, b in taken)   # noqa: E731
+        found = []   # (score, t, os, oa, Ls, La, evidence), in the order tried
         for t in candidates():
             spo, aco = _offsets(t, "setpoint"), _offsets(t, "actual")
             Ls, La = tg.length(t, "setpoint"), tg.length(t, "actual")
             for os_ in self._placements(S, ls, Ls, spo):
+                if not free(os_, Ls, taken_s):
+                    continue
                 for oa in self._placements(A, la, La, aco):
+                    if not free(oa, La, taken_a):
+                        continue
                     r = self._evidence(t, S, A, pairs, os_, oa, spo, aco, sp_sol, ac_sol, sp_m, sp_m_bits, ac_m,
                                        ac_m_bits)
-                    if r is None:
-                        continue
-                    score, ev = r
-                    if best is None or score > best["score"] + 1e-9:
-                        best = {"t": t, "os": os_, "oa": oa, "score": score, "evidence": ev, "out": out_s, "in": in_s,
-                                "runner_up": best["score"] if best else 0.0}
-                    elif best["runner_up"] < score:
-                        best["runner_up"] = score
-        if best is None:
+                    if r is not None and (profiles is None or set(profiles) <= set(r[1]["profiles"])):
+                        found.append((r[0], t, os_, oa, Ls, La, r[1]))
+        if not found:
             return None
+        top = found[0]
+        for f in found[1:]:
+            if f[0] > top[0] + 1e-9:
+                top = f
+        score, t, os_, oa, Ls, La, ev = top
+        best = {"t": t, "os": os_, "oa": oa, "score": score, "evidence": ev, "out": out_s, "in": in_s}
+        # the runner-up: the best other layout over some of the same bytes (an alternative reading of them)
+        rivals = [f[0] for f in found if f is not top and (not free(f[2], f[4], [(os_, os_ + Ls)])
+                                                             or not free(f[3], f[5], [(oa, oa + La)]))]
+        best["runner_up"] = max(rivals, default=0.0)
         margin = best["score"] - best["runner_up"]
         share = best["evidence"].pop("share")
         best["confidence"] = round(share * (1.0 if margin >= 0.5 else 0.5 + margin), 2)

@@ -167,15 +167,21 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
         hold = res["evidence"].get("sign_of_life_hold", 1)
         learnt_k = (hold, f"the controller holds each sign-of-life value {hold} cycles in the frames the telegram "
                           f"was inferred from ({res['learnt_from'][0]}-{res['learnt_from'][1]})") if hold > 1 else None
+        axis = res.get("axis", 0)
         for s in res["streams"]:
-            do = armap.DataObject(api=0, slot=0, subslot=0, offset=s["offset"], length=s["length"],
+            # slot / subslot are unknown: 0/0, and 0/k for a device's further axes (their own data objects)
+            do = armap.DataObject(api=0, slot=0, subslot=axis, offset=s["offset"], length=s["length"],
                                   telegram=res["telegram"], telegram_source=res["source"])
-            self.maps[(s["frame_id"], s["src"], s["dst"])] = armap.FrameMap(
+            key = (s["frame_id"], s["src"], s["dst"])
+            if axis and key in self.maps and self.maps[key].source == "content":
+                self.maps[key].objects.append(do)
+                continue
+            self.maps[key] = armap.FrameMap(
                 frame_id=s["frame_id"], direction=s["direction"], controller_mac=res["controller_mac"],
                 device_mac=res["device_mac"], station=station, data_length=s["c_sdu_len"], objects=[do],
                 source="content", learnt_cycle_ns=cycle, learnt_k=learnt_k)
         fits = res["evidence"].get("profiles") or []
-        if fits and "generic" not in fits:
+        if fits and "generic" not in fits and not res.get("axis"):   # (further axes fit what the first fits)
             # the words set bits only these profiles define (infer.py): profile_for takes it over a generic guess
             self.word_profiles[res["device_mac"]] = (fits, res["learnt_from"])
             if self.profiles.get(res["device_mac"], ("",))[0] == "generic":

@@ -357,3 +357,24 @@ def test_map_template_direction_from_the_controller():
     assert [f["direction"] for f in got["frames"]] == ["output", "input", "output", "input"]
     one = tomllib.loads(map_template(streams[:2], controllers={plc}))
     assert [f["direction"] for f in one["frames"]] == ["output", "input"]
+
+
+def test_two_encoder_submodules_in_one_frame_pair_are_two_axes():
+    """A device with two encoder submodules (one frame pair, two data objects each way): each layout clear of the
+    ones found, with evidence of its own, is an axis (slot/subslot 0/0 and 0/1) -- before, the second was silently
+    unchecked and its faults missed (an independent audit). A heartbeat word beside them that fits only PS/PSM's
+    bit map is no third axis of a device whose first fits them all."""
+    inf = infer.Inference(_A())
+    res = []
+    inf.a.session.add_inferred = res.append
+    enc_out = lambda i, k: _w(1 << 10 | _ls(i + k) << 12) + _w(0) + b"\x80"
+    enc_in = lambda i, k: _w(1 << 9 | _ls(i + k + 3) << 12) + _w(0) + _w(1000 + 8 * i + k, 4) + _w(0, 4) + b"\x80"
+    hb_out = lambda i: _w((i % 15 + 1) << 12 | 1) + _w(0) + b"\x80"
+    hb_in = lambda i: _w((i % 15 + 1) << 12 | 2) + _w(0) + _w(77, 4) + _w(0, 4) + b"\x80"
+    for i in range(infer.SAMPLES):
+        o = enc_out(i, 0) + enc_out(i, 5) + hb_out(i) + b"\x80" * 6
+        n = b"\x80" * 4 + enc_in(i, 0) + enc_in(i, 7) + hb_in(i) + b"\x80" * 3
+        inf.offer((0x8001, "c", "d"), 2 * i + 1, o + bytes(max(0, 40 - len(o))))
+        inf.offer((0x8000, "d", "c"), 2 * i + 2, n + bytes(max(0, 40 - len(n))))
+    got = sorted((r["axis"], r["telegram"], [s["offset"] for s in r["streams"]]) for r in res)
+    assert got == [(0, 81, [0, 4]), (1, 81, [5, 17])] or got == [(0, 81, [5, 17]), (1, 81, [0, 4])]
