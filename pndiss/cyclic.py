@@ -36,6 +36,7 @@ RELOOKUP_EVERY = 1024     # frames between lookups of a still unmapped frame ID
 # the AR ended (released / aborted: frames still mapped to it belong to no data exchange, e.g. the next
 # AR's device sending before its Connect response; nothing is judged in the silence between two ARs)
 NOT_JUDGED_PHASES = ("parameterisation", "released", "aborted")
+MAX_SILENT = 64   # silent streams listed in the summary
 JUDGED_FIRST = ("prm_end", "application_ready")  # phases the first judged cycle moves to data_exchange
 _MISSING = object()
 
@@ -424,11 +425,32 @@ class CyclicTracker(AxisTracking):
             if unseen is not None and not s.get("bf00_seen"):
                 encs[-1]["bf00_request_lost"] = unseen
         before = self.unmapped_before_ar()
-        return {"frames_mapped": self.mapped, "frames_unmapped": self.unmapped - before,
+        return {"silent_streams": self._silent(),
+                "frames_mapped": self.mapped, "frames_unmapped": self.unmapped - before,
                 "frames_before_ar": before, "frames_no_telegram": self.no_telegram, "cycles_gated": self.gated,
                 # every violation, not only the encoders' (DCP, ...): one counting point (Analyzer.violations)
                 "encoders": encs, "violations_by_severity": self.a.violations_by_severity(),
                 "capture_gaps": self.gaps.summary(), "content_inference": self.infer.summary()}
+
+    def _silent(self) -> list:
+        """Mapped streams whose frames stopped well before the capture's end (max(200 ms, 50 cycles)) while their
+        AR was neither released nor aborted in the capture: the device or the controller went silent (power, a
+        cable) -- which the cycle counter cannot show, as no later frame of the stream comes."""
+        end = self.a.last_ts
+        out = []
+        if end is None:
+            return out
+        for key, st in self.gaps.streams.items():
+            fm = self.a.session.lookup(*key)
+            if fm is None or st.ts is None or fm.released or fm.phase in ("released", "aborted"):
+                continue
+            cycle = fm.cycle_time_ns or fm.learnt_cycle_ns or 1_000_000
+            quiet = end - st.ts
+            if quiet > max(200_000_000, 50 * cycle):
+                out.append({"frame_id": key[0], "src": key[1], "dst": key[2], "station": fm.station,
+                            "direction": fm.direction, "last_frame": st.frame, "silent_ns": quiet})
+        out.sort(key=lambda r: r["last_frame"])
+        return out[:MAX_SILENT]
 
     def report_sections(self) -> list:
         from .cyclic_report import sections

@@ -14,8 +14,8 @@ def section(g: dict):
     odd = [s for s in g.get("streams", []) if not s["uniform"]]
     if not g.get("count") and not odd:
         return None
-    title = (f"Capture loss: {g['count']:,} gap(s), {g['cycles_missing']:,} cycle(s) missing "
-             "(cycle counter; not judged, not protocol faults)")
+    title = (f"Frames missing: {g['count']:,} gap(s), {g['cycles_missing']:,} cycle(s) "
+             "(cycle counter: lost by the capture or on the network; not judged, not protocol faults)")
     t = Table(title=title)
     for col in ("stream (frame ID, src -> dst)", "station", "direction", "gaps", "cycles missing", "first gaps (frames)"):
         t.add_column(col)

@@ -321,12 +321,15 @@ class ArLayer:
                 if "applready" in b["command"]:
                     self.set_phase(ar, "application_ready", fn, ts, "ApplicationReady")
 
-    def on_rta_error(self, fn, ts, src, dst) -> None:
-        """An ERR-RTA-PDU between an AR's controller and device aborts the AR (wire.md §7.1)."""
+    def on_rta_error(self, fn, ts, src, dst, status: dict | None = None) -> None:
+        """An ERR-RTA-PDU between an AR's controller and device aborts the AR (wire.md §7.1); the cause says who
+        sent it and its PNIOStatus (e.g. a consumer's data hold timer expired): who ended the AR, and why."""
         for ar in reversed(list(self.ars.values())):
             if {src, dst} == {ar["controller_mac"], ar["device_mac"]} and ar["ok"] \
                     and ar["phase"] not in ("released", "aborted"):
-                self.set_phase(ar, "aborted", fn, ts, "ERR-RTA-PDU")
+                who = "controller" if src == ar["controller_mac"] else "device"
+                why = f": {status['text']}" if status and status.get("text") else ""
+                self.set_phase(ar, "aborted", fn, ts, f"ERR-RTA-PDU from the {who} {src}{why}")
                 return
 
     def set_phase(self, ar: dict, phase: str, fn: int, ts: int, cause: str) -> None:
@@ -340,6 +343,8 @@ class ArLayer:
             return
         ar["phase"] = phase
         ar["phases"].append({"phase": phase, "frame": fn})
+        if phase == "aborted":
+            ar["abort_cause"] = cause   # who ended it and why (an ERR-RTA-PDU's sender and PNIOStatus)
         for fm in ar["maps"]:
             fm.phase = phase
         self.a.emit({"frame": fn, "ts_ns": ts, "kind": "ar_phase", "ar_uuid": ar["ar_uuid"], "phase": phase,

@@ -130,7 +130,9 @@ def sections(tracker) -> list:
     for ar in tracker.ar_list:
         if not ar["ok"]:
             continue
-        state = " -> ".join(f"{p['phase']} ({p['frame']})" for p in ar.get("phases", ())) or \
+        state = " -> ".join(f"{p['phase']} ({p['frame']}"
+                            + (f": {ar['abort_cause']}" if p["phase"] == "aborted" and ar.get("abort_cause") else "") + ")"
+                            for p in ar.get("phases", ())) or \
             ("released" if ar["released"] else "up")   # AR phases with their first frames (session.set_phase)
         t = Table(title=f"AR {ar['ar_uuid']} ({ar['ar_type_name']}) — {state}\n"
                         f"controller {ar['controller_mac']} {ar.get('controller_station') or ''} -> "

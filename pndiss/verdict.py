@@ -144,8 +144,9 @@ def trust(summary: dict) -> list[str]:
     if n:
         lost = gaps.get("cycles_missing")
         extra = f", {lost:,} cycles lost" if isinstance(lost, int) else ""
-        out.append(f"capture gaps: {n:,} (frames the capture missed, seen in the cycle counter{extra}); "
-                   "rules over those cycles are not judged")
+        out.append(f"capture gaps: {n:,} (frames missing from the capture, seen in the cycle counter{extra}: lost by "
+                   "the capture, or on the network -- a link down, an MRP ring reconfiguring -- when the other streams "
+                   "are whole over the same time); rules over those cycles are not judged")
     if gaps.get("duplicates"):
         fd = gaps.get("first_duplicate") or [None, None]
         out.append(f"duplicate frames: {gaps['duplicates']:,} cyclic frames are copies of the frame before them "
@@ -157,6 +158,13 @@ def trust(summary: dict) -> list[str]:
                    f"stream's frame before them (first: frame {fs[0]}, after frame {fs[1]}): late copies of a mirror port "
                    "or a provider repeating its counter; a consumer discards them (PROFINET cycle-counter check), "
                    "so they are no cycles here either")
+    for q in cyc.get("silent_streams") or ():
+        who = (f"the device {q['src']}'s input frames" if q.get("direction") == "input"
+               else f"the controller {q['src']}'s output frames")
+        out.append(f"{q.get('station') or q['dst']}: {who} (frame ID 0x{q['frame_id']:04X}) stopped at frame "
+                   f"{q['last_frame']:,}, {q['silent_ns'] / 1e9:,.3f} s before the capture ends, with no Release or abort "
+                   "of their AR in the capture: the sender went silent (power, a cable, a crash?) -- no rule judges "
+                   "cycles that never came")
     inp = summary.get("input") or {}
     for d in inp.get("damaged") or ():
         what = ("cut short in the middle of a packet (a capture still being written, or a capture tool stopped "

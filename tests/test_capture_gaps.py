@@ -123,7 +123,7 @@ def test_report_and_summary_json(lossy, tmp_path):
                         "--summary-json", str(out)], capture_output=True, text=True, cwd=ROOT,
                        env=dict(os.environ, PYTHONPATH=ROOT, COLUMNS="200"))
     assert p.returncode == 0, p.stderr
-    assert f"Capture loss: {len(want)} gap(s), {sum(w[3] for w in want)} cycle(s) missing" in p.stdout
+    assert f"Frames missing: {len(want)} gap(s), {sum(w[3] for w in want)} cycle(s)" in p.stdout
     g = json.load(open(out, encoding="utf-8"))["cyclic"]["capture_gaps"]
     assert g["count"] == len(want)
     assert {(r["frame_id"], r["prev_frame"], r["next_frame"], r["cycles_missing"]) for r in g["gaps"]} == set(want)
@@ -476,3 +476,33 @@ def test_a_clock_step_is_no_loss(jump_ns, cycles_lost, want_lost, step_said):
     assert g.advance(key, 10, j * 1_000_000 + jump_ns, (32 * j) % 65536) == want_lost
     assert bool(g.summary()["clock_steps"]) == step_said
     assert with_counter(1500, 32, 32) is None and with_counter(2048, 32, 32) == 2048 and with_counter(2050, 32, 32) == 2048
+
+
+def test_a_sender_gone_silent_is_reported(tmp_path):
+    """An encoder that loses power mid-capture: its input frames stop, no Release or abort follows in the capture.
+    The summary lists the silent stream and the Trust section says so -- before, nothing did (an independent audit);
+    the cycle counter cannot show it, as no later frame of the stream comes."""
+    from pndiss.capture import open_capture
+    from pndiss.sim.pcapng import Writer
+    from pndiss.verdict import trust
+    src = capedit.simulate(str(tmp_path / "s.pcapng"), "--scenario", "startup", "--cycles", "1500")
+    frames = [(ts, bytes(d)) for _fn, ts, _lt, d in open_capture(src)]
+    dev = bytes.fromhex("020000000101")   # the simulator's encoder (sim/stations.py mac(1, 1))
+    def rt(d):   # cyclic RT_CLASS_1, with or without its priority tag
+        o = 16 if d[12:14] == b"\x81\x00" else 12
+        return d[o:o + 2] == b"\x88\x92" and 0x80 <= d[o + 2] < 0xC0
+    cyc_ts = [ts for ts, d in frames if rt(d)]
+    cut = cyc_ts[len(cyc_ts) // 2]
+    # every frame of the device stops half-way; the capture ends before the controller's Release
+    kept = [(ts, d) for ts, d in frames if not (d[6:12] == dev and ts > cut) and ts <= cyc_ts[-1]]
+    path = str(tmp_path / "silent.pcapng")
+    with open(path, "wb") as f:
+        w = Writer(f)
+        for ts, d in kept:
+            w.write(ts, d)
+    s = analyze_file(path).summary()
+    silent = s["cyclic"]["silent_streams"]
+    assert [q["direction"] for q in silent] == ["input"] and silent[0]["src"] == dev.hex(":")
+    assert any("stopped at frame" in t and "went silent" in t for t in trust(s))
+    full = analyze_file(src).summary()
+    assert not full["cyclic"]["silent_streams"]
