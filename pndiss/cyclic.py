@@ -424,6 +424,10 @@ class CyclicTracker(AxisTracking):
             unseen = self.bf00_unseen_for(ax)
             if unseen is not None and not s.get("bf00_seen"):
                 encs[-1]["bf00_request_lost"] = unseen
+            fm = getattr(ax, "fm", None)
+            ar = self.a.session.ars.get(fm.ar_uuid) if fm is not None and fm.ar_uuid else None
+            if ar is not None and ar.get("phase") in ("released", "aborted") and ar.get("phases"):
+                encs[-1]["ar_ended"] = {"phase": ar["phase"], "frame": ar["phases"][-1]["frame"]}
         before = self.unmapped_before_ar()
         return {"silent_streams": self._silent(),
                 "frames_mapped": self.mapped, "frames_unmapped": self.unmapped - before,

@@ -275,8 +275,11 @@ def not_checked(summary: dict) -> list[str]:
                    "--set compat=0 (V3.1) or compat=1 (V4.1)")
     for e in encs:
         if e.get("preset_open_at_end") is not None:
+            end = e.get("ar_ended")
+            when = (f"when its AR was {end['phase']} (frame {end['frame']})" if end and end["frame"] > e["preset_open_at_end"]
+                    else "when the capture ended")
             out.append(f"{e.get('station') or e.get('device_mac')} {e['slot']}/{e['subslot']}: the preset requested in "
-                       f"frame {e['preset_open_at_end']} was not acknowledged yet when the capture ended, before "
+                       f"frame {e['preset_open_at_end']} was not acknowledged yet {when}, before "
                        "D_preset was over (PRESET-ACK-MISSING not judged)")
     filt = [e for e in encs if e.get("velocity_filter_frame") is not None]
     if filt:

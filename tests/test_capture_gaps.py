@@ -506,3 +506,14 @@ def test_a_sender_gone_silent_is_reported(tmp_path):
     assert any("stopped at frame" in t and "went silent" in t for t in trust(s))
     full = analyze_file(src).summary()
     assert not full["cyclic"]["silent_streams"]
+
+
+def test_open_preset_of_an_ended_ar_says_so():
+    """A preset still open when its AR was aborted (the encoder lost power): 'not acknowledged when its AR was
+    aborted (frame N)', not 'when the capture ended' (an independent audit)."""
+    from pndiss.verdict import not_checked
+    enc = {"station": "enc", "slot": 1, "subslot": 2, "preset_open_at_end": 6660, "settings": {}}
+    s = {"cyclic": {"encoders": [dict(enc, ar_ended={"phase": "aborted", "frame": 6682})]}}
+    assert any("when its AR was aborted (frame 6682)" in x for x in not_checked(s))
+    s = {"cyclic": {"encoders": [enc]}}
+    assert any("when the capture ended" in x for x in not_checked(s))
