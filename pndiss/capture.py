@@ -184,6 +184,9 @@ def open_capture(path: str, batch=None, info: ReadInfo | None = None,
 NEVER = 1 << 62  # frame number at which to offer records to the batch path when there is none
 
 
+UNKNOWN_COUNT = (1 << 64) - 1   # a pcapng counter option the tool could not fill in (dumpcap: G_MAXUINT64)
+
+
 def epb_options(buf, o: int, end: int, bo: str) -> tuple[int, int]:
     """(FCS length, packets dropped) an Enhanced Packet Block's options state: epb_flags bits 5-8 (a TAP writes the
     FCS length per packet) and epb_dropcount (packets the interface and the OS lost between this packet and the one
@@ -197,6 +200,8 @@ def epb_options(buf, o: int, end: int, bo: str) -> tuple[int, int]:
             fcs = (struct.unpack_from(bo + "I", buf, o + 4)[0] >> 5) & 0xF
         elif code == 4 and olen == 8 and o + 12 <= end:
             drops = struct.unpack_from(bo + "Q", buf, o + 4)[0]
+            if drops == UNKNOWN_COUNT:   # (the tool could not tell)
+                drops = 0
         o += 4 + ((olen + 3) & ~3)
     return fcs, drops
 
@@ -455,7 +460,8 @@ def _read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[
                 if code == 0:
                     break
                 if code in (5, 7) and olen == 8 and o + 12 <= end:   # isb_ifdrop, isb_osdrop
-                    lost += struct.unpack_from(bo + "Q", b.buf, o + 4)[0]
+                    v = struct.unpack_from(bo + "Q", b.buf, o + 4)[0]
+                    lost += v if v != UNKNOWN_COUNT else 0   # dumpcap writes all ones when pcap_stats() failed
                 o += 4 + ((olen + 3) & ~3)
             info.interface_dropped((path, sections, ifid), lost)
         elif btype == BT_IDB:  # Interface Description Block

@@ -75,18 +75,19 @@ def pcapng(buf, pos: int, end: int, bo: str, nif: int) -> Index:
     nwb = (W[c + 1] >> 2).astype(np.int64)
     opt = c + 7 + ((W[c + 5].astype(np.int64) + 3) >> 2)      # word of the first option
     if (opt < c + nwb - 1).any():
-        # options (a TAP's epb_flags with the packet's FCS length, pcapng spec §4.3.1): the first three looked at;
+        # options (a TAP's epb_flags with the packet's FCS length, pcapng spec §4.3.1): the first six looked at;
         # a block whose options say nothing within those ends the index (the reader reads it option by option)
         fcs, todo = np.zeros(len(c), dtype=np.int64), opt < c + nwb - 1
         careful = np.zeros(len(c), dtype=bool)
-        for _ in range(3):
+        for _ in range(6):
             w = W[np.where(todo, opt, 0)].astype(np.int64)
             code, olen = (w & 0xFFFF, w >> 16) if bo == "<" else (w >> 16, w & 0xFFFF)
             hit = todo & (code == 2) & (olen == 4) & (opt + 1 < c + nwb - 1)
             fcs = np.where(hit, (W[np.where(hit, opt + 1, 0)].astype(np.int64) >> 5) & 0xF, fcs)
             # an epb_dropcount the tool filled in: the reader takes that packet (capture.epb_options counts it)
             drop = todo & (code == 4) & (olen == 8) & (opt + 2 < c + nwb - 1)
-            drop &= (W[np.where(drop, opt + 1, 0)] | W[np.where(drop, opt + 2, 0)]) != 0
+            lo, hi = W[np.where(drop, opt + 1, 0)], W[np.where(drop, opt + 2, 0)]
+            drop &= ((lo | hi) != 0) & ~((lo == 0xFFFFFFFF) & (hi == 0xFFFFFFFF))   # (all ones: unknown)
             careful |= drop
             todo &= ~drop & (code != 0)
             opt = opt + 1 + ((olen + 3) >> 2)

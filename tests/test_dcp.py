@@ -447,3 +447,12 @@ def test_identify_response_cut_by_the_snap_length_keeps_its_whole_blocks(tmp_pat
     s = a.summary()
     assert s["accounting"]["malformed"] == 1 and "snap length" in s["malformed"][0]["reason"]
     assert "enc-a" in str(s["stations"])
+
+
+@pytest.mark.parametrize("keep", [27, 28, 29, 30])
+def test_get_request_cut_anywhere_in_its_selectors(keep):
+    """A DCP Get request the snap length cut inside its selector list: the whole pairs it kept, never a traceback
+    (the review of 2026-11-25: an odd cut read past the kept bytes)."""
+    fr = frame(0xFEFD, pdu(3, 0, 0x1234, [bytes([2, 2, 2, 1])]), dst=DEV, src=CTRL)
+    d = dcp.decode(fr[:keep], 16, 0xFEFD, cut=True)
+    assert len(d["selectors"]) == (keep - 26) // 2 and ("truncated" in d) == (keep < 30)

@@ -165,3 +165,18 @@ def test_capture_tool_drop_counts_reported(tmp_path):
     assert any("the capture tool reports packets it dropped" in x for x in trust(s))
     need_tshark()
     assert tshark_frames(str(p))[0] == pndiss_frames(str(p))[0] == 4
+
+
+def test_unknown_drop_counts_are_not_added():
+    """dumpcap writes all ones into an ISB counter when pcap_stats() failed: unknown, not 2^64 - 1 drops."""
+    import os
+    import tempfile
+    from pndiss.capture import UNKNOWN_COUNT, epb_options
+    assert epb_options(struct.pack("<HHQ", 4, 8, UNKNOWN_COUNT) + struct.pack("<HH", 0, 0), 0, 16, "<") == (0, 0)
+    isb = raw(5, struct.pack("<III", 0, 0, 9) + opt(5, struct.pack("<Q", UNKNOWN_COUNT)) + struct.pack("<HH", 0, 0))
+    with tempfile.TemporaryDirectory() as d:
+        p = os.path.join(d, "u.pcapng")
+        with open(p, "wb") as f:
+            f.write(BASE + E1 + isb + E3)
+        s = analyze_file(p).summary()
+    assert s["input"]["interface_dropped"] == 0

@@ -49,6 +49,8 @@ def decode(data: bytes, off: int, frame_id: int, cut: bool = False) -> dict:
     if sid == GET and not response:  # Get request: Option/Suboption pairs, no lengths
         if dlen & 1:
             raise Malformed(LAYER, f"Get request with an odd DCPDataLength ({dlen})")
+        if "truncated" in d:
+            end = start + ((end - start) & ~1)   # the whole pairs the snap length kept
         d["selectors"] = [suboption_entry(data[i], data[i + 1]) for i in range(start, end, 2)]
         return d
     if (sid == IDENTIFY and response) or (sid == HELLO and not response) or (sid == GET and response):
