@@ -532,35 +532,42 @@ def test_odd_it_frames_counted_as_the_reference_does(sessions, tmp_path):
     assert s["accounting"]["malformed"] > 0   # the UDP length beyond its datagram
 
 
-@hsettings(max_examples=300, deadline=None)
-@given(st.binary(min_size=28, max_size=80), st.sampled_from([0x45, 0x46, 0x44, 0x55]), st.integers(0, 0x3FFF),
-       st.integers(0, 120), st.integers(0, 120), st.sampled_from([161, 34962, 34964, 5353, 49152]))
-def test_plain_udp_shortcut_is_the_full_path(body, vihl, ff, total, ulen, port):
+@hsettings(max_examples=400, deadline=None)
+@given(st.binary(min_size=8, max_size=80), st.sampled_from([0x45, 0x45, 0x46, 0x44, 0x55]),
+       st.sampled_from([0, 0, 0x4000, 0x2000, 0x0001, 0x4000]), st.sampled_from([0, 0, 0, -1, 1, -20]),
+       st.sampled_from([0, 0, 0, -1, 1, -4]), st.sampled_from([161, 34962, 34964, 5353, 49152]),
+       st.sampled_from([None, 4, 0x30]))
+@example(bytes(40), 0x45, 0, 0, 0, 161, 0x30)
+def test_plain_udp_shortcut_is_the_full_path(payload, vihl, ff, dtotal, dulen, port, first):
     """session_rpc._plain_udp says "only counted" exactly where the full path (decode_ipv4, decode_udp, the port and
-    DCE/RPC checks) returns not_profinet without raising."""
+    DCE/RPC checks) returns not_profinet without raising: the same answer both ways on near-valid datagrams (total
+    and UDP lengths right or one off, fragment bits, header lengths, PNIO ports, payloads that start like DCE/RPC)."""
+    from pndiss.proto import dcerpc, ip
     from pndiss.proto.common import Malformed
-    b = bytearray(bytes(14) + body)
-    o = 14
-    b[o] = vihl
-    b[o + 2:o + 4] = total.to_bytes(2, "big")
-    b[o + 6:o + 8] = ff.to_bytes(2, "big")
-    b[o + 9] = 17
-    u = o + (vihl & 15) * 4
-    if u + 8 <= len(b):
-        b[u + 2:u + 4] = port.to_bytes(2, "big")
-        b[u + 4:u + 6] = ulen.to_bytes(2, "big")
-    data = bytes(b)
+    from pndiss.session_rpc import PORT_RPC
+    ihl = (vihl & 15) * 4
+    if first is not None and payload:
+        payload = bytes([first]) + payload[1:]
+    udp_len = 8 + len(payload) + dulen
+    body = bytes(max(0, ihl - 20)) + struct.pack(">HHHH", 50000, port, udp_len & 0xFFFF, 0) + payload
+    total = 20 + len(body) + dtotal
+    hdr = struct.pack(">BBHHHBBH4s4s", vihl, 0, total & 0xFFFF, 1, ff, 64, 17, 0, bytes(4), bytes(4))
+    data = bytes(14) + hdr + body
     a = Analyzer()
     ses = a.session
-    if not ses._plain_udp(data, o):
-        return
+    short = ses._plain_udp(data, 14)
     try:
-        h = __import__("pndiss.proto.ip", fromlist=["ip"]).decode_ipv4(data, o)
-        assert not h["flags_mf"] and not h["frag_offset"]
-        st_ = ses._udp(0, 0, data, h["payload_off"], h["payload_end"], h, "a", "b")
-    except Malformed as e:
-        raise AssertionError(f"the full path raises {e}")
-    assert st_ == "not_profinet"
+        h = ip.decode_ipv4(data, 14)
+        u = ip.decode_udp(data, h["payload_off"], h["payload_end"])
+        po, pe = u["payload_off"], u["payload_end"]
+        ports = {u["srcport"], u["dstport"]}
+        full = (not h["flags_mf"] and not h["frag_offset"] and h["proto"] == 17 and not ports & ses.rt_ports
+                and PORT_RPC not in ports and (pe - po < dcerpc.HDR_LEN or data[po] != 4))
+    except Malformed:
+        full = False
+    assert short == full
+    if short:
+        assert ses.on_ipv4(0, 0, data, 14, "a", "b") == "not_profinet"
 
 
 def test_malformed_list_in_frame_order():
