@@ -536,7 +536,8 @@ for _, n in ipairs({"pn_io.opnum", "pn_io.block_type", "pn_io.ar_uuid", "pn_io.c
                     "pn_io.alarm_src_endpoint", "pn_io.channel_error_type", "pn_io.channel_properties.specifier", "pn_io.artype_req",
                     "pn_dcp.service_id", "lldp.chassis.subtype", "lldp.chassis.id", "lldp.port.subtype", "lldp.port.id",
                     "lldp.profinet.subtype",
-                    "pn_dcp.suboption_vendor_id", "pn_dcp.suboption_device_id", "pn_dcp.suboption_device_devicevendorvalue"}) do
+                    "pn_dcp.suboption_vendor_id", "pn_dcp.suboption_device_id", "pn_dcp.suboption_device_devicevendorvalue",
+                    "frame.drop_count"}) do
     X[n] = Field.new(n)
 end
 
@@ -1417,6 +1418,8 @@ local function pair_request(key, dec, fn, ts, device)
     -- pending from before the capture lost frames (in the device's streams): its response may have been read there
     -- (forgotten, not overwritten)
     local lost = gap_last_ts[device or ""]
+    local dropped = gap_last_ts["*drop"]   -- the capture tool's own loss report (capture.epb_options)
+    if dropped ~= nil and (lost == nil or dropped > lost) then lost = dropped end
     if old and lost ~= nil and lost > old.ts then old = nil end
     if old and deep_eq(old.req, dec) then return end   -- the same request again: the first stays pending
     if old then
@@ -2702,11 +2705,12 @@ local function first_pass(pinfo)
     if op == nil then
         local dev = tostring(pinfo.dl_src)
         local v = X["pn_dcp.suboption_vendor_id"]()
-        if v and not im0_seen[dev] then
-            local dv = X["pn_dcp.suboption_device_devicevendorvalue"]()
+        local dv = X["pn_dcp.suboption_device_devicevendorvalue"]()
+        if (v or dv) and not im0_seen[dev] then   -- (stations.update: each field kept until a frame brings it again)
             local f = facts[dev] or {}
             facts[dev] = f
-            f.dcp = {v.value, dv and dv.value}
+            local old = f.dcp or {}
+            f.dcp = {v and v.value or old[1], dv and dv.value or old[2]}
         end
         on_dcp(pinfo)
         on_lldp(pinfo)
@@ -2771,6 +2775,12 @@ end
 local rec_cache
 function pndiss.dissector(tvb, pinfo, tree)
     if pinfo.visited and not finished then finish_all() end
+    if not pinfo.visited then
+        local dc = X["frame.drop_count"]()   -- epb_dropcount: the tool lost packets before this one (all ones: unknown)
+        local nd = dc and dc.value
+        if type(nd) == "userdata" then nd = nd:tonumber() end
+        if nd and nd > 0 and nd < 1.8e19 then gap_last_ts["*drop"] = ts_ns(pinfo) end
+    end
     if cyclic_frame ~= pinfo.number then   -- the heuristic handled cyclic data
         local items = rec_cache[pinfo.number]
         if items == nil and not pinfo.visited then

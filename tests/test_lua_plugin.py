@@ -689,3 +689,53 @@ def test_station_of_content_inferred_map(tmp_path):
     n, bad, lua_viol, viol = compare(path)
     assert n and not bad, bad[:5]
     assert lua_viol == viol
+
+
+def _pcapng(path, frames, snap=None, drop_before=(), flags_every=0):
+    """A pcapng of (ts, data): packets cut to ``snap`` bytes, an epb_dropcount of 1 on the packets whose index is in
+    ``drop_before``, epb_flags (inbound) on every ``flags_every``-th packet."""
+    def blk(t, body):
+        body += bytes(-len(body) % 4)
+        return struct.pack("<II", t, 12 + len(body)) + body + struct.pack("<I", 12 + len(body))
+    out = [blk(0x0A0D0D0A, struct.pack("<IHHq", 0x1A2B3C4D, 1, 0, -1)),
+           blk(1, struct.pack("<HHI", 1, 0, snap or 0) + struct.pack("<HHB3x", 9, 1, 9) + struct.pack("<HH", 0, 0))]
+    for k, (ts, d) in enumerate(frames):
+        cap = d[:snap] if snap else d
+        opts = b""
+        if flags_every and k % flags_every == 0:
+            opts += struct.pack("<HHI", 2, 4, 1)
+        if k in drop_before:
+            opts += struct.pack("<HHQ", 4, 8, 1)
+        if opts:
+            opts += struct.pack("<HH", 0, 0)
+        out.append(blk(6, struct.pack("<IIIII", 0, ts >> 32, ts & 0xFFFFFFFF, len(cap), len(d)) + cap
+                       + bytes(-len(cap) % 4) + opts))
+    with open(path, "wb") as f:
+        f.write(b"".join(out))
+
+
+def test_capture_tool_artefacts_equal_python(tmp_path):
+    """What capture tools do -- a lost parameter response the tool reports (epb_dropcount), packet options, a snap
+    length that cuts the Connects and DCP responses -- gives the plugin the core's fields and violations (the review
+    of 2026-11-25: the plugin ignored the drop count and judged a cut DCP response's vendor text otherwise)."""
+    from pndiss.capture import open_capture
+    src = str(tmp_path / "s.pcapng")
+    subprocess.run([sys.executable, "-m", "pndiss", "simulate", "--scenario", "motion", "--profile", "lika",
+                    "--encoders", "2", "--param-polls", "20", "--cycles", "800", "--no-expected", "-o", src],
+                   check=True, capture_output=True, cwd=ROOT)
+    frames = [(ts, bytes(d)) for _fn, ts, _lt, d in open_capture(src)]
+    evs = []
+    analyze_file(src, Settings(), sink=evs.append)
+    reads = [e["frame"] for e in evs if e["kind"] == "record" and e.get("op") == "read" and e.get("index") == 0xB02E]
+    gone = reads[len(reads) // 2] - 1          # a read response of the middle of the run (frame numbers are 1-based)
+    kept = frames[:gone] + frames[gone + 1:]
+    lost = str(tmp_path / "lost.pcapng")
+    _pcapng(lost, kept, drop_before={gone}, flags_every=7)
+    s = analyze_file(lost).summary()
+    assert s["input"]["tool_dropped"] == 1
+    n, bad, lua_viol, viol = compare(lost)
+    assert not bad and lua_viol == viol
+    cut = str(tmp_path / "cut.pcapng")
+    _pcapng(cut, frames, snap=80)
+    n, bad, lua_viol, viol = compare(cut)
+    assert not bad and lua_viol == viol
