@@ -178,8 +178,7 @@ pndiss.prefs.settings = Pref.string("Settings", "",
 local PROFILE_PREF = {"auto", "lika", "scancon", "hohner", "psm", "generic"}
 
 -- pndiss.settings.Settings defaults of the keys EncoderConfig.from_settings reads
-local SETTING_DEFAULTS = {l_max = 2, preset_deadline_ms = 10.0, sol_threshold_ge = false, sol_monitor_rt = false,
-                          master_cycle_ratio = 1}
+local SETTING_DEFAULTS = {l_max = 2, preset_deadline_ms = 10.0, sol_threshold_ge = false, sol_monitor_rt = false}
 local SETTING_BOOLS = {sol_threshold_ge = true, sol_monitor_rt = true, iso = true}
 local SETTING_KEYS = {l_max = true, preset_deadline_ms = true, sol_threshold_ge = true, sol_monitor_rt = true,
                       iso = true, master_cycle_ratio = true, compat = true, class4 = true, st_phys = true,
@@ -1921,7 +1920,7 @@ local function new_axis(o, fr, fn)
     local cfg = C.config_from_settings(settings, {profile = ax.profile, telegram = o.telegram, cycle_ns = cycle,
                                                   cycle_source = cycle_source, iso = iso, profile_reason = ax.reason,
                                                   telegram_source = o.source})
-    if fm.learnt_k and cfg.k == 1 then   -- cyclic_axes._axis: k held in the inference samples (as record 0x8030)
+    if fm.learnt_k and not (cfg.sources.k or ""):find("^settings%.") then   -- cyclic_axes._axis (as record 0x8030)
         cfg.k = fm.learnt_k
         cfg.sources.k = "the controller holds each sign-of-life value " .. fm.learnt_k
             .. " cycles in the frames the telegram was inferred from"

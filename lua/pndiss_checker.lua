@@ -1607,7 +1607,7 @@ local function record(chk, ev)
     if #data >= 14 and data[1] == 0x02 and data[2] == 0x04 then   -- hexbytes: a list of byte values
       local f = data[13] * 256 + data[14]
       local c = chk.cfg
-      if f > 1 and c.k == 1 then
+      if f > 1 and not (c.sources.k or ""):find("^settings%.") then
         c.k = f
         c.sources.k = fmt("record 0x8030 ControllerApplicationCycleFactor (frame %s)", tostring(ev.frame))
         chk:apply_cfg()

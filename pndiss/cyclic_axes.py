@@ -78,7 +78,8 @@ class AxisTracking:
         cfg = EncoderConfig.from_settings(self.s, profile=ax.profile, telegram=o.telegram, cycle_ns=cycle,
                                           cycle_source=cycle_source, iso=iso, profile_reason=ax.reason,
                                           telegram_source=o.source)
-        if fm.learnt_k and cfg.k == 1:   # as record 0x8030 does (encoder/acyclic.py): replaces the default k = 1
+        if fm.learnt_k and not str(cfg.sources.get("k", "")).startswith("settings."):
+            # as record 0x8030 does (encoder/acyclic.py): replaces the default k = 1, not a k given with --set
             cfg.k, cfg.sources["k"] = fm.learnt_k
         ax.checker = Checker(cfg, info)
         ax.checker.io_len[fr.direction] = do.length

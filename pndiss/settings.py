@@ -22,7 +22,8 @@ class Settings:
     sol_threshold_ge: bool = False    # failure counter fault at C > 10*N (False) or C >= 10*N (True) [AMBIGUOUS] §3.3
     sol_monitor_rt: bool = False      # monitor sign-of-life also without isochronous mode [AMBIGUOUS] §3.1 R-CLS-5
     iso: bool | None = None           # isochronous mode configured; None = infer from the Connect
-    master_cycle_ratio: int = 1       # k = TMAPC / TDP [INFERENCE] behaviour.md §0.1
+    master_cycle_ratio: int | None = None   # k = TMAPC / TDP [INFERENCE] behaviour.md §0.1; None: 1 until a 0x8030
+    #                                         record or the content inference says otherwise (a given value stays)
     compat: int | None = None         # 0xBF00 byte 0 bit 5; None = from the captured 0xBF00, else the profile default
     class4: int | None = None         # 0xBF00 byte 0 bit 1; None = from the capture
     byte_order: str = "big"           # PS/PSM "Intel" claim, cyclic.md §1 [AMBIGUOUS]: 'big' or 'little'

@@ -26,7 +26,7 @@ def make_cfg(**kw) -> EncoderConfig:
     c = EncoderConfig.from_settings(Settings(), profile=prof, telegram=tel)
     for k, v in d.items():
         setattr(c, k, v)
-        c.sources[k] = "test table"   # given, as --set would (compat given: #13-#16 judged from the first cycle)
+        c.sources[k] = "settings.test table"   # given, as --set would (compat given: #13-#16 judged from the first cycle)
     return c
 
 

@@ -59,7 +59,7 @@ def _iso_mode_data(chk, ev: dict) -> None:
         return
     f = int.from_bytes(data[12:14], "big")
     c = chk.cfg
-    if f > 1 and c.k == 1:
+    if f > 1 and not str(c.sources.get("k", "")).startswith("settings."):
         c.k = f
         c.sources["k"] = f"record 0x8030 ControllerApplicationCycleFactor (frame {ev.get('frame')})"
         chk.reconfigure()
