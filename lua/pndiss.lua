@@ -916,9 +916,9 @@ local function evidence(S, A, pairs_, os_, oa, spo, aco)
             end
         end
         if #inner < 3 then return 1 end
-        for r = 2, 14 do
-            if (count[r] or 0) >= 0.8 * #inner then return r end
-        end
+        local r = 0   -- infer.py _hold: the longest run, when 40 % of them are that long
+        for _, m in ipairs(inner) do if m > r then r = m end end
+        if r >= 2 and r <= 14 and (count[r] or 0) >= 0.4 * #inner then return r end
         return 1
     end
     -- gate: some one profile reserves none of the bits the four words set (infer.py _evidence); which fit

@@ -106,8 +106,8 @@ def _counting(vals: list[int]) -> float:
 
 def _hold(vals: list[int]) -> int:
     """k: how many consecutive frames the controller holds each sign-of-life value (a controller application cycle
-    of k bus cycles, behaviour.md §0.1, R-CLS-4 001_9461bb7bc8c2767b.txt:1671, 1677) -- the run length of at least
-    80 % of the runs between the first and the last, 2..14; else 1. Without it a mid-session capture (the 0x8030
+    of k bus cycles, behaviour.md §0.1, R-CLS-4 001_9461bb7bc8c2767b.txt:1671, 1677) -- the longest run between the
+    first and the last, 2..14, when at least 40 % of them are that long (capture loss shortens some); else 1. Without it a mid-session capture (the 0x8030
     record that says k is written at start-up) blamed the controller for every hold (an independent audit)."""
     runs, cur, n = [], None, 0
     for v in vals:
@@ -120,10 +120,9 @@ def _hold(vals: list[int]) -> int:
     inner = [m for v, m in runs[1:] if v != 0]   # (the last run is still open: not in runs)
     if len(inner) < 3:
         return 1
-    for r in sorted(set(inner)):
-        if 2 <= r <= 14 and inner.count(r) >= 0.8 * len(inner):
-            return r
-    return 1
+    # a lost frame shortens a run, never lengthens one: k is the longest run, when 40 % of them are that long
+    r = max(inner)
+    return r if 2 <= r <= 14 and inner.count(r) >= 0.4 * len(inner) else 1
 
 
 def _continuous(vals: list[int], bits: int) -> float | None:

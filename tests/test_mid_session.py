@@ -342,6 +342,12 @@ def test_controller_sign_of_life_hold_learnt_from_the_samples(k):
     assert r is not None and r["evidence"]["sign_of_life_hold"] == k
     assert infer._hold([3, 3, 4, 4, 5, 5, 6, 7, 7, 8, 8, 9, 9]) == 2   # one frame lost: still k = 2
     assert infer._hold([0] * 20) == 1 and infer._hold([1, 2, 3, 4, 5]) == 1
+    assert infer._hold([1, 2, 3, 4, 5, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 1, 2, 3]) == 1   # one repeat is no k
+    import random   # 10 % of the frames lost (the review of 2026-11-25: k fell back to 1 under loss)
+    for seed in range(50):
+        rnd = random.Random(seed)
+        vals = [v for v in ((i // 3) % 15 + 1 for i in range(80)) if rnd.random() > 0.1][:48]
+        assert infer._hold(vals) == 3
 
 
 def test_map_template_direction_from_the_controller():
