@@ -103,19 +103,14 @@ class AxisWalk:
     def _stretch(self, q: int, N: int) -> int:
         """How many pairs from merged position q (before N) the reference would only advance through (0: none,
         -1: none because of the checker's state, known before any column work: the next frame may try again)."""
-        T = self.typ[q:min(N, q + 2 * BLOCK)]
-        P = len(T) // 2
-        distinct = T[0:2 * P:2] != T[1:2 * P:2]
-        if not distinct.all():
-            P = int(np.argmin(distinct))
-        if P < MIN_PAIRS:
-            return 0   # a few pairs go one by one cheaper than the column work of an attempt (~140 us)
         sr = int(self.cumS[q])
         ar = q - sr
+        if sr >= len(self.okS) or ar >= len(self.okA):
+            return 0   # no pair left of one of the streams
         ax = self.ax
         chk = ax.checker
         judged = not ax.ambiguous and bool(self.okS[sr] and self.okA[ar])
-        # the checker's state first: while it cannot be advanced at once, no column work (retries are many)
+        # the checker's state first: while it cannot be advanced at once, no array work at all (retries are many)
         if judged and (not chk.bulk_ready() or self.frA.fm.phase in JUDGED_FIRST):
             return -1
         if judged:
@@ -126,6 +121,13 @@ class AxisWalk:
                 return -1
         if not judged and not chk.idle():
             return -1
+        T = self.typ[q:min(N, q + 2 * BLOCK)]
+        P = len(T) // 2
+        distinct = T[0:2 * P:2] != T[1:2 * P:2]
+        if not distinct.all():
+            P = int(np.argmin(distinct))
+        if P < MIN_PAIRS:
+            return 0   # a few pairs go one by one cheaper than the column work of an attempt (~140 us)
         S, A = self.S, self.A
         if judged:
             # the key's first change ends the stretch: found first, so the costlier columns below are computed
