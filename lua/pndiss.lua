@@ -399,12 +399,26 @@ local function gap_advance(key, cc, ts, last, fn)
         -- the counter may have wrapped during the gap: the time stamps tell the cycles (pndiss/gaps.py)
         local period = st.step * GAP_UNIT_NS
         local k0 = math.floor((ts - pts + math.floor(period / 2)) / period) - 1
-        local k = nil   -- gaps.with_counter: the nearest count the counter's advance agrees with, else a clock step
-        for delta = 0, math.max(2, math.floor(k0 / 5000)) do
+        local k = nil   -- gaps.with_counter: the nearest count the counter's advance agrees with (drift, 20 ms)
+        for delta = 0, math.max(2, math.floor(k0 / 5000), math.floor(20000000 / period)) do
             for _, kk in ipairs({k0 - delta, k0 + delta}) do
                 if k == nil and kk >= 0 and ((kk + 1) * st.step - d) % 0x10000 == 0 then k = kk end
             end
             if k ~= nil then break end
+        end
+        if k == nil then
+            -- gaps._clock_jump: the whole capture's time jumped inside the pause (the postdissector notes the jumps
+            -- of every frame in "*jumps"; the one up to this frame is still pending): a clock step, the counter
+            -- says what was lost; else a stream that alone went quiet (a device restarting): the time stamps say it
+            local need = ts - pts - 20000000 - 2 * period
+            local jumps = {table.unpack(gap_last_ts["*jumps"] or {})}
+            local last = gap_last_ts["*last"]
+            if last ~= nil and ts - last >= 500000000 then jumps[#jumps + 1] = {last, ts} end
+            local clock = false
+            for _, j in ipairs(jumps) do
+                if pts <= j[1] and j[2] <= ts and j[2] - j[1] >= need then clock = true end
+            end
+            if not clock then k = k0 end
         end
         if k ~= nil and k > 0 then
             for mac in key:gmatch("|([^|]*)") do   -- gaps.GapTracker._lost_at: per MAC of the stream
@@ -2775,6 +2789,15 @@ local rec_cache
 function pndiss.dissector(tvb, pinfo, tree)
     if pinfo.visited and not finished then finish_all() end
     if not pinfo.visited then
+        -- ReadInfo.order: the capture's forward time jumps (gaps._clock_jump), kept in the gap table
+        local now, last = ts_ns(pinfo), gap_last_ts["*last"]
+        if last ~= nil and now - last >= 500000000 then
+            local j = gap_last_ts["*jumps"] or {}
+            j[#j + 1] = {last, now}
+            if #j > 256 then table.remove(j, 1) end
+            gap_last_ts["*jumps"] = j
+        end
+        gap_last_ts["*last"] = now
         local dc = X["frame.drop_count"]()   -- epb_dropcount: the tool lost packets before this one (all ones: unknown)
         local nd = dc and dc.value
         if type(nd) == "userdata" then nd = nd:tonumber() end

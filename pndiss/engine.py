@@ -26,6 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .readinfo import JUMP_NS
+
 from . import frameindex
 from .cyclic import RELOOKUP_EVERY
 from .pairing import Group, walker
@@ -151,6 +153,11 @@ class Engine:
         if back.max() > 0:
             hit = np.flatnonzero(back > 0)
             ro.backwards(n + int(hit[0]) + 1, len(hit), int(back.max()))
+        if back.min() <= -JUMP_NS:   # forward jumps of the capture's time (ReadInfo.order does the same per frame)
+            for i in np.flatnonzero(back <= -JUMP_NS).tolist():
+                before = ro.last_ts if i == 0 else int(ts[i - 1])
+                if before:
+                    ro.jumps.append((before, int(ts[i])))
         w.run()
         m = len(data)
         if self.col is not None:

@@ -48,12 +48,15 @@ class Stream:
         self.missing = 0
 
 
+TS_ERROR_NS = 20_000_000   # how far a time stamp may be off: coarse capture clocks (15.6 ms), a TAP's port batches
+
+
 def with_counter(k: int, d: int, step: int) -> int | None:
     """The cycles lost in a pause the time stamps say is ``k`` cycles, made to agree with the counter's advance ``d``
-    (k + 1 steps are d modulo a wrap): the nearest such count within 200 ppm (two clocks' drift) or 2 cycles (jitter)
-    of k, else None -- the counter contradicts the time stamps (the capture's clock stepped). Past some minutes of
-    pause the drift window holds a whole wrap and a step cannot be told from a loss: counted as a loss."""
-    tol = max(2, k // 5000)
+    (k + 1 steps are d modulo a wrap): the nearest such count within 200 ppm (two clocks' drift) or TS_ERROR_NS
+    (time stamps that are off), else None -- the counter contradicts the time stamps. Past some minutes of pause the
+    window holds a whole wrap and a step cannot be told from a loss: counted as a loss."""
+    tol = max(2, k // 5000, TS_ERROR_NS // (step * UNIT_NS))
     for delta in range(tol + 1):
         for kk in (k - delta, k + delta):
             if kk >= 0 and ((kk + 1) * step - d) % WRAP == 0:
@@ -84,6 +87,7 @@ class GapTracker:
         # wraps fits): the capture's clock stepped (NTP on the capture PC), no frame was lost there
         self.clock_steps = 0
         self.clock_step_first = None  # (frame, the stream's frame before it, ns the time jumped)
+        self.jumps_of = tuple         # () -> the capture's forward time jumps (CyclicTracker: ReadInfo.jumps)
 
     def step_from(self, key, step: int | None) -> None:
         """The stream's cycle step from its IOCR (SendClockFactor x ReductionRatio), when the Connect says it."""
@@ -146,16 +150,20 @@ class GapTracker:
             # also for an advance of exactly one step (a loss of k x 2.048 s): no provider pauses a second
             # without its consumer's watchdog ending the AR (the engine asks the same, pndiss/streamcols.py)
             period = st.step * UNIT_NS
-            k = with_counter((ts - pts + period // 2) // period - 1, d, st.step)
-            if k is None:
-                # the time stamps jumped by what the counter's advance contradicts: the capture's clock stepped;
-                # the counter says what was lost (usually nothing) -- not "seen in the cycle counter" cycles
+            k0 = (ts - pts + period // 2) // period - 1
+            k = with_counter(k0, d, st.step)
+            if k is None and self._clock_jump(pts, ts, period):
+                # the time stamps jumped by what the counter's advance contradicts, and so did the whole capture's
+                # time between two frames: the capture's clock stepped; the counter says what was lost (usually
+                # nothing) -- not "seen in the cycle counter" cycles
                 self.clock_steps += 1
                 if self.clock_step_first is None or fn < self.clock_step_first[0]:
                     self.clock_step_first = (fn, self.prev, ts - pts)
-            elif k > 0:
-                self._lost_at(key, ts)
-                return self._count(st, k)
+            else:
+                k = k0 if k is None else k   # (a counter restarted in the pause, a device rebooting: the time)
+                if k > 0:
+                    self._lost_at(key, ts)
+                    return self._count(st, k)
         if d == 0:
             return 0              # a repeated counter: no new cycle, nothing to say
         if st.step == 0:
@@ -190,6 +198,12 @@ class GapTracker:
             old = self.last_by_mac.get(mac)
             if old is None or ts > old:
                 self.last_by_mac[mac] = ts
+
+    def _clock_jump(self, pts: int, ts: int, period: int) -> bool:
+        """The capture's time itself jumped inside this stream's pause (no frame of any stream there): a clock step,
+        not a silent device (others' frames go on through a reboot)."""
+        need = ts - pts - TS_ERROR_NS - 2 * period
+        return any(pts <= a and b <= ts and b - a >= need for a, b in self.jumps_of())
 
     def last_gap(self, mac: str):
         """When a stream to or from ``mac`` last showed capture loss (None: never)."""

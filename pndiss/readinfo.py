@@ -3,7 +3,9 @@ it had to clamp, and frames earlier than the frame before them (counted by the d
 from __future__ import annotations
 
 import hashlib
+from collections import deque
 
+JUMP_NS = 500_000_000   # a forward step of the capture's time worth remembering (gaps.py: half a wrap is 1.024 s)
 CUT_KEPT = 1 << 16   # cut frames remembered for their malformed reasons: more than one engine window holds
 TS_MAX = (1 << 63) - 1  # time stamps are clamped to [0, TS_MAX] ns: every sink (MCAP u64, datetime) shows them
 
@@ -16,7 +18,7 @@ class ReadInfo:
 
     __slots__ = ("_h", "_known", "complete", "ts_clamped", "ts_clamped_first", "last_ts", "ts_back", "ts_back_max",
                  "ts_back_first", "cut_n", "cut_first", "cut_to", "_cut_at", "damaged", "tool_drops", "tool_drops_first",
-                 "last_drop_ts", "_isb")
+                 "last_drop_ts", "_isb", "jumps")
 
     def __init__(self, known_sha256: str | None = None, digest: bool = True):
         # a digest the caller took already (pndiss fleet hashes every input to plan): not taken twice
@@ -45,6 +47,9 @@ class ReadInfo:
         self.tool_drops_first = None
         self.last_drop_ts = None   # time of the packet after the latest reported loss (parameter pairing forgets)
         self._isb: dict = {}
+        # forward jumps of the capture's time between two frames in file order (t before, t after), at least
+        # JUMP_NS: a stream's pause its cycle counter contradicts is a clock step only inside one (gaps.py)
+        self.jumps = deque(maxlen=256)
 
     def sha256(self) -> str | None:
         """The digest of the whole input, '' when it was not read to its end, None when nobody asked for it."""
@@ -69,6 +74,8 @@ class ReadInfo:
         """A frame taken one by one, in file order (the engine counts its windows with backwards())."""
         if ts < self.last_ts:
             self.backwards(fn, 1, self.last_ts - ts)
+        elif ts - self.last_ts >= JUMP_NS and self.last_ts:
+            self.jumps.append((self.last_ts, ts))
         self.last_ts = ts
 
     def tool_dropped(self, fn: int, n: int, ts: int) -> None:
