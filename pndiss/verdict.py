@@ -190,7 +190,8 @@ def trust(summary: dict) -> list[str]:
     if gaps.get("clock_steps"):
         fc = gaps.get("first_clock_step") or [None, None, 0]
         out.append(f"the capture's clock stepped: {gaps['clock_steps']:,} time(s) a stream's time stamps jumped, with the "
-                   f"whole capture's, by what its cycle counter contradicts (first at frame {fc[0]}, {fc[2] / 1e9:+,.3f} s after frame {fc[1]}): "
+                   f"whole capture's, by what its cycle counter contradicts (first at frame {fc[0]}, "
+                   f"{fc[2] / 1e9:+,.3f} s after frame {fc[1]}): "
                    "the capture PC's clock was set (NTP?); what was lost there is what the counter says (a capture "
                    "gap above if any), not the time; time spans across it are wrong")
     if (inp.get("timestamps_backwards_max_ns") or 0) >= BACKWARDS_NS:
