@@ -110,7 +110,7 @@ class Engine:
             pf = ix.fcs[:m] if ix.fcs is not None else None
             if cut_fcs or (pf is not None and pf.any()):
                 # an FCS interface (a TAP's port beside plain NICs), or a packet's own FCS length (epb_flags, over the
-                # interface's): the frame without its FCS, as read (capture.epb_options)
+                # interface's): the frame without its FCS, as read (pcapng_read.epb_options)
                 f = fcs[ifid] if pf is None else np.where(pf > 0, pf, fcs[ifid])
                 f = np.where(cap > f, f, 0)
                 cap, orig = cap - f, orig - f

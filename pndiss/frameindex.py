@@ -84,7 +84,7 @@ def pcapng(buf, pos: int, end: int, bo: str, nif: int) -> Index:
             code, olen = (w & 0xFFFF, w >> 16) if bo == "<" else (w >> 16, w & 0xFFFF)
             hit = todo & (code == 2) & (olen == 4) & (opt + 1 < c + nwb - 1)
             fcs = np.where(hit, (W[np.where(hit, opt + 1, 0)].astype(np.int64) >> 5) & 0xF, fcs)
-            # an epb_dropcount the tool filled in: the reader takes that packet (capture.epb_options counts it)
+            # an epb_dropcount the tool filled in: the reader takes that packet (pcapng_read.epb_options counts it)
             drop = todo & (code == 4) & (olen == 8) & (opt + 2 < c + nwb - 1)
             lo, hi = W[np.where(drop, opt + 1, 0)], W[np.where(drop, opt + 2, 0)]
             drop &= ((lo | hi) != 0) & ~((lo == 0xFFFFFFFF) & (hi == 0xFFFFFFFF))   # (all ones: unknown)

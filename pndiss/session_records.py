@@ -78,7 +78,7 @@ class RecordLayer:
                 gaps = getattr(getattr(self.a, "cyclic", None), "gaps", None)
                 lost = [t for t in (gaps.last_gap(ev["device_mac"]) if gaps is not None else None,
                                     getattr(getattr(self.a, "reader", None), "last_drop_ts", None)) if t is not None]
-                # (and the capture tool's own loss reports: pcapng epb_dropcount, capture.epb_options)
+                # (and the capture tool's own loss reports: pcapng epb_dropcount, pcapng_read.epb_options)
                 self.pairer.request(self._param_key(hb, ev["device_mac"], ev["controller_mac"]),
                                     ev["decoded"], fn, ts, max(lost) if lost else None)
             evs.append(ev)

@@ -171,7 +171,7 @@ def test_unknown_drop_counts_are_not_added():
     """dumpcap writes all ones into an ISB counter when pcap_stats() failed: unknown, not 2^64 - 1 drops."""
     import os
     import tempfile
-    from pndiss.capture import UNKNOWN_COUNT, epb_options
+    from pndiss.pcapng_read import UNKNOWN_COUNT, epb_options
     assert epb_options(struct.pack("<HHQ", 4, 8, UNKNOWN_COUNT) + struct.pack("<HH", 0, 0), 0, 16, "<") == (0, 0)
     isb = raw(5, struct.pack("<III", 0, 0, 9) + opt(5, struct.pack("<Q", UNKNOWN_COUNT)) + struct.pack("<HH", 0, 0))
     with tempfile.TemporaryDirectory() as d:
