@@ -1445,6 +1445,20 @@ end
 -- ParamPairer.response: the response paired with the request written before it on the same key
 local function pair_response(key, rsp, frame, ts, profile)
     local p = pairer[key]
+    local o = p and p.overwrote
+    if o and o.ts <= ts and ts < p.ts and rsp.request_ref == o.req.request_ref and rsp.request_ref ~= p.req.request_ref then
+        -- ParamPairer.response: the answer to the request the pending one replaced, before that write in time (a
+        -- TAP's port batches put it later in the file): no overwrite; the pending request stays
+        local sup = superseded[key]
+        if sup and sup[#sup] == o.frame then
+            table.remove(sup)
+            if #sup == 0 then superseded[key] = nil end
+        end
+        pairer[key] = {req = o.req, frame = o.frame, ts = o.ts}
+        local out = pair_response(key, rsp, frame, ts, profile)
+        pairer[key] = {req = p.req, frame = p.frame, ts = p.ts}
+        return out
+    end
     pairer[key] = nil
     local sup = superseded[key]
     superseded[key] = nil

@@ -318,3 +318,24 @@ def test_pairing_forgets_a_request_pending_from_before_capture_loss():
     pp.request("k", decode_record(0xB02E, build_param_request(4, 1, [{"pnu": 922}]), write=True), 12, 970, gap_ts=500)
     ev = pp.response("k", decode_response(build_param_response(4, 1, [{"format": 0x06, "values": [81]}])), 13, 980)
     assert ev["superseded_request_frames"] == [11]   # a gap before the pending request: still overwritten
+
+
+def test_pairing_a_response_the_file_puts_after_the_next_write():
+    """A TAP writing its two ports in batches: request 1 (t=100), request 2 (t=300), then in the file the response to
+    request 1 stamped t=200 -- before request 2 in time. It answers request 1 (its reference), nothing was
+    overwritten, request 2 stays pending (an independent audit: a false BMP-PIPELINED against the controller and two
+    mismatches against the encoder). The same response stamped after request 2 is the controller's fault still."""
+    req = lambda ref: decode_record(0xB02E, build_param_request(ref, 1, [{"pnu": 922}]), write=True)   # noqa: E731
+    rsp = lambda ref: decode_response(build_param_response(ref, 1, [{"format": 0x06, "values": [81]}]))   # noqa: E731
+    pp = ParamPairer()
+    pp.request("k", req(1), 1, 100)
+    pp.request("k", req(2), 2, 300)
+    ev = pp.response("k", rsp(1), 3, 200)
+    assert ev["pairing"] == [] and ev["request_frame"] == 1 and "superseded_request_frames" not in ev
+    ev = pp.response("k", rsp(2), 4, 400)
+    assert ev["pairing"] == [] and ev["request_frame"] == 2
+    pp = ParamPairer()
+    pp.request("k", req(1), 1, 100)
+    pp.request("k", req(2), 2, 300)
+    ev = pp.response("k", rsp(1), 3, 350)
+    assert ev["superseded_request_frames"] == [1] and ev["request_frame"] == 2

@@ -264,6 +264,22 @@ class ParamPairer:
                         del self.superseded[key]
 
     def response(self, key, decoded_response: dict, frame: int, ts: int, profile: str = "generic") -> dict:
+        cur, old = self.pending.get(key), self.overwrote.get(key)
+        ref = decoded_response.get("request_ref")
+        if cur is not None and old is not None and old[2] <= ts < cur[2] and ref == old[0].get("request_ref") \
+                and ref != cur[0].get("request_ref"):
+            # the response answers the request the pending one replaced, and came before that write in time: the
+            # file has them out of order (a TAP writing its two ports in batches), no request was overwritten
+            sup = self.superseded.get(key)
+            if sup and sup[-1] == old[1]:
+                sup.pop()
+                if not sup:
+                    del self.superseded[key]
+            self.overwrote.pop(key, None)
+            self.pending[key] = old
+            out = self.response(key, decoded_response, frame, ts, profile)
+            self.pending[key] = cur
+            return out
         pending = self.pending.pop(key, None)
         superseded = self.superseded.pop(key, [])
         early = self.refused_early.pop(key, [])
