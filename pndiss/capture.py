@@ -54,7 +54,7 @@ class CaptureError(Exception):
         self.cut_short = cut_short
 
 
-class _Buffer:
+class ChunkBuffer:
     """A window over the file: ``need(n)`` guarantees n bytes at ``pos`` or reports EOF."""
 
     __slots__ = ("f", "buf", "pos", "eof", "base", "info", "hashed")
@@ -164,7 +164,7 @@ def open_capture(path: str, batch=None, info: ReadInfo | None = None,
 
     f = open_input(path)
     with f:
-        b = _Buffer(f, info)
+        b = ChunkBuffer(f, info)
         b.need(4)
         magic = _check_magic(path, b.buf[b.pos:b.pos + 4])
         if magic in PCAP_MAGICS:
@@ -177,7 +177,7 @@ def open_capture(path: str, batch=None, info: ReadInfo | None = None,
 NEVER = 1 << 62  # frame number at which to offer records to the batch path when there is none
 
 
-def _convert(linktype: int, fcs: int):
+def record_converter(linktype: int, fcs: int):
     """How a record of this link type becomes what the decoders take: None (as it is), netanalyzer(),
     or an Ethernet frame with its FCS cut off (pcapng if_fcslen, pcap FCS length bits: tshark 4.0 strips
     it too, and without this the APDU status would be read from the FCS)."""
@@ -200,12 +200,12 @@ def netanalyzer(data) -> tuple[int, bytes]:
     return LINKTYPE_NONE, data
 
 
-def _read_pcap(path: str, b: _Buffer, bo: str, ns: bool, batch=None, first: int = 0) -> Iterator[tuple[int, int, int, bytes]]:
+def _read_pcap(path: str, b: ChunkBuffer, bo: str, ns: bool, batch=None, first: int = 0) -> Iterator[tuple[int, int, int, bytes]]:
     if not b.need(24):
         raise CaptureError(f"{path}: pcap file header truncated")
     raw_lt = struct.unpack_from(bo + "I", b.buf, b.pos + 20)[0]
     linktype = raw_lt & 0x03FFFFFF   # bit 26: an FCS of (bits 28-31) x 16 bits follows every frame
-    conv = _convert(linktype, (raw_lt >> 28) * 2 if raw_lt & 0x04000000 else 0)
+    conv = record_converter(linktype, (raw_lt >> 28) * 2 if raw_lt & 0x04000000 else 0)
     b.pos += 24
     unpack = struct.Struct(bo + "IIII").unpack_from
     mult = 1 if ns else 1000

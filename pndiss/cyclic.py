@@ -116,7 +116,7 @@ class CyclicTracker(AxisTracking):
         self.stream_sink = None
         # bounded like self.frames; not a Limits table: the flood that evicts here is counted there already
         self.gaps = GapTracker(getattr(self.s, "capture_gaps", True), limits.BoundedDict(self.s.max_streams, "streams"))
-        self.gaps.jumps_of = lambda: getattr(self.a.reader, "jumps", ())   # (the driver replaces the reader)
+        self.gaps.reader_of = lambda: getattr(self.a, "reader", None)   # (the driver replaces the reader)
         self.infer = Inference(analyzer, getattr(self.s, "infer_telegrams", True))
 
     def count_unmapped(self, key: tuple, n: int) -> None:

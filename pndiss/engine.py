@@ -26,13 +26,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .readinfo import JUMP_NS
-
 from . import frameindex
 from .cyclic import RELOOKUP_EVERY
 from .pairing import Group, walker
 from .proto.common import Malformed
 from .proto.rt import judgeable
+from .readinfo import JUMP_NS
 from .session_rpc import PORT_RPC
 
 ETH_PNRT = 0x8892
@@ -66,7 +65,7 @@ class Engine:
         BIG = 1 << 62
 
         def fits(i) -> bool:
-            """Ethernet (an FCS the engine cuts as the reader does: capture._convert), and time stamps the plain
+            """Ethernet (an FCS the engine cuts as the reader does: capture.record_converter), and time stamps the plain
             multiply keeps in int64 (else the reader takes them)."""
             return i[0] == 1 and 0 < i[3] < BIG and -BIG < i[2] < BIG and i[5] >= 0
 

@@ -87,7 +87,9 @@ class GapTracker:
         # wraps fits): the capture's clock stepped (NTP on the capture PC), no frame was lost there
         self.clock_steps = 0
         self.clock_step_first = None  # (frame, the stream's frame before it, ns the time jumped)
-        self.jumps_of = tuple         # () -> the capture's forward time jumps (CyclicTracker: ReadInfo.jumps)
+        # () -> the capture reader's ReadInfo (CyclicTracker sets it): its forward time jumps and the capture tool's
+        # own loss reports are losses the streams' counters cannot show
+        self.reader_of = lambda: None
 
     def step_from(self, key, step: int | None) -> None:
         """The stream's cycle step from its IOCR (SendClockFactor x ReductionRatio), when the Connect says it."""
@@ -203,11 +205,13 @@ class GapTracker:
         """The capture's time itself jumped inside this stream's pause (no frame of any stream there): a clock step,
         not a silent device (others' frames go on through a reboot)."""
         need = ts - pts - TS_ERROR_NS - 2 * period
-        return any(pts <= a and b <= ts and b - a >= need for a, b in self.jumps_of())
+        return any(pts <= a and b <= ts and b - a >= need for a, b in getattr(self.reader_of(), "jumps", ()))
 
     def last_gap(self, mac: str):
-        """When a stream to or from ``mac`` last showed capture loss (None: never)."""
-        return self.last_by_mac.get(mac)
+        """When a stream to or from ``mac`` last showed capture loss, or the capture tool last said it lost packets
+        (pcapng epb_dropcount: ReadInfo.last_drop_ts) -- None: never."""
+        own, tool = self.last_by_mac.get(mac), getattr(self.reader_of(), "last_drop_ts", None)
+        return own if tool is None else tool if own is None else max(own, tool)
 
     def _count(self, st: Stream, k: int) -> int:
         st.gaps += 1

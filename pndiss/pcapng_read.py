@@ -9,7 +9,7 @@ import struct
 from typing import Iterator
 
 from .capture import (LINKTYPE_ETHERNET, LINKTYPE_NONE, MAX_PACKET, MAX_RECORD, NEVER, PCAPNG_SHB, TS_MAX,
-                      CaptureError, _Buffer, _convert)
+                      CaptureError, ChunkBuffer, record_converter)
 
 # pcapng block types, tshark 4.0 minimum total lengths (wiretap/pcapng.c) and whether the block is a frame
 BT_SHB, BT_IDB, BT_PB, BT_SPB, BT_NRB, BT_ISB, BT_EPB = 0x0A0D0D0A, 1, 2, 3, 4, 5, 6
@@ -65,7 +65,7 @@ def _ts_limit(mult: int, off: int) -> int:
     return max(-1, (TS_MAX - off) // mult)
 
 
-def read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[tuple[int, int, int, bytes]]:
+def read_pcapng(path: str, b: ChunkBuffer, batch=None, first: int = 0) -> Iterator[tuple[int, int, int, bytes]]:
     n = first
     retry = 0 if batch is not None else NEVER
     bo = "<"
@@ -246,5 +246,5 @@ def read_pcapng(path: str, b: _Buffer, batch=None, first: int = 0) -> Iterator[t
             mult = 10 ** (9 - resol) if resol <= 9 else 0
             # (link type, ts -> ns, offset, multiplier, snaplen, fast-multiply limit, record conversion or None)
             # (+ the FCS length: the engine cuts an Ethernet FCS itself, pndiss/engine.py)
-            ifaces.append((lt, _tsres_to_ns(resol), tsoff, mult, snap, _ts_limit(mult, tsoff), _convert(lt, fcs), fcs))
+            ifaces.append((lt, _tsres_to_ns(resol), tsoff, mult, snap, _ts_limit(mult, tsoff), record_converter(lt, fcs), fcs))
         b.pos = p + blen

@@ -76,11 +76,8 @@ class RecordLayer:
                 # capture loss since a pending one, seen in the device's own streams (the engine walks those up to
                 # this frame; another device's may be ahead or behind it)
                 gaps = getattr(getattr(self.a, "cyclic", None), "gaps", None)
-                lost = [t for t in (gaps.last_gap(ev["device_mac"]) if gaps is not None else None,
-                                    getattr(getattr(self.a, "reader", None), "last_drop_ts", None)) if t is not None]
-                # (and the capture tool's own loss reports: pcapng epb_dropcount, pcapng_read.epb_options)
                 self.pairer.request(self._param_key(hb, ev["device_mac"], ev["controller_mac"]),
-                                    ev["decoded"], fn, ts, max(lost) if lost else None)
+                                    ev["decoded"], fn, ts, gaps.last_gap(ev["device_mac"]) if gaps is not None else None)
             evs.append(ev)
             self._row(ev)
         if evs:

@@ -479,7 +479,8 @@ def test_a_clock_step_is_no_loss(jump_ns, cycles_lost, whole_capture, want_lost,
     j = 10 + cycles_lost
     t = j * 1_000_000 + jump_ns
     if whole_capture:
-        g.jumps_of = lambda: [(9 * 1_000_000 + 200_000, t - 300_000)]
+        from types import SimpleNamespace
+        g.reader_of = lambda: SimpleNamespace(jumps=[(9 * 1_000_000 + 200_000, t - 300_000)], last_drop_ts=None)
     cc = (32 * j) % 65536 if jump_ns != 1_500_000_000 or whole_capture else 12345
     assert g.advance(key, 10, t, cc) == want_lost
     assert bool(g.summary()["clock_steps"]) == step_said
