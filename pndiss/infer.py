@@ -37,6 +37,33 @@ from .infer_facts import (CI as _CI, IOPS_GOOD, MAX_AXES, MAX_STREAMS, RETRY_MAX
                           hold as _hold, lua_facts, offsets as _offsets, reserved_in as _reserved_in, word as _word)
 from .proto.rt import DS_JUDGED
 
+def _free(o: int, L: int, taken) -> bool:
+    return all(o + L <= a or o >= b for a, b in taken)
+
+
+def _pick(found: list, taken_s=(), taken_a=(), profiles=None) -> dict | None:
+    """The best of the layouts (first of equal scores) clear of the byte ranges ``taken_s`` / ``taken_a`` (the
+    layouts picked before) and fitting every one of ``profiles`` (when given), with its confidence: its evidence,
+    less when another such layout over the same bytes scores close to it (one elsewhere in the frames is another
+    axis). None: nothing left."""
+    ok = [f for f in found if _free(f["os"], f["Ls"], taken_s) and _free(f["oa"], f["La"], taken_a)
+          and (profiles is None or set(profiles) <= set(f["evidence"]["profiles"]))]
+    if not ok:
+        return None
+    top = ok[0]
+    for f in ok[1:]:
+        if f["score"] > top["score"] + 1e-9:
+            top = f
+    mine_s, mine_a = [(top["os"], top["os"] + top["Ls"])], [(top["oa"], top["oa"] + top["La"])]
+    rivals = [f["score"] for f in ok
+              if f is not top and (not _free(f["os"], f["Ls"], mine_s) or not _free(f["oa"], f["La"], mine_a))]
+    best = dict(top, evidence=dict(top["evidence"]), runner_up=max(rivals, default=0.0))
+    margin = best["score"] - best["runner_up"]
+    share = best["evidence"].pop("share")
+    best["confidence"] = round(share * (1.0 if margin >= 0.5 else 0.5 + margin), 2)
+    return best
+
+
 class Stream:
     __slots__ = ("key", "samples", "frames", "done", "retry_at", "tries")
 
@@ -112,26 +139,26 @@ class Inference:
             for s in [st] + partners:   # the session knows (or is learning) this AR: its Connect decides
                 s.done, s.samples = True, []
             return
-        best = None
+        best = found = None
         for p in partners:
             for out_s, in_s in ((st, p), (p, st)):
-                got = self._score(out_s, in_s)
+                cands = self._layouts(out_s, in_s)
+                got = _pick(cands)
                 if got is not None and (best is None or got["score"] > best["score"]):
-                    best = got
+                    best, found = got, cands
         if best is None:
             for s in [st] + partners:
                 self._retry(s, fn)
             return
         out_s, in_s = best["out"], best["in"]
         # a device with several encoder submodules (a multi-axis device, two encoder modules in one station): each
-        # further layout that overlaps none found so far and has evidence of its own is one more axis
+        # further layout that overlaps none found so far and has evidence of its own is one more axis -- and fits
+        # every profile the first fits (a device has one profile: an IO module's heartbeat word beside an encoder,
+        # fitting PS/PSM only, is no second axis of it)
         layouts = [best]
         while len(layouts) < MAX_AXES:
-            # (a device has one profile: a further layout must fit every profile the first fits -- an IO module's
-            # heartbeat word beside an encoder, fitting PS/PSM only, is no second axis of it)
-            more = self._score(out_s, in_s, [(b["os"], b["os"] + tg.length(b["t"], "setpoint")) for b in layouts],
-                               [(b["oa"], b["oa"] + tg.length(b["t"], "actual")) for b in layouts],
-                               best["evidence"]["profiles"])
+            more = _pick(found, [(b["os"], b["os"] + b["Ls"]) for b in layouts],
+                         [(b["oa"], b["oa"] + b["La"]) for b in layouts], best["evidence"]["profiles"])
             if more is None:
                 break
             layouts.append(more)
@@ -180,11 +207,8 @@ class Inference:
             if not s.done:
                 self._fail(s)
 
-    def _score(self, out_s: Stream, in_s: Stream, taken_s=(), taken_a=(), profiles=None) -> dict | None:
-        """The best layout of the pair (None: nothing with evidence), its bytes overlapping none of ``taken_s`` /
-        ``taken_a`` (byte ranges of the layouts found before), its words fitting every one of ``profiles`` (when
-        given). Its confidence is its evidence, less when another layout over the same bytes scores close to it
-        (a layout elsewhere in the frames is another axis)."""
+    def _layouts(self, out_s: Stream, in_s: Stream) -> list:
+        """Every layout of the pair with evidence: dicts of telegram, offsets, lengths, score and evidence."""
         sp_sol, sp_sol_bits = _bit("setpoint", "sign_of_life")
         ac_sol, ac_sol_bits = _bit("actual", "sign_of_life")
         sp_m, sp_m_bits = _bit("setpoint", "mirror")
@@ -199,37 +223,18 @@ class Inference:
                 j += 1
             if j >= 0:
                 pairs.append((j, i))
-        free = lambda o, L, taken: all(o + L <= a or o >= b for a, b in taken)   # noqa: E731
-        found = []   # (score, t, os, oa, Ls, La, evidence), in the order tried
+        found = []   # in the order tried
         for t in candidates():
             spo, aco = _offsets(t, "setpoint"), _offsets(t, "actual")
             Ls, La = tg.length(t, "setpoint"), tg.length(t, "actual")
             for os_ in self._placements(S, ls, Ls, spo):
-                if not free(os_, Ls, taken_s):
-                    continue
                 for oa in self._placements(A, la, La, aco):
-                    if not free(oa, La, taken_a):
-                        continue
                     r = self._evidence(t, S, A, pairs, os_, oa, spo, aco, sp_sol, ac_sol, sp_m, sp_m_bits, ac_m,
                                        ac_m_bits)
-                    if r is not None and (profiles is None or set(profiles) <= set(r[1]["profiles"])):
-                        found.append((r[0], t, os_, oa, Ls, La, r[1]))
-        if not found:
-            return None
-        top = found[0]
-        for f in found[1:]:
-            if f[0] > top[0] + 1e-9:
-                top = f
-        score, t, os_, oa, Ls, La, ev = top
-        best = {"t": t, "os": os_, "oa": oa, "score": score, "evidence": ev, "out": out_s, "in": in_s}
-        # the runner-up: the best other layout over some of the same bytes (an alternative reading of them)
-        rivals = [f[0] for f in found if f is not top and (not free(f[2], f[4], [(os_, os_ + Ls)])
-                                                             or not free(f[3], f[5], [(oa, oa + La)]))]
-        best["runner_up"] = max(rivals, default=0.0)
-        margin = best["score"] - best["runner_up"]
-        share = best["evidence"].pop("share")
-        best["confidence"] = round(share * (1.0 if margin >= 0.5 else 0.5 + margin), 2)
-        return best
+                    if r is not None:
+                        found.append({"t": t, "os": os_, "oa": oa, "Ls": Ls, "La": La, "score": r[0], "evidence": r[1],
+                                      "out": out_s, "in": in_s})
+        return found
 
     @staticmethod
     def _placements(samples, n, L, offs):
