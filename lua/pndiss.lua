@@ -411,11 +411,9 @@ local function gap_advance(key, cc, ts, last, fn)
             -- of every frame in "*jumps"; the one up to this frame is still pending): a clock step, the counter
             -- says what was lost; else a stream that alone went quiet (a device restarting): the time stamps say it
             local need = ts - pts - 20000000 - 2 * period
-            local jumps = {table.unpack(gap_last_ts["*jumps"] or {})}
             local last = gap_last_ts["*last"]
-            if last ~= nil and ts - last >= 500000000 then jumps[#jumps + 1] = {last, ts} end
-            local clock = false
-            for _, j in ipairs(jumps) do
+            local clock = last ~= nil and pts <= last and ts - last >= math.max(need, 500000000)
+            for _, j in ipairs(gap_last_ts["*jumps"] or {}) do
                 if pts <= j[1] and j[2] <= ts and j[2] - j[1] >= need then clock = true end
             end
             if not clock then k = k0 end
