@@ -189,6 +189,7 @@ class AxisWalk:
         ax.sp_ok = bool(okS[sl])
         ax.sp_new = ax.sp_break = False
         ax.pend = None
+        ax.nosp = 0
         ax.sp_key = S.s.key
         ax.sp_ts = int(S.ts[sl])
         ax.held_paired = 0

@@ -275,7 +275,7 @@ class CyclicTracker(AxisTracking):
                     else:
                         ax.sp_break, ax.held = True, None
                 ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_ts = o.sig, fn, bool(ok), ts
-                ax.sp_new, ax.sp_key = True, key
+                ax.sp_new, ax.sp_key, ax.nosp = True, key, 0
                 pend = ax.pend
                 if pend is not None:  # an actual value came before its setpoint (RT clocks drift): pair them now
                     ax.pend = None
@@ -296,6 +296,7 @@ class CyclicTracker(AxisTracking):
                 continue
             if ax.pend is not None:  # two actual values, no setpoint between: the first one's setpoint is lost
                 pend, ax.pend = ax.pend, None
+                ax.nosp += 1
                 self._out(ax.checker.lost(pend[1], pend[2], 1))
             if miss or ax.sp_break or not ax.sp_new:
                 # elapsed cycles, not captured frames: the cycles the capture lost are not judged
@@ -409,7 +410,17 @@ class CyclicTracker(AxisTracking):
         self.infer.finish()
         for ax in self.axes.values():
             if ax.checker is not None:
+                self._unsent(ax)
                 self._out(ax.checker.finish())
+
+    def _unsent(self, ax: Axis) -> None:
+        """The setpoints stopped for good (capture or connection end) while actual values went on (a PLC that lost
+        power: the device sends for its DataHold time): those cycles were never sent, not lost by the capture --
+        not judged, like a cycle without valid data (an independent audit: counted as lost cycles)."""
+        if ax.nosp and ax.checker is not None:
+            ax.checker.unsent(ax.nosp)
+            self.gated += ax.nosp
+        ax.nosp = 0
 
     def summary(self) -> dict:
         encs = []

@@ -28,7 +28,7 @@ class Axis:
 
     __slots__ = ("key", "info", "checker", "sp", "sp_frame", "sp_ok", "telegram", "source", "profile", "reason",
                  "fm", "ambiguous", "sp_before", "sp_new", "sp_break", "sp_key", "ac_key", "pend", "sp_ts", "phase",
-                 "held", "held_paired")
+                 "held", "held_paired", "nosp")
 
     def __init__(self, key, info):
         self.key = key
@@ -53,6 +53,8 @@ class Axis:
         self.phase = None         # actual minus setpoint capture time of the last pair (cyclic.py _own_setpoint)
         self.held = None          # (signals, frame, ok, before, ts) of an unpaired setpoint a newer one followed
         self.held_paired = 0      # pairs in a row of a held setpoint's (cyclic.py _own_setpoint, HELD_MAX)
+        self.nosp = 0             # cycles counted lost since the latest setpoint (no setpoint between two actual
+                                  # values): if no setpoint follows, the controller stopped sending (unsent_cycles)
 
 
 class AxisTracking:
@@ -251,6 +253,7 @@ class AxisTracking:
                 continue
             same = [fm for fm in maps if ax.fm is not None and fm.direction == ax.fm.direction]
             ax.fm = (same or maps or [ax.fm])[0]
+            self._unsent(ax)   # the old connection's setpoints ended there
             ax.sp = ax.sp_frame = ax.sp_before = ax.pend = ax.ac_key = ax.held = None   # the pairing starts afresh
             ax.sp_ok = ax.sp_new = ax.sp_break = False
             self._out(ax.checker.new_connection(self.prev_bf00.get(dev)))

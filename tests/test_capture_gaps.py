@@ -526,3 +526,39 @@ def test_open_preset_of_an_ended_ar_says_so():
     assert any("when its AR was aborted (frame 6682)" in x for x in not_checked(s))
     s = {"cyclic": {"encoders": [enc]}}
     assert any("when the capture ended" in x for x in not_checked(s))
+
+
+def test_cycles_the_controller_never_sent_are_not_lost(tmp_path):
+    """The PLC loses power mid-capture: its output frames stop, the encoder sends on. The cycles after the last
+    setpoint were never sent -- not judged (gated), not 'lost' (an independent audit: counted as lost cycles);
+    the same loss with the setpoint stream going on afterwards stays lost. Engine and reference agree."""
+    from pndiss.capture import open_capture
+    from pndiss.sim.pcapng import Writer
+    from test_fastpath import _same_both_ways
+    src = capedit.simulate(str(tmp_path / "s.pcapng"), "--scenario", "startup", "--cycles", "1500")
+    frames = [(ts, bytes(d)) for _fn, ts, _lt, d in open_capture(src)]
+    def out(d):   # a cyclic frame of the controller's output CR
+        o = 16 if d[12:14] == b"\x81\x00" else 12
+        return d[o:o + 2] == b"\x88\x92" and int.from_bytes(d[o + 2:o + 4], "big") == SP
+    sp_ts = [ts for ts, d in frames if out(d)]
+    cut, hold = sp_ts[len(sp_ts) // 2], sp_ts[len(sp_ts) // 2 + 20]
+
+    def write(name, keep):
+        path = str(tmp_path / name)
+        with open(path, "wb") as f:
+            w = Writer(f)
+            for ts, d in frames:
+                if keep(ts, d):
+                    w.write(ts, d)
+        return path
+    # the controller stops; the capture ends 20 cycles later (the device's DataHold)
+    stopped = write("stopped.pcapng", lambda ts, d: ts <= hold and not (out(d) and ts > cut))
+    base = analyze_file(src).summary()["cyclic"]["encoders"][0]
+    enc = analyze_file(stopped).summary()["cyclic"]["encoders"][0]
+    assert enc["lost_cycles"] == 0 and enc["gated_cycles"] >= base["gated_cycles"] + 15
+    # the same setpoints missing, but the controller's stream goes on after them: the capture lost them
+    lossy = write("lossy.pcapng", lambda ts, d: ts <= hold + 100_000_000 and not (out(d) and cut < ts <= hold))
+    enc = analyze_file(lossy).summary()["cyclic"]["encoders"][0]
+    assert enc["lost_cycles"] >= 15
+    _same_both_ways(stopped)
+    _same_both_ways(lossy)

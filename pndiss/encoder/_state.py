@@ -177,6 +177,12 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         self.sol_known_at = self.n + self.sol_limit + 10
         return out
 
+    def unsent(self, cycles: int) -> None:
+        """``cycles`` of the cycles counted ``lost`` turned out never sent (the controller's setpoints stopped):
+        not judged, as a cycle without valid data (they already elapsed)."""
+        self.lost_cycles -= cycles
+        self.gated += cycles
+
     def _break(self) -> list[dict]:
         """No judged cycle joins the next one: open runs end, the edge history starts afresh."""
         self.out = []
