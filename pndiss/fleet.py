@@ -15,6 +15,7 @@ failed. An interrupted run leaves whole captures behind; the next run skips them
 """
 from __future__ import annotations
 
+import collections
 import os
 import time
 import uuid
@@ -44,21 +45,33 @@ class Plan:
 
 
 def plan(paths: list[str], store, retry_failed: bool = False, client=None, hash_threads: int = 4) -> Plan:
-    """Hash every input and decide what to analyse. Hashing reads every byte once: in threads here
-    (hashlib releases the GIL), or on the cluster's workers when ``client`` is given (a remote
-    cluster: the files are on its storage, and its nodes read them faster than one client)."""
+    """Decide what to analyse. An input that may be a copy of another input or of a capture the dataset
+    holds (the same size, or compressed: its content's size is not known) is hashed now: in threads here
+    (hashlib releases the GIL), or on the cluster's workers when ``client`` is given (a remote cluster:
+    the files are on its storage). Every other input is hashed by its own task, on the workers, in
+    parallel, as the analysis starts (a plant's worth of captures: no minutes of hashing up front on
+    one machine before the first task); ``sha256`` is None in ``todo`` for them."""
     done = store.done()   # sha256 -> captures row (with "error" set for a failed capture)
+    sizes = {p: _plain_size(p) for p in paths}
+    seen = collections.Counter(sizes.values())
+    taken = {r.get("size_bytes") for r in done.values()}
+    now = [p for p in paths if sizes[p] is None or seen[sizes[p]] > 1 or sizes[p] in taken]
     if client is not None:
         run = uuid.uuid4().hex[:12]   # task keys of this run: another run on the same scheduler has its own
-        hashed = client.gather(client.map(hash_one, paths, pure=False,
-                                          key=[f"pndiss-hash-{run}-{i}" for i in range(len(paths))]))
+        hashed = client.gather(client.map(hash_one, now, pure=False,
+                                          key=[f"pndiss-hash-{run}-{i}" for i in range(len(now))]))
     else:
         from concurrent.futures import ThreadPoolExecutor
         with ThreadPoolExecutor(max(1, hash_threads)) as ex:
-            hashed = list(ex.map(hash_one, paths))
+            hashed = list(ex.map(hash_one, now))
+    by_path = {h[0]: h for h in hashed}
     p = Plan()
     first: dict[str, str] = {}
-    for path, sha, size, err in hashed:
+    for path in paths:
+        if path not in by_path:   # no other input or captured file has its size: hashed by its task
+            p.todo.append((path, None, sizes[path]))
+            continue
+        _path, sha, size, err = by_path[path]
         if err is not None:   # the writer records it (with its reason) under a hash of its path
             p.todo.append((path, "", 0))
         elif sha in first:
@@ -73,6 +86,28 @@ def plan(paths: list[str], store, retry_failed: bool = False, client=None, hash_
     return p
 
 
+def _plain_size(path: str) -> int | None:
+    """The size of an uncompressed pcap / pcapng file (its content's size), else None (compressed,
+    not a capture, unreadable: hashed up front, as the content's size is unknown)."""
+    try:
+        with open(path, "rb") as f:
+            magic = f.read(4)
+            size = os.fstat(f.fileno()).st_size
+    except OSError:
+        return None
+    return size if magic in PLAIN_MAGIC else None
+
+
+# pcap (micro- and nanosecond, either byte order) and pcapng
+PLAIN_MAGIC = {bytes.fromhex(m) for m in ("a1b2c3d4", "d4c3b2a1", "a1b23c4d", "4d3cb2a1", "0a0d0d0a")}
+
+
+def task_name(path: str, sha: str | None) -> str:
+    """What names an input's task: its content hash, or, not hashed yet, a digest of its path."""
+    import hashlib
+    return sha or "p" + hashlib.sha256(os.path.abspath(path).encode()).hexdigest()[:32]
+
+
 def hash_one(path: str) -> tuple:
     """(path, content hash, size, None), or (path, "", 0, why) when it cannot be read."""
     try:
@@ -81,18 +116,37 @@ def hash_one(path: str) -> tuple:
         return path, "", 0, e.strerror or str(e)
 
 
-def analyse_one(store, path: str, sha: str, settings, cycles: str, write_thread: bool = False) -> Outcome:
+def analyse_one(store, path: str, sha: str | None, settings, cycles: str, write_thread: bool = False) -> Outcome:
     """The Dask task: analyse one capture into the dataset. A file that cannot be analysed is
-    recorded with its error by the writer and comes back as ``failed``, never raised. A Dask worker
+    recorded with its error by the writer and comes back as ``failed``, never raised. ``sha`` None:
+    the plan left the hashing to this task; a capture the dataset holds already comes back ``skipped``
+    (a copy under another name: the plan hashes those of the same size, this is the rest). A Dask worker
     is one core (``threads_per_worker=1``, as many workers as cores): no writer thread of its own there;
     ``--workers 0`` (one process, the other cores idle) writes the cycles table on a second thread."""
     t0 = time.perf_counter()
+    if sha is None:
+        _path, sha, _size, _err = hash_one(path)
+        row = store.row(sha) if sha else None
+        if row is not None and not row.get("error"):
+            return Outcome(path, sha, "skipped", row=row, seconds=time.perf_counter() - t0)
     row = store.write(path, sha, settings, cycles, write_thread)
     dt = time.perf_counter() - t0
     error = row.get("error")
     if error:
         return Outcome(path, sha, "failed", error, error_kind(error), row=row, seconds=dt)
     return Outcome(path, sha, "analysed", row=row, seconds=dt)
+
+
+def same_content(outcomes: list[Outcome]) -> list[Outcome]:
+    """Inputs hashed by their tasks that turned out to hold the same content as another input of the run
+    (a compressed copy: the plan hashes only copies it can tell by size): ``duplicate`` of the first."""
+    first: dict[str, str] = {}
+    for o in outcomes:
+        if o.status in ("analysed", "skipped", "duplicate") and o.sha256:
+            if o.status in ("analysed", "skipped") and o.sha256 in first:   # (skipped: the twin came first)
+                o.status, o.same_as = "duplicate", first[o.sha256]
+            first.setdefault(o.sha256, o.path)
+    return outcomes
 
 
 def error_kind(error: str) -> str:
@@ -120,7 +174,7 @@ def run_dask(client, todo, store, settings, cycles: str, on_done=None, retries: 
     run = uuid.uuid4().hex[:12]   # a run writing another dataset on the same scheduler must not share our tasks
     futures = {}
     for rank, (path, sha, _size) in enumerate(order):
-        fut = client.submit(analyse_one, store, path, sha, settings, cycles, key=f"pndiss-fleet-{sha or rank}-{run}",
+        fut = client.submit(analyse_one, store, path, sha, settings, cycles, key=f"pndiss-fleet-{task_name(path, sha)}-{run}",
                             pure=False, retries=retries, priority=len(order) - rank)
         futures[fut] = (path, sha)
     out = []
@@ -130,6 +184,8 @@ def run_dask(client, todo, store, settings, cycles: str, on_done=None, retries: 
             o = fut.result()
         except Exception as e:  # noqa: BLE001 -- KilledWorker after allowed-failures, a lost scheduler ...
             text = f"internal error: the task did not finish: {type(e).__name__}: {e}"
+            if sha is None:   # the task was to hash it: here, then
+                sha = hash_one(path)[1]
             row = store.record_failure(path, sha, text, settings, cycles)
             o = Outcome(path, sha, "failed", text, "internal", row=row)
         fut.release()

@@ -10,7 +10,7 @@ import glob
 import os
 
 # the columns a plan needs of the captures already done (skip, retry, --fail-on over skipped files)
-DONE_COLUMNS = ["capture_hash", "file", "error", "errors", "warnings", "infos", "violations"]
+DONE_COLUMNS = ["capture_hash", "file", "size_bytes", "error", "errors", "warnings", "infos", "violations"]
 
 
 class DatasetStore:
@@ -26,6 +26,17 @@ class DatasetStore:
         import pyarrow.dataset as pads
         t = pads.dataset(dataset.files(self.root, "captures"), format="parquet").to_table(columns=DONE_COLUMNS)
         return {r["capture_hash"]: r for r in t.to_pylist()}
+
+    def row(self, sha: str) -> dict | None:
+        """The ``captures`` row of a capture the dataset holds completely (DONE_COLUMNS), else None."""
+        import pyarrow.parquet as pq
+
+        f = os.path.join(self.root, "captures", sha + ".parquet")
+        try:
+            rows = pq.read_table(f, columns=DONE_COLUMNS).to_pylist()
+        except (OSError, ValueError):   # not there (or not whole: never, it is renamed into place)
+            return None
+        return rows[0] if rows else None
 
     def write(self, path: str, sha: str, settings, cycles: str, write_thread: bool = False) -> dict:
         """Analyse ``path`` into the dataset under content hash ``sha`` ('' when it could not be

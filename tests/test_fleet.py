@@ -192,7 +192,8 @@ def test_worker_killed_mid_run_loses_nothing(inputs, client, sequential, tmp_pat
     store = DatasetStore(root)
     p = fleet.plan(find_captures([str(inputs)]), store)
     long = next(t for t in p.todo if t[0].endswith("long.pcapng"))
-    key = f"pndiss-fleet-{long[1]}-"
+    assert long[1] is None   # no other input has its size: its task hashes it
+    key = f"pndiss-fleet-{fleet.task_name(*long[:2])}-"
     pids = client.run(os.getpid)   # worker address -> pid
     killed, seen = [], []
 
@@ -219,7 +220,7 @@ def test_worker_killed_mid_run_loses_nothing(inputs, client, sequential, tmp_pat
     worker, pid = killed[0]
     assert pid not in client.run(os.getpid).values()   # that process is gone (its nanny started another)
     assert sorted(o.status for o in out) == ["analysed"] * len(p.todo)
-    assert next(o for o in out if o.sha256 == long[1]).row["frames"] > 10000
+    assert next(o for o in out if o.path == long[0]).row["frames"] > 10000
     assert snapshot(root) == snapshot(sequential)
     assert not glob.glob(os.path.join(root, "*", ".*.tmp"))   # nothing half-written left behind
 
@@ -332,3 +333,37 @@ def test_bad_arguments_exit_2(argv, message, tmp_path, capsys):
     assert main(["fleet", *argv, "-o", str(tmp_path / "ds")]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
+
+
+def test_inputs_hashed_by_their_tasks_unless_a_size_may_be_a_copy(tmp_path):
+    """Hashing every input up front on one machine delays the first task by minutes on a plant's worth of
+    captures: an input no other input (or captured file) shares a size with is hashed by its own task. A copy
+    is still never analysed twice: the same size is hashed up front; a compressed one's twin is found by the
+    task (skipped) or after the run (duplicate)."""
+    a, b = CAPS[0], CAPS[1]
+    assert os.path.getsize(a) != os.path.getsize(b)
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(a, src / "a.pcapng")
+    (src / "b.pcapng.gz").write_bytes(gzip.compress(open(b, "rb").read()))
+    root = str(tmp_path / "ds")
+    store = DatasetStore(root)
+    p = fleet.plan(find_captures([str(src)]), store)
+    todo = {os.path.basename(t[0]): t[1] for t in p.todo}
+    assert todo["a.pcapng"] is None and todo["b.pcapng.gz"] == content_hash(b)   # compressed: hashed now
+    out = fleet.same_content(p.outcomes + fleet.run_local(p.todo, store, Settings(), "none"))
+    assert sorted(o.status for o in out) == ["analysed", "analysed"]
+    assert {o.sha256 for o in out} == {content_hash(a), content_hash(b)}
+    # the plain twin of the compressed capture the dataset holds: its size is new, its task finds it done
+    shutil.copy(b, src / "b-plain.pcapng")
+    p = fleet.plan([str(src / "b-plain.pcapng")], store)
+    assert p.todo[0][1] is None
+    out = fleet.run_local(p.todo, store, Settings(), "none")
+    assert [o.status for o in out] == ["skipped"] and out[0].row["capture_hash"] == content_hash(b)
+    # in one run with its compressed twin (a fresh dataset): analysed once, the other a duplicate
+    root2 = str(tmp_path / "ds2")
+    store2 = DatasetStore(root2)
+    p = fleet.plan([str(src / "b.pcapng.gz"), str(src / "b-plain.pcapng")], store2)
+    out = fleet.same_content(p.outcomes + fleet.run_local(p.todo, store2, Settings(), "none"))
+    assert sorted(o.status for o in out) == ["analysed", "duplicate"]
+    assert len(glob.glob(os.path.join(root2, "captures", "*.parquet"))) == 1

@@ -92,7 +92,7 @@ def run(args) -> int:
             client.close()
         if cluster is not None:
             cluster.close()
-    outcomes = p.outcomes + results
+    outcomes = fleet.same_content(p.outcomes + results)
     n = {s: sum(o.status == s for o in outcomes) for s in ("analysed", "skipped", "duplicate", "failed")}
     failed_before = sum(o.status == "skipped" and bool((o.row or {}).get("error")) for o in outcomes)
     if progress is None:  # the bar said each failure as it came; a quiet run says them here

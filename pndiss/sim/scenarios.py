@@ -8,11 +8,14 @@ from __future__ import annotations
 
 import json
 import os
+from typing import TYPE_CHECKING
 
 from ..rules import RULES
 from . import pcapng
 from .config import Config
-from .session import SimSession
+
+if TYPE_CHECKING:   # the session builds frames with scapy (~0.5 s to import): not for `pndiss analyze`
+    from .session import SimSession
 
 STANDSTILL = ((0.0, 0.0, 0.0),)
 
@@ -286,6 +289,7 @@ def write_capture(cfg: Config, path: str, expected: bool = True) -> dict:
     sc = SCENARIOS[cfg.scenario]()
     for rule, cyc in cfg.injects:
         sc.injections.append(make_injection(rule, cyc))
+    from .session import SimSession
     sess = SimSession(cfg, sc)
     frames, truth = sess.build()
     with open(path, "wb") as f:
