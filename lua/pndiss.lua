@@ -406,7 +406,7 @@ local function gap_advance(key, cc, ts, last, fn)
             end
             if k ~= nil then break end
         end
-        if k == nil then
+        if k == nil or d == st.step then   -- (exactly one step on across a jump of the capture's time: a clock step)
             -- gaps._clock_jump: the whole capture's time jumped inside the pause (the postdissector notes the jumps
             -- of every frame in "*jumps"; the one up to this frame is still pending): a clock step, the counter
             -- says what was lost; else a stream that alone went quiet (a device restarting): the time stamps say it
@@ -416,7 +416,7 @@ local function gap_advance(key, cc, ts, last, fn)
             for _, j in ipairs(gap_last_ts["*jumps"] or {}) do
                 if pts <= j[1] and j[2] <= ts and j[2] - j[1] >= need then clock = true end
             end
-            if not clock then k = k0 end
+            if clock then k = nil elseif k == nil then k = k0 end
         end
         if k ~= nil and k > 0 then
             for mac in key:gmatch("|([^|]*)") do   -- gaps.GapTracker._lost_at: per MAC of the stream

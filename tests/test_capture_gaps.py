@@ -457,6 +457,9 @@ def test_a_counter_that_contradicts_its_connect_is_not_trusted_again_at_every_ma
 @pytest.mark.parametrize("jump_ns, cycles_lost, whole_capture, want_lost, step_said", [
     (1_500_000_000, 0, True, 0, True),          # the clock set 1.5 s ahead, nothing lost: no 1,500 "lost" cycles
     (20_000_000_000, 0, True, 0, True),         # 20 s ahead
+    (3_600_000_000_000, 0, True, 0, True),      # an hour ahead: some count fits the counter within drift, but one step
+    (0, 2500, True, 2500, False),               # the whole capture lost 2.5 s (a ring-buffer file missing): counted
+    (0, 4096, True, 0, True),                   # ... exactly two wraps, each counter one step on: a clock step (1 in 2,048)
     (1_500_000_000, 3, True, 3, True),          # the clock stepped and three frames were lost with it: the counter's 3
     (0, 2048, False, 2048, False),              # a real loss of exactly one wrap (the counter one step on): counted
     (0, 2500, False, 2500, False),              # a real loss of 2.5 s: counted
