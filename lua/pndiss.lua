@@ -406,7 +406,8 @@ local function gap_advance(key, cc, ts, last, fn)
             end
             if k ~= nil then break end
         end
-        if k == nil or d == st.step then   -- (exactly one step on across a jump of the capture's time: a clock step)
+        if k == nil or (d == st.step and math.abs(k - k0) > math.max(2, math.floor(20000000 / period))) then
+            -- (exactly one step on across a jump of the capture's time the time stamps miss: a clock step too)
             -- gaps._clock_jump: the whole capture's time jumped inside the pause (the postdissector notes the jumps
             -- of every frame in "*jumps"; the one up to this frame is still pending): a clock step, the counter
             -- says what was lost; else a stream that alone went quiet (a device restarting): the time stamps say it

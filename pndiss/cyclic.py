@@ -96,6 +96,7 @@ class CyclicTracker(AxisTracking):
         # unmapped key -> frames: those of a stream an AR maps later (a device sending before the Connect
         # response, as real devices do) are not "unknown streams" in the verdict's trust signals
         self.unmapped_by_key: dict = lim.table(self.s.max_streams, "streams")
+        self.trailers: dict = {}      # stream key -> its frames' bytes after the IOCR's C_SDU (_trailer_check)
         self.no_telegram = 0          # frames of a known AR that carry no encoder telegram (IO devices)
         self.mapped = 0
         self.gated = 0
@@ -236,6 +237,7 @@ class CyclicTracker(AxisTracking):
                 if not o.length_checked:
                     o.length_checked = True
                     self._length_check(o, fr, fn, ts)
+                    self._trailer_check(key, fr, fn, n_csdu)
                 if do.length < o.layout.length:
                     continue
                 o.sig = o.layout.decode(csdu, o.start)
@@ -405,6 +407,16 @@ class CyclicTracker(AxisTracking):
                                                                          "severity": "error", "side": side,
                                                                          "message": words})["events"] += 1
 
+    def _trailer_check(self, key: tuple, fr: _Frame, fn: int, n_csdu: int) -> None:
+        """Bytes after the C_SDU + APDU status the Connect gave the stream (its IOCR DataLength, at least 40):
+        a TAP or switch appending its own trailer (time stamps, port). The cycle counter and status are read at
+        the frame's end, as Wireshark reads them: there they are the trailer's (an independent audit: thousands
+        of "lost" cycles and stale frames, the encoder barely judged, and no word why)."""
+        dl = fr.fm.data_length
+        if dl and n_csdu > max(40, dl) and key not in self.trailers and len(self.trailers) < MAX_SILENT:
+            self.trailers[key] = {"frame_id": key[0], "src": key[1], "dst": key[2], "station": fr.fm.station,
+                                  "first_frame": fn, "data_length": dl, "extra_bytes": n_csdu - max(40, dl)}
+
     # -- results -----------------------------------------------------------------------------------
     def finish(self) -> None:
         self.infer.finish()
@@ -441,7 +453,7 @@ class CyclicTracker(AxisTracking):
             if ar is not None and ar.get("phase") in ("released", "aborted") and ar.get("phases"):
                 encs[-1]["ar_ended"] = {"phase": ar["phase"], "frame": ar["phases"][-1]["frame"]}
         before = self.unmapped_before_ar()
-        return {"silent_streams": self._silent(),
+        return {"silent_streams": self._silent(), "longer_than_iocr": list(self.trailers.values()),
                 "frames_mapped": self.mapped, "frames_unmapped": self.unmapped - before,
                 "frames_before_ar": before, "frames_no_telegram": self.no_telegram, "cycles_gated": self.gated,
                 # every violation, not only the encoders' (DCP, ...): one counting point (Analyzer.violations)

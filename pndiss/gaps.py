@@ -154,9 +154,11 @@ class GapTracker:
             period = st.step * UNIT_NS
             k0 = (ts - pts + period // 2) // period - 1
             k = with_counter(k0, d, st.step)
-            # (an advance of exactly one step across a jump of the whole capture's time: a clock step too, however
-            # long -- a real loss lands a counter there once in 2,048; an hour's jump fits some count within drift)
-            if (k is None or d == st.step) and self._clock_jump(pts, ts, period):
+            # an advance of exactly one step across a jump of the whole capture's time that the time stamps miss by
+            # more than their error: a clock step too, however long (an hour's step fits some count within the drift
+            # allowed; a real loss lands a counter exactly one step on once in 2,048, and then the times agree)
+            if (k is None or (d == st.step and abs(k - k0) > max(2, TS_ERROR_NS // period))) \
+                    and self._clock_jump(pts, ts, period):
                 # the time stamps jumped by what the counter's advance contradicts, and so did the whole capture's
                 # time between two frames: the capture's clock stepped; the counter says what was lost (usually
                 # nothing) -- not "seen in the cycle counter" cycles

@@ -459,7 +459,7 @@ def test_a_counter_that_contradicts_its_connect_is_not_trusted_again_at_every_ma
     (20_000_000_000, 0, True, 0, True),         # 20 s ahead
     (3_600_000_000_000, 0, True, 0, True),      # an hour ahead: some count fits the counter within drift, but one step
     (0, 2500, True, 2500, False),               # the whole capture lost 2.5 s (a ring-buffer file missing): counted
-    (0, 4096, True, 0, True),                   # ... exactly two wraps, each counter one step on: a clock step (1 in 2,048)
+    (0, 4096, True, 4096, False),               # ... exactly two wraps, each counter one step on, the times agree: lost
     (1_500_000_000, 3, True, 3, True),          # the clock stepped and three frames were lost with it: the counter's 3
     (0, 2048, False, 2048, False),              # a real loss of exactly one wrap (the counter one step on): counted
     (0, 2500, False, 2500, False),              # a real loss of 2.5 s: counted
@@ -565,3 +565,29 @@ def test_cycles_the_controller_never_sent_are_not_lost(tmp_path):
     assert enc["lost_cycles"] >= 15
     _same_both_ways(stopped)
     _same_both_ways(lossy)
+
+
+def test_a_taps_trailer_on_cyclic_frames_is_said(tmp_path):
+    """A TAP that appends 6 bytes to every frame: the cycle counter and status are read at the frame's end (as
+    Wireshark does), so the stream's gaps and judged cycles are the trailer's. The summary names the streams whose
+    frames are longer than their IOCR's C_SDU + APDU status and Trust says why nothing there means much (an
+    independent audit: 24,576 "lost" cycles, "no violations", no word why); the untouched capture says nothing."""
+    from pndiss.capture import open_capture
+    from pndiss.sim.pcapng import Writer
+    from pndiss.verdict import trust
+    from test_fastpath import _same_both_ways
+    src = capedit.simulate(str(tmp_path / "s.pcapng"), "--cycles", "300", "--io-devices", "1")
+    path = str(tmp_path / "trailer.pcapng")
+    with open(path, "wb") as f:
+        w = Writer(f)
+        for _fn, ts, _lt, d in open_capture(src):
+            w.write(ts, bytes(d) + bytes.fromhex("3f3e3d3c3b3a"))
+    s = analyze_file(path).summary()
+    tr = s["cyclic"]["longer_than_iocr"]
+    # (the encoder's input frames at standstill all look like copies of the first, read at the trailer: the check
+    # runs where a frame's data objects are decoded, so the setpoint stream names it)
+    assert tr and {q["extra_bytes"] for q in tr} == {6} and SP in {q["frame_id"] for q in tr}
+    assert any(t.startswith("trailer:") and "editcap -C" in t for t in trust(s))
+    clean = analyze_file(src).summary()
+    assert clean["cyclic"]["longer_than_iocr"] == [] and not any(t.startswith("trailer:") for t in trust(clean))
+    _same_both_ways(path)
