@@ -624,8 +624,21 @@ local function held(controller, device, ar)
     return out
 end
 
--- gaps.restart of an AR's streams its maps still hold: the next frame starts a new cycle counter
-local function restart_gaps(ar)
+-- gaps.restart of an AR's streams its maps still hold: the next frame starts a new cycle counter. With MACs a, b:
+-- session_ar.end_inferred -- the AR between them known only from its content (no Connect, no UUID) ended (its
+-- Release, an ERR-RTA-PDU, its controller's new Connect): its maps end with it, its streams' counters start afresh
+local function restart_gaps(ar, a, b, phase)
+    if a ~= nil then
+        for sk, fm in pairs(maps) do
+            if fm.source == "content" and fm.phase ~= "released" and fm.phase ~= "aborted"
+                    and ((fm.controller == a and fm.device == b) or (fm.controller == b and fm.device == a)) then
+                fm.phase = phase
+                if gap_streams[sk] ~= nil then gap_stream(sk, true) end
+            end
+        end
+        map_generation = map_generation + 1
+        return
+    end
     for _, k in ipairs(ar_keys[ar]) do
         local sk = k[1] .. "|" .. k[2] .. "|" .. k[3]
         if gap_streams[sk] ~= nil and maps[sk] == k[4] then gap_stream(sk, true) end
@@ -688,6 +701,7 @@ local function connect_request(key, pinfo)
     if not replaces(req) then return end
     -- session_ar._connect_requested: the device may provide the new AR's frames before the response, so the
     -- streams of the AR the controller holds with it start their capture-loss tracking afresh
+    restart_gaps(nil, req.controller, req.dst, "aborted")
     for _, a in ipairs(held(req.controller, req.dst, req.ar)) do restart_gaps(a) end
 end
 
@@ -2136,13 +2150,16 @@ function ar_moves(ar, phase, fn)
 end
 
 -- PNIO-CM Control / Release of an AR (session._control, session._release)
-local function control(op, pt, fn)
+local function control(op, pt, fn, pinfo)
     local want = (op == 4 and pt == 0) and "control" or ((op == 1 and pt == 2) and "release" or nil)
     if want == nil then return end
     for _, b in ipairs(blocks()) do
         local u = inside(all("pn_io.ar_uuid"), b)[1]
         local ar = u and tostring(u)
         if want == "release" and b.type == 0x8114 then
+            if ar_keys[ar or ""] == nil then   -- (session_ar._release: an AR the capture saw no Connect of)
+                restart_gaps(nil, tostring(pinfo.dl_src), tostring(pinfo.dl_dst), "released")
+            end
             ar_moves(ar, "released", fn)
         elseif want == "control" and b.type >= 0x0110 and b.type <= 0x0117 and b.type ~= 0x0115 then
             local c = inside(all("pn_io.control_command"), b)[1]
@@ -2167,6 +2184,7 @@ local function rta_error(pinfo)
             return
         end
     end
+    restart_gaps(nil, src, dst, "aborted")
 end
 
 -- CyclicTracker.on_alarm: a DATA-RTA alarm notification reaches the encoder axes of its submodule (#48, #70); the
@@ -2737,6 +2755,8 @@ local function first_pass(pinfo)
             facts[dev] = f
             local old = f.dcp or {}
             f.dcp = {v and v.value or old[1], dv and dv.value or old[2]}
+            -- session_records.identity_changed: a profile decided before this identity is decided again
+            if f.dcp[1] ~= old[1] or f.dcp[2] ~= old[2] then profiles[dev] = nil end
         end
         on_dcp(pinfo)
         on_lldp(pinfo)
@@ -2776,7 +2796,7 @@ local function first_pass(pinfo)
         if op.value == 0 and pt and key then
             if pt.value == 0 then connect_request(key, pinfo) elseif pt.value == 2 then connect_response(key, pinfo) end
         end
-        if pt then control(op.value, pt.value, pinfo.number) end
+        if pt then control(op.value, pt.value, pinfo.number, pinfo) end
         items = record_items(pinfo, records_of_frame())
         if pt and pt.value == 2 and op.value == 3 and key and not wrote[key] then write_responses(pinfo) end
         if pt and pt.value == 2 and op.value == 3 and req_frame ~= nil then write_refusals(pinfo, req_frame) end

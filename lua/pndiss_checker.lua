@@ -1703,6 +1703,11 @@ local function datatype(chk, ev, p, pnu, frame)
   local names = K.format_names
   if want ~= nil and names[want] and got ~= nil and names[got] and want ~= got
       and band(p.attribute or 0x10, 0xF0) == 0x10 then
+    if chk.cfg.profile == "generic" then
+      for prof, t in pairs(K.param_types) do   -- acyclic._datatype: no vendor known, a vendor's own type is no fault
+        if prof ~= "generic" and t[pnu] == got then return end
+      end
+    end
     v_(chk, "BMP-DATATYPE", ev, fmt("P%d read as %s; its data type is %s", pnu, got, want), frame)
   end
 end

@@ -225,7 +225,11 @@ class Analyzer:
             extras = d.pop("events", ())  # e.g. invalid NameOfStation
             self.emit(d)
             self.activity.on_event(d)
-            self.stations.from_dcp(d, src, dst)
+            changed = self.stations.from_dcp(d, src, dst)
+            if changed is not None:
+                # a device's identity arrived after its profile was decided (a capture started mid-session: the
+                # DCP Identify of its reboot comes after the inferred AR): decided again for its next AR
+                self.session.identity_changed(changed)
             for extra in extras:
                 if extra["kind"] == "violation":
                     extra.setdefault("last_frame", fn)

@@ -82,7 +82,7 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
             if call is not None and call["frame"] == fn or (call is not None and call["pdu"] is None):
                 call["pdu"] = pdu
             if op == 0:
-                self._connect_requested(pdu, dst)
+                self._connect_requested(pdu, dst, fn, ts)
             if op == 3:
                 self._writes(fn, ts, pdu, key, src, dst)
             elif op == 4:
@@ -109,7 +109,7 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
             if len(self.orphans) > 64:
                 self.orphans.popitem(last=False)
         elif op == 1:
-            self._release(fn, ts, pdu)
+            self._release(fn, ts, pdu, src, dst)
         elif op == 3:
             self._write_results(fn, ts, pdu, key, src)
         elif op in (2, 5):

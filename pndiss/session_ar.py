@@ -215,7 +215,7 @@ class ArLayer:
         if again:   # the AR UUID of an earlier connection (controllers may reuse it): a new connection
             self.a.cyclic.on_reconnect(rec, fn, ts)
 
-    def _connect_requested(self, pdu: dict, device: str) -> None:
+    def _connect_requested(self, pdu: dict, device: str, fn: int, ts: int) -> None:
         """A Connect request for another AR of a controller that holds one with the device: the device may
         provide the new AR's frames before its response (a new cycle counter), so the held AR's streams
         start their capture-loss tracking afresh now; the AR itself ends at the response (_superseded)."""
@@ -223,6 +223,8 @@ class ArLayer:
         arq = next((b for b in blocks if b.get("block_type") == 0x0101), None)
         if arq is None or not _replaces(arq, [b for b in blocks if b.get("block_type") == 0x0102]):
             return
+        self.end_inferred(arq["cminitiator_mac_add"], device, "aborted", fn, ts,
+                          f"a new Connect of the same controller (frame {fn})")
         for old in self._held(arq["cminitiator_mac_add"], device, arq["ar_uuid"]):
             self.a.cyclic.restart_gaps([key for key, _fm in self.frame_keys(old)])
 
@@ -300,9 +302,11 @@ class ArLayer:
                 return note
         return None
 
-    def _release(self, fn, ts, pdu) -> None:
+    def _release(self, fn, ts, pdu, src: str | None = None, dst: str | None = None) -> None:
         self.counts["releases"] += 1
         for b in pdu["blocks"]:
+            if b["block_type"] == 0x8114 and b.get("ar_uuid") not in self.ars and src and dst:
+                self.end_inferred(src, dst, "released", fn, ts, "Release")   # an AR the capture saw no Connect of
             if b["block_type"] == 0x8114 and b.get("ar_uuid") in self.ars:
                 ar = self.ars[b["ar_uuid"]]
                 ar["released"] = True
@@ -331,6 +335,28 @@ class ArLayer:
                 why = f": {status['text']}" if status and status.get("text") else ""
                 self.set_phase(ar, "aborted", fn, ts, f"ERR-RTA-PDU from the {who} {src}{why}")
                 return
+        why = f": {status['text']}" if status and status.get("text") else ""
+        self.end_inferred(src, dst, "aborted", fn, ts, f"ERR-RTA-PDU from {src}{why}")
+
+    def end_inferred(self, a: str, b: str, phase: str, fn: int, ts: int, cause: str) -> None:
+        """The AR between MACs ``a`` and ``b`` that the capture knows only from its cyclic content (no Connect:
+        started mid-session) ended: its Release or ERR-RTA-PDU (the AR UUID is unknown, the MACs say it), or a
+        new Connect of its controller. Its streams' cycle counters end with it: the next AR's providers count
+        afresh (an independent audit: the new AR's first 101 cycles taken for stale copies, a fault in them
+        missed; or the pause to the new Connect counted as capture loss)."""
+        ended = [(k, fm) for k, fm in self.maps.items() if fm.source == "content" and fm.phase not in ("released", "aborted")
+                 and {fm.controller_mac, fm.device_mac} == {a, b}]
+        if not ended:
+            return
+        for _k, fm in ended:
+            fm.phase = phase
+            fm.released = phase == "released"
+        self.a.cyclic.restart_gaps([k for k, _fm in ended])
+        self.map_generation += 1
+        fm = ended[0][1]
+        self.a.emit({"frame": fn, "ts_ns": ts, "kind": "ar_phase", "ar_uuid": None, "phase": phase,
+                     "previous_phase": None, "cause": cause + " (an AR inferred from content)",
+                     "device_mac": fm.device_mac, "station": fm.station, "controller_mac": fm.controller_mac})
 
     def set_phase(self, ar: dict, phase: str, fn: int, ts: int, cause: str) -> None:
         """Move an AR forward to ``phase``: its frame maps, an ``ar_phase`` event, the cyclic tracker

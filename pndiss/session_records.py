@@ -232,6 +232,12 @@ class RecordLayer:
             self.record_rows.append(ev)
 
     # ---------------------------------------------------------------- device profile
+    def identity_changed(self, device_mac: str) -> None:
+        """DCP told the device's vendor, device ID or type anew: its profile is decided again when next asked (the
+        axes that have one keep it; a new AR's axes take the new one). Not over I&M0, which beats DCP."""
+        if device_mac not in self.im0:
+            self.profiles.pop(device_mac, None)
+
     def profile_for(self, device_mac: str | None) -> tuple[str, str]:
         s = self.a.settings.profile
         if s and s != "auto":

@@ -8,6 +8,9 @@ from __future__ import annotations
 from .proto.eth import NO_DST
 
 
+IDENTITY = ("vendor_id", "device_id", "type_of_station")   # what a device's profile is decided from (DCP)
+
+
 class Stations:
     def __init__(self, by_mac: dict | None = None):
         self.by_mac: dict[str, dict] = {} if by_mac is None else by_mac   # a limits.BoundedDict in the analyzer
@@ -29,15 +32,20 @@ class Stations:
             if v is not None:
                 s[k] = v
 
-    def from_dcp(self, ev: dict, src: str, dst: str) -> None:
-        """A DCP response or Hello describes its sender; a Set request describes its target."""
+    def from_dcp(self, ev: dict, src: str, dst: str) -> str | None:
+        """A DCP response or Hello describes its sender; a Set request describes its target. Returns the MAC whose
+        identity (vendor ID, device ID, type of station) this changed, else None."""
         self.seen(src)
         info = ev.get("station_info")  # the DCP module collects name/ip/vendor/device/role here
         if not info:
-            return
+            return None
         target = dst if ev.get("service") == "Set" and ev.get("service_type") == 0 else src
-        if target != NO_DST:   # a Set in a Linux cooked capture: the target's address is not there
-            self.update(target, **info)
+        if target == NO_DST:   # a Set in a Linux cooked capture: the target's address is not there
+            return None
+        s = self.get(target)
+        before = tuple(s.get(k) for k in IDENTITY)
+        self.update(target, **info)
+        return target if tuple(s.get(k) for k in IDENTITY) != before else None
 
     def from_lldp(self, ev: dict, src: str) -> None:
         self.seen(src)

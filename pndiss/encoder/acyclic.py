@@ -395,7 +395,12 @@ def _datatype(chk, ev, p, pnu, frame) -> None:
     got = p.get("format_name")
     names = {v[0] for v in FORMATS.values()}
     if want in names and got in names and want != got and p.get("attribute", 0x10) & 0xF0 == 0x10:
+        if chk.cfg.profile == "generic" and any((param_info(pnu, q) or {}).get("type") == got for q in VENDOR_PROFILES):
+            return   # no vendor known (a capture without the device's DCP): the type one vendor documents is no fault
         _v(chk, "BMP-DATATYPE", ev, f"P{pnu} read as {got}; its data type is {want}", frame=frame)
+
+
+VENDOR_PROFILES = ("lika", "scancon", "hohner", "psm")
 
 
 def p965_version(sub, v):
