@@ -1507,7 +1507,9 @@ local function pair_response(key, rsp, frame, ts, profile)
         local qid = q.request_id
         local legal = qid == 1 or qid == 2 or (qid >= 0x40 and qid <= 0x7F)
         -- an illegal request ID is answered with 0x80 (001_9461bb7bc8c2767b.txt:2073; rule #80 judges the rest)
-        if rsp.response_id ~= qid and rsp.response_id ~= bit.bor(qid, 0x80) and not (rsp.response_id == 0x80 and not legal) then
+        -- (and a manufacturer-specific one the device does not offer: 0x80 / error 0x21, the documented refusal)
+        if rsp.response_id ~= qid and rsp.response_id ~= bit.bor(qid, 0x80)
+                and not (rsp.response_id == 0x80 and (not legal or qid >= 0x40)) then
             w[#w + 1] = string.format("response id mismatch (request 0x%02X, response 0x%02X)", q.request_id, rsp.response_id)
         end
         if rsp.axis ~= q.axis then

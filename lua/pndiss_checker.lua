@@ -1808,9 +1808,9 @@ local function change(chk, ev, p, pnu, sub, err, vals, frame, vfloat)
       end
     end
     local R = C.modulus(c)
-    if err == nil and vint and R ~= nil and v >= R then
-      -- #87: P65000 beyond the range -> error 0x02 (001_9461bb7bc8c2767b.txt:847)
-      v_(chk, "BMP-PRESET-LIMIT-ACCEPTED", ev, fmt("P65000=%s >= R=%s accepted; expected error 0x02", tostring(v), tostring(R)), frame)
+    if err == nil and vint and R ~= nil and v > R then
+      -- #87: P65000 greater than the range -> error 0x02 (001_9461bb7bc8c2767b.txt:847)
+      v_(chk, "BMP-PRESET-LIMIT-ACCEPTED", ev, fmt("P65000=%s > R=%s accepted; expected error 0x02", tostring(v), tostring(R)), frame)
     end
     if err == nil and vint then
       chk.p65000 = v  -- R-PAR-1: stored only, no preset (001_9461bb7bc8c2767b.txt:845)
@@ -1880,6 +1880,12 @@ local function param(chk, ev)
   end
   local aborted = false
   local nparams = #params
+  local neg = isint(rid) and band(rid, 0x80) ~= 0
+  if neg and nparams == 1 and isint(params[1].format) and params[1].format ~= 0x44 then
+    -- #83: the one block of a negative single-parameter response is the error (format 0x44, 001_...:1970-1978)
+    v_(chk, "BMP-NEG-FORMAT", ev, fmt("PNU %s: negative response whose block has format 0x%02X; an error entry "
+       .. "has format 0x44", tostring(params[1].pnu), params[1].format), frame)
+  end
   for _, p in ipairs(params) do
     local pnu, err = p.pnu, p.error
     local sub = p.subindex
@@ -1889,6 +1895,10 @@ local function param(chk, ev)
     if code ~= nil and code > 0xFF then
       -- #83: error numbers are one byte (001_9461bb7bc8c2767b.txt:2031)
       v_(chk, "BMP-NEG-FORMAT", ev, fmt("PNU %s: error number 0x%X > 0xFF", tostring(pnu), code), frame)
+    elseif neg and p.format == 0x44 and p.no_of_values ~= 1 and p.no_of_values ~= 2 then
+      -- #83: an error entry holds the error number and at most one more value (001_...:1970-1978)
+      v_(chk, "BMP-NEG-FORMAT", ev, fmt("PNU %s: error entry with %s values; expected 1 or 2", tostring(pnu),
+         tostring(p.no_of_values)), frame)
     end
     if is_change and nparams > 1 then
       if aborted and err == nil then

@@ -139,8 +139,10 @@ def test_pairing_refused_early_write_keeps_the_pending_request():
 
 
 def test_pairing_illegal_request_id_answered_0x80():
-    """An illegal request ID is answered with response ID 0x80 (001_9461bb7bc8c2767b.txt:2073): no mismatch."""
-    for qid, rid, mismatch in ((0x03, 0x80, False), (0x03, 0x83, False), (0x01, 0x80, True)):
+    """An illegal request ID is answered with response ID 0x80 (001_9461bb7bc8c2767b.txt:2073): no mismatch; nor is a
+    manufacturer-specific one (0x40-0x7F) the device does not offer, refused the documented way (0x80 / 0x21)."""
+    for qid, rid, mismatch in ((0x03, 0x80, False), (0x03, 0x83, False), (0x01, 0x80, True), (0x40, 0x80, False),
+                               (0x7F, 0x80, False), (0x40, 0xC0, False), (0x40, 0x81, True)):
         req = decode_record(0xB02E, build_param_request(1, qid, [{"pnu": 922}]), write=True)
         pp = ParamPairer()
         pp.request("k", req, 1, 0)

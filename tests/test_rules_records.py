@@ -28,6 +28,13 @@ def bf00(decoded=None, data="00" * 31, length=31):
 
 ERR = lambda code: {"code": code, "text": "x"}  # noqa: E731
 
+
+def neg(pnu, fmt, n):
+    """A negative response to a read of ``pnu`` whose one block has format ``fmt`` and ``n`` values."""
+    ev = param(pnu, error=ERR(0x00) if fmt == 0x44 and n else None, rid=0x81)
+    ev["params"][0].update(format=fmt, no_of_values=n)
+    return ev
+
 CASES = [
     ("TELEGRAM-SELECTION-MISMATCH", {}, [param(922, [83]), G], [param(922, [81]), G]),
     ("P965-VERSION-MISMATCH", {}, [param(965, ["001f"], sub=1), G], [param(965, ["0029"], sub=1), G]),
@@ -57,11 +64,16 @@ CASES = [
      [param(922, [81])]),
     ("BMP-RESPID-MISMATCH", {}, [param(922, error=ERR(0x00), rid=0x01)], [param(922, error=ERR(0x00))]),
     ("BMP-NEG-FORMAT", {}, [param(922, error=ERR(0x123))], [param(922, error=ERR(0x23))]),
+    # an error entry is format 0x44 with 1 or 2 values (001_9461bb7bc8c2767b.txt:1970-1978)
+    ("BMP-NEG-FORMAT", {}, [neg(1234, 0x44, 3)], [neg(1234, 0x44, 2)]),
+    ("BMP-NEG-FORMAT", {}, [neg(1234, 0x44, 0)], [neg(1234, 0x44, 1)]),
+    ("BMP-NEG-FORMAT", {}, [neg(1234, 0x42, 1)], [neg(1234, 0x44, 1)]),
     ("BMP-MULTI-NOT-ABORTED", {},
      [param(65000, [1], change=True, error=ERR(0x05), more=[{"pnu": 971, "subindex": 0, "values": [], "error": None}])],
      [param(65000, [1], change=True, error=ERR(0x05), more=[{"pnu": 971, "subindex": 0, "values": [], "error": ERR(0x05)}])]),
     ("BMP-WRITE-RO-ACCEPTED", {}, [param(922, [81], change=True)], [param(922, [81], change=True, error=ERR(0x01))]),
-    ("BMP-PRESET-LIMIT-ACCEPTED", {}, [param(65000, [1 << 25], change=True)], [param(65000, [(1 << 25) - 1], change=True)]),
+    # "greater than the total measuring range" (001_9461bb7bc8c2767b.txt:847): R itself is accepted silently
+    ("BMP-PRESET-LIMIT-ACCEPTED", {}, [param(65000, [(1 << 25) + 1], change=True)], [param(65000, [1 << 25], change=True)]),
     ("BMP-UNKNOWN-PNU", {}, [param(980, [922, 65000]), param(1234, [1])], [param(980, [922, 65000]), param(1234, error=ERR(0x00))]),
     ("BMP-DATATYPE", {}, [param(65000, [1], fmt="Integer32")], [param(65000, [1], fmt="Unsigned32")]),
     ("P971-NOT-CONFIRMED", {}, [param(971, [1], change=True), param(971, [1]), param(971, [1])],

@@ -266,6 +266,11 @@ def _param(chk, ev: dict) -> None:
     if isinstance(rid, int) and rid & 0x80 == 0 and any(p.get("error") for p in params):
         # 82: a positive response cannot carry errors (001_9461bb7bc8c2767b.txt:1914-1920)
         _v(chk, "BMP-RESPID-MISMATCH", ev, f"positive response ID 0x{rid:02X} with a parameter error", frame=frame)
+    neg = isinstance(rid, int) and rid & 0x80
+    if neg and len(params) == 1 and isinstance(params[0].get("format"), int) and params[0]["format"] != 0x44:
+        # 83: the one block of a negative single-parameter response is the error (format 0x44, 001_...:1970-1978)
+        _v(chk, "BMP-NEG-FORMAT", ev, f"PNU {params[0].get('pnu')}: negative response whose block has format "
+           f"0x{params[0]['format']:02X}; an error entry has format 0x44", frame=frame)
     aborted = False
     for p in params:
         pnu, sub, err = p.get("pnu"), p.get("subindex", 0), p.get("error")
@@ -274,6 +279,10 @@ def _param(chk, ev: dict) -> None:
         if code is not None and code > 0xFF:
             # 83: error numbers are one byte (001_9461bb7bc8c2767b.txt:2031)
             _v(chk, "BMP-NEG-FORMAT", ev, f"PNU {pnu}: error number 0x{code:X} > 0xFF", frame=frame)
+        elif neg and p.get("format") == 0x44 and p.get("no_of_values") not in (1, 2):
+            # 83: an error entry holds the error number and at most one more value (001_...:1970-1978)
+            _v(chk, "BMP-NEG-FORMAT", ev, f"PNU {pnu}: error entry with {p.get('no_of_values')} values; "
+               "expected 1 or 2", frame=frame)
         if change and len(params) > 1:
             if aborted and err is None:
                 # 85: errors 0x05/0x16/0x17/0x18 abort the rest (001_9461bb7bc8c2767b.txt:2089, 2099)
@@ -326,9 +335,10 @@ def _change(chk, ev, p, pnu, sub, err, vals, frame) -> None:
                 # 91: refusal expected [AMBIGUOUS] (001_9461bb7bc8c2767b.txt:2389-2391)
                 _v(chk, "BMP-CLASS4-WRITE-ACCEPTED", ev, "P65000 change accepted with class 4 functionality off", frame=frame)
         R = c.modulus
-        if err is None and isinstance(v, int) and R is not None and v >= R:
-            # 87: P65000 beyond the range -> error 0x02 (001_9461bb7bc8c2767b.txt:847)
-            _v(chk, "BMP-PRESET-LIMIT-ACCEPTED", ev, f"P65000={v} >= R={R} accepted; expected error 0x02", frame=frame)
+        if err is None and isinstance(v, int) and R is not None and v > R:
+            # 87: P65000 greater than the range -> error 0x02 (001_9461bb7bc8c2767b.txt:847, 004_...:782; R itself
+            # is not "greater": an independent audit)
+            _v(chk, "BMP-PRESET-LIMIT-ACCEPTED", ev, f"P65000={v} > R={R} accepted; expected error 0x02", frame=frame)
         if err is None and isinstance(v, int):
             chk.p65000 = v  # R-PAR-1: stored only, no preset (001_9461bb7bc8c2767b.txt:845)
     ro = READ_ONLY.get(c.profile)

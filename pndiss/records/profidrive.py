@@ -314,8 +314,10 @@ class ParamPairer:
             ev["pairing"].append(f"request ref mismatch (request 0x{req['request_ref']:02X}, "
                                  f"response 0x{rsp.get('request_ref', 0):02X})")
         qid = req["request_id"]
-        # an illegal request ID is answered with 0x80 (001_9461bb7bc8c2767b.txt:2073; rule #80 judges the rest)
-        if rid not in (qid, qid | 0x80) and not (rid == 0x80 and not legal_request_id(qid)):
+        # an illegal request ID is answered with 0x80 (001_9461bb7bc8c2767b.txt:2073; rule #80 judges the rest), and
+        # so is a manufacturer-specific one (0x40-0x7F) the device does not offer: 0x80 / error 0x21 is the only
+        # documented refusal of a request ID (an independent audit)
+        if rid not in (qid, qid | 0x80) and not (rid == 0x80 and (not legal_request_id(qid) or 0x40 <= qid <= 0x7F)):
             ev["pairing"].append(f"response id mismatch (request 0x{req['request_id']:02X}, response 0x{rid:02X})")
         if rsp.get("axis") != req["axis"]:
             ev["pairing"].append(f"axis not mirrored (request {req['axis']}, response {rsp.get('axis')})")
