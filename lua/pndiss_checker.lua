@@ -1365,18 +1365,27 @@ function Checker:x1_other_reading(x1, exp1, base, pos2, x2_ok, tol, mode, pos_be
 end
 
 -- ------------------------------------------------------------------------------ continuity and velocity (§4.2, #42, #44)
+local function is_pow2(v)
+  local x = v
+  while x > 1 and x % 2 == 0 do x = x / 2 end
+  return x == 1
+end
+
 function Checker:continuity(pos, ppos, pre, PKA, PDONE)
   local c = self.cfg
   local R = self.R
   -- (a jump in a cycle with G1_ZSW.12 is a preset's, also one whose request a capture gap hid)
   if pos == nil or ppos == nil or R == nil or PKA ~= 0 or PDONE ~= 0 or pre ~= nil or self.pdone_since ~= nil then return end
-  if c.profile ~= "scancon" and c.profile ~= "hohner" and not (self.psm and truthy(c.scaling)) then
-    return  -- LIKA jumps at the physical wrap (red zone); generic: unknown
+  if c.profile ~= "scancon" and c.profile ~= "hohner" and c.profile ~= "lika" and not (self.psm and truthy(c.scaling)) then
+    return  -- generic: unknown
   end
   local step = c.max_position_step
   if not truthy(step) then step = math.max(1, floor(R / 8)) end
   local d = delta(ppos, pos, R)
-  if abs(d) > step then
+  -- value_rules._red_zone: LIKA with a range R that is no power of two jumps where the physical range wraps (to 0 or
+  -- from 0)
+  local red = c.profile == "lika" and not is_pow2(R) and (pos <= step or pos >= R - step or ppos <= step or ppos >= R - step)
+  if abs(d) > step and not red then
     -- #42: endless shaft is continuous modulo R (001_9461bb7bc8c2767b.txt:993-995)
     local o = self:hit("POSITION-DISCONTINUITY")
     if o then o.msg = fmt("position %s -> %s (step %s) exceeds the plausible %s per cycle (R=%s)", tostring(ppos),

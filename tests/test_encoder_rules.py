@@ -92,6 +92,14 @@ XIST = [
      ["0x1400 0x2000 | 0x1200 0x2000 33554431 33554431"]),
     ("POSITION-DISCONTINUITY", dict(profile="scancon", shift=0), [G, "0x1400 0x2000 | 0x1200 0x2000 16777221 16777221"],
      ["0x1400 0x2000 | 0x1200 0x2000 33554431 33554431", "0x1400 0x2000 | 0x1200 0x2000 0 0"]),
+    # LIKA (000_37bf2397999f1108.txt:2520-2538): R a power of two has no red zone, a jump near 0 is a fault too ...
+    ("POSITION-DISCONTINUITY", dict(profile="lika", shift=0), [G, "0x1400 0x2000 | 0x1200 0x2000 16777221 16777221"],
+     ["0x1400 0x2000 | 0x1200 0x2000 33554431 33554431", "0x1400 0x2000 | 0x1200 0x2000 0 0"]),
+    # ... R = 20,000,000 (scaled, no divisor of the physical 2^25): the count runs through the red zone (the rest,
+    # 2^25 - 20,000,000 = 13,554,432 positions) and jumps to 0 where the physical range wraps; elsewhere a fault
+    ("POSITION-DISCONTINUITY", dict(profile="lika", shift=0, scaling=1, tmr=20_000_000),
+     ["0x1400 0x2000 | 0x1200 0x2000 15000000 15000000", "0x1400 0x2000 | 0x1200 0x2000 5000000 5000000"],
+     ["0x1400 0x2000 | 0x1200 0x2000 13554431 13554431", "0x1400 0x2000 | 0x1200 0x2000 0 0"]),
 ]
 
 PARK_ERR = [

@@ -139,18 +139,21 @@ def test_preset_wrap_readings_same():
     assert "PRESET-VALUE-WRONG" in res["lua_rules"]
 
 
-def test_record_rule_rows_same():
-    """The per-rule rows of the record and parameter rules (test_rules_records.CASES: BMP-NEG-FORMAT's error
-    entries, BMP-PRESET-LIMIT-ACCEPTED's boundary ...) judge the same in the port."""
+@pytest.mark.parametrize("table", ["test_rules_records", "test_encoder_rules"])
+def test_rule_rows_same(table):
+    """The per-rule rows (test_rules_records.CASES: BMP-NEG-FORMAT's error entries, BMP-PRESET-LIMIT-ACCEPTED's
+    boundary ...; test_encoder_rules.CASES: the cyclic rules, LIKA's red zone ...) judge the same in the port."""
+    import importlib
+
     import encoder_table
-    from test_rules_records import CASES
+    CASES = importlib.import_module(table).CASES
     with Recorder() as rec:
         got = [(rule in encoder_table.rule_ids(bad, **cfg), rule in encoder_table.rule_ids(good, **cfg))
                for rule, cfg, bad, good in CASES]
     assert all(b and not g for b, g in got)
     res = replay(rec)
-    _check(res, "record rule rows")
-    assert {"BMP-NEG-FORMAT", "BMP-PRESET-LIMIT-ACCEPTED"} <= set(res["lua_rules"])
+    _check(res, f"{table} rows")
+    assert {rule for rule, *_ in CASES} <= set(res["lua_rules"])
 
 
 def test_open_events_announce_runs():

@@ -41,8 +41,8 @@ PARTIAL = {
                           "without a captured 0xBF00 not after a preset",
     "PARK-OUTPUTS-NOT-CLEARED": "LIKA; G1_XIST2 may keep a sensor error's code while SERR is still shown (#49 allows L_max)",
     "SERR-XIST2-NOT-RESTORED": "not while parked (parking clears the error and keeps the position out, R-ABS-4)",
-    "POSITION-DISCONTINUITY": "plausible step = settings.max_position_step, else R/8 [INFERENCE]; LIKA red-zone jumps not "
-                              "modelled; not in a cycle with G1_ZSW.12 (a preset's result, also one whose request a gap hid)",
+    "POSITION-DISCONTINUITY": "plausible step = settings.max_position_step, else R/8 [INFERENCE]; LIKA with R no power of two: a "
+                              "jump to or from within a step of 0 is its red zone's physical wrap [INFERENCE]; not in a cycle with G1_ZSW.12 (a preset's result, also one whose request a gap hid)",
     "PRESET-CLASS4-DISABLED": "class 4 from a captured 0xBF00 or --set class4, not a vendor default",
     "BMP-CLASS4-WRITE-ACCEPTED": "class 4 from a captured 0xBF00 or --set class4, not a vendor default",
     "PRESET-XIST1-AFFECTED-WHEN-DISABLED": "needs the preset control bit of a captured 0xBF00",

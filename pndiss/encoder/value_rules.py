@@ -18,7 +18,7 @@ from .rule import Rule, Trigger
 U32 = 1 << 32
 LIKA_CODES = frozenset(tg.XIST2_ERRORS)          # LIKA's full list (behaviour.md §9.7 #51)
 E_MASTER_SOL, E_SYNC, E_PARAM = 0x0F02, 0x0F04, 0x1002   # cyclic.md §9
-CONTINUITY_PROFILES = ("scancon", "hohner")      # endless shaft continuous modulo R (#42)
+CONTINUITY_PROFILES = ("scancon", "hohner", "lika")   # endless shaft continuous modulo R (#42); LIKA: _red_zone
 SHIFT_GIVEN = ("P979", "settings.")              # a shift read from the device or given, not inferred (#40)
 
 
@@ -127,18 +127,37 @@ def _step(k) -> int:
 def _discontinuity(k, c):
     # (a jump in a cycle with G1_ZSW.12 is a preset's, also one whose request a capture gap hid)
     if c.pos2 is None or c.ppos2 is None or c.PKA or c.PDONE or not _continuity_applies(k):
-        return False  # LIKA jumps at the physical wrap (red zone); generic: unknown
-    return abs(P.delta(c.ppos2, c.pos2, k.R)) > _step(k)
+        return False  # generic: unknown
+    step = _step(k)
+    if abs(P.delta(c.ppos2, c.pos2, k.R)) <= step:
+        return False
+    return not (_red_zone(k) and (_near_zero(c.pos2, k.R, step) or _near_zero(c.ppos2, k.R, step)))
+
+
+def _red_zone(k) -> bool:
+    """LIKA's red zone (000_37bf2397999f1108.txt:2520-2538): a scaled range R that does not divide the physical one
+    (a power of two) leaves a rest the count runs through before it jumps where the physical range wraps -- to 0
+    moving forward, from 0 moving back. With R a power of two there is none: any jump is a fault, as on the other
+    endless shafts (an independent audit: no LIKA jump was judged)."""
+    return k.cfg.profile == "lika" and k.R & (k.R - 1) != 0
+
+
+def _near_zero(x, R: int, step: int):
+    return (x <= step) | (x >= R - step)
 
 
 def _discontinuity_v(k, V):
     if V.pos2 is None or not _continuity_applies(k):
         return _none(V)
     R = k.R
+    step = _step(k)
     pos, ppos = (V.pos2, V.ppos2) if R < SAFE else (V.pos2.astype(object), V.ppos2.astype(object))
     d = (pos - ppos) % R
     d = np.where(d > R // 2, d - R, d)
-    return V.pos2_ok & V.ppos2_ok & (V.PKA == 0) & (V.PDONE == 0) & _b(np.abs(d) > _step(k))
+    hit = V.pos2_ok & V.ppos2_ok & (V.PKA == 0) & (V.PDONE == 0) & _b(np.abs(d) > step)
+    if _red_zone(k):
+        hit &= ~(_b(_near_zero(pos, R, step)) | _b(_near_zero(ppos, R, step)))
+    return hit
 
 
 def _discontinuity_msg(k, c):
