@@ -208,7 +208,7 @@ class AxisWalk:
         zsw2 = self.sigA.get("zsw2_enc")
         cls = bool((stw2[sr:sr + e] >> 12).any()) if stw2 is not None else False
         dls = bool((zsw2[ar:ar + e] >> 12).any()) if zsw2 is not None else False
-        chk.advance_steady(e, int(A.fn[al]), int(A.ts[al]), ax.sp_frame, ax.sp, self.oA.sig, motion, cls, dls)
+        chk.advance_steady(e, int(A.fn[al]), int(A.ts[al]), ax.sp_frame, ax.sp, self.oA.sig, motion, cls, dls, ax.sp_ts)
         if chk.solmon:
             chk.advance_sign_of_life(e, ax.sp_before)
 

@@ -321,12 +321,12 @@ class CyclicTracker(AxisTracking):
         if miss or not T or d0 >= d1 or 2 * d0 >= T:   # within half a cycle of the phase: jitter, not a change
             ax.sp_break = True
             return False
-        cur = (ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_before)
-        ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_before = h_sig, h_frame, h_ok, h_before
+        cur = (ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_before, ax.sp_ts)
+        ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_before, ax.sp_ts = h_sig, h_frame, h_ok, h_before, h_ts
         ax.phase = ts - h_ts
         ax.held_paired += 1
         self._judge(ax, sig, fn, ts, ok)
-        ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_before = cur
+        ax.sp, ax.sp_frame, ax.sp_ok, ax.sp_before, ax.sp_ts = cur
         return True
 
     def _judge(self, ax: Axis, sig: dict, fn: int, ts: int, ok) -> None:
@@ -338,7 +338,7 @@ class CyclicTracker(AxisTracking):
             return
         if ax.fm is not None and ax.fm.phase in JUDGED_FIRST:
             self._exchange(ax.fm, fn, ts)
-        evs = chk.cycle(fn, ts, ax.sp, sig, ax.sp_frame, ax.sp_before)
+        evs = chk.cycle(fn, ts, ax.sp, sig, ax.sp_frame, ax.sp_before, ax.sp_ts)
         if evs:
             self._out(evs)
 

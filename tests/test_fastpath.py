@@ -639,3 +639,29 @@ def test_drop_count_inside_an_engine_window(sessions, tmp_path):
     assert eng.frames_bulk > 10 * eng.frames_single
     s = _run_file(path, True)[0]
     assert s["input"]["tool_dropped"] == 14 and s["input"]["tool_dropped_first_frame"] == at[0] + 1
+
+
+def test_every_violation_has_the_time_of_the_frame_it_names():
+    """A controller-side rule names the setpoint frame (or a parameter rule its request frame) but was decided at a
+    later frame: its ts_ns is still the named frame's time, in the analyzer's own events -- not repaired only by
+    sinks that saw that frame's rt event (an independent audit: the MCAP log, the dataset and `--events
+    violation` put a SOL-MASTER-SKIP one encoder frame late). Engine and reference path alike."""
+    import glob as _glob
+    from pndiss.capture import open_capture
+    paths = sorted(_glob.glob(os.path.join(ROOT, "captures", "fault-*.pcapng")))
+    if not paths:
+        pytest.skip("no fault captures in captures/")
+    seen = 0
+    for path in paths:
+        times = None
+        for fast in (True, False):
+            evs = []
+            analyze_file(path, Settings(fast_path=fast),
+                         sink=lambda e: evs.append(e) if e["kind"] == "violation" else None)
+            if not evs:
+                break
+            times = times or {fn: t for fn, t, _l, _d in open_capture(path)}
+            bad = [(e["rule"], e["frame"], e["ts_ns"] - times[e["frame"]]) for e in evs if e["ts_ns"] != times[e["frame"]]]
+            assert not bad, (os.path.basename(path), fast, bad[:3])
+            seen += sum(e["side"] == "controller" for e in evs)
+    assert seen > 10

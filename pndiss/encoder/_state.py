@@ -51,6 +51,7 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         self.info = info or {}
         self.n = 0                     # judged cycles so far
         self.f = self.fc = 0           # frame of the actual value / of the setpoint
+        self.tc = 0                    # time of the setpoint frame fc
         self.last_fc = None            # setpoint frame of the previous judged cycle
         self.sp_new = True             # this cycle's setpoint frame was not judged before
         self.sp_before = None          # the controller's setpoint frame before this one (RT drift)
@@ -220,7 +221,8 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
                 o["cycles"] += 1
                 return
             self._flush(rule)
-        self._open[rule] = {"n": self.n, "first": f, "ts": self.ts, "last": f, "cycles": 1, "msg": msg, "side": side}
+        self._open[rule] = {"n": self.n, "first": f, "ts": self.tc if controller else self.ts, "last": f, "cycles": 1,
+                            "msg": msg, "side": side}
 
     def _flush(self, rule: str) -> None:
         o = self._open.pop(rule)
@@ -249,7 +251,7 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
 
     # -- one cycle -------------------------------------------------------------------------------
     def cycle(self, frame: int, ts: int, sp: dict, ac: dict, sp_frame: int | None = None,
-              sp_before: dict | None = None) -> list[dict]:
+              sp_before: dict | None = None, sp_ts: int | None = None) -> list[dict]:
         """Judge one cycle: setpoint ``sp`` and actual value ``ac`` (signal dicts) of the same cycle.
 
         In RT controller and device run on their own clocks: an actual value may be paired with the same
@@ -259,6 +261,7 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         self.out = []
         self.f, self.ts = frame, ts
         self.fc = frame if sp_frame is None else sp_frame
+        self.tc = ts if sp_ts is None else sp_ts   # the setpoint frame's time: a controller violation's (it names fc)
         self.sp_new = self.fc != self.last_fc
         self.last_fc = self.fc
         self.sp_before = sp_before

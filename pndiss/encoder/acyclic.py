@@ -66,7 +66,10 @@ def _iso_mode_data(chk, ev: dict) -> None:
 
 
 def _v(chk, rule, ev, msg, frame=None, side=None):
-    chk.emit(rule, ev.get("frame", 0) if frame is None else frame, ev.get("ts_ns", 0), msg, side=side)
+    f = ev.get("frame", 0) if frame is None else frame
+    # a violation named at the request frame has the request's time (the MCAP log, the dataset: the frame it names)
+    ts = ev["request_ts_ns"] if f == ev.get("request_frame") and ev.get("request_ts_ns") is not None else ev.get("ts_ns", 0)
+    chk.emit(rule, f, ts, msg, side=side)
 
 
 def _record(chk, ev: dict) -> None:

@@ -108,7 +108,7 @@ class PresetRules:
                 # 26: presets only at standstill (001_9461bb7bc8c2767b.txt:844)
                 self._hit("PRESET-NOT-STANDSTILL", f"preset triggered while moving (positions {list(self.pos_hist)}, NIST={NIST})",
                           controller=True)
-            self.p860 = {"n": n, "f": self.f, "fc": self.fc, "ts": self.ts, "exp": exp, "seen": False, "v": v_before,
+            self.p860 = {"n": n, "f": self.f, "fc": self.fc, "ts": self.ts, "tc": self.tc, "exp": exp, "seen": False, "v": v_before,
                          "last": pos}
             self.preset_done = True
         p = self.p860
@@ -128,7 +128,7 @@ class PresetRules:
                                f"D_preset={self.D} cycles (last {pos})", last=self.f)
             if PT and n - p["n"] == self.D + 1:
                 # 34: the controller resets bit 31 (001_9461bb7bc8c2767b.txt:924)
-                self._emit("PRESET860-TRIGGER-HELD", p["fc"], p["ts"], f"preset trigger (bit {top}) held more than {self.D} cycles",
+                self._emit("PRESET860-TRIGGER-HELD", p["fc"], p["tc"], f"preset trigger (bit {top}) held more than {self.D} cycles",
                            last=self.fc)
             if not PT and p.get("judged"):
                 self.p860 = None

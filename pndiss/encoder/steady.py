@@ -84,7 +84,7 @@ class SteadyCycles:
         return self.prev_ac is None and not self._open
 
     def advance_steady(self, cycles: int, frame: int, ts: int, sp_frame: int | None, sp: dict, ac: dict,
-                       motion_refs: list, cls_seen: bool, dls_seen: bool) -> None:
+                       motion_refs: list, cls_seen: bool, dls_seen: bool, sp_ts: int | None = None) -> None:
         """``cycles`` calls of cycle() that all take the _cycle_steady branch and hit no rule, at once
         (pndiss/axiswalk.py). The caller has checked on its arrays what makes that so: sign-of-life
         monitoring off, the checker steady (same key, steady_n > L+1 or windows_quiet(), nothing open or pending), in every
@@ -104,6 +104,7 @@ class SteadyCycles:
             self.steady_n += k
         self.f, self.ts = frame, ts
         self.fc = frame if sp_frame is None else sp_frame
+        self.tc = ts if sp_ts is None else sp_ts
         self.last_fc = self.fc
         self.same = 0
         self.pos_hist.extend(motion_refs)

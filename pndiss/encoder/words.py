@@ -153,7 +153,7 @@ class WordRules:
         if pre is not None and not first and fall(PREQ, pPREQ):
             if not pre["done"] and not PDONE and pre["allowed"]:
                 # 23: the controller must hold PREQ until PDONE (000_37bf2397999f1108.txt:780-781)
-                self._emit("PRESET-REQ-EARLY-RELEASE", self.fc, self.ts,
+                self._emit("PRESET-REQ-EARLY-RELEASE", self.fc, self.tc,
                            f"G1_STW.12 released {n - pre['n']} cycles after the request (frame {pre['fc']}) before G1_ZSW.12 rose",
                            cycles=n - pre["n"])
             if PDONE or pre["done"]:
@@ -177,7 +177,7 @@ class WordRules:
                 self.pdone_clear_due = None
         if self.pdone_since is not None and PREQ and n - self.pdone_since == self.D:
             # 24: the controller closes the handshake (000_37bf2397999f1108.txt:1832-1834)
-            self._emit("PRESET-REQ-STUCK", self.fc, self.ts, f"G1_STW.12 still 1 {self.D} cycles after G1_ZSW.12 rose",
+            self._emit("PRESET-REQ-STUCK", self.fc, self.tc, f"G1_STW.12 still 1 {self.D} cycles after G1_ZSW.12 rose",
                        side=None, cycles=self.D)
         if pre is not None and pre["done"] and PREQ and PDONE and pre.get("after") is not None and pos2 is not None \
                 and ppos2 is not None and pre["mode"] == 1 and abs(pre["P"]) > 2 * pre["v"] and self.n > pre["done_n"]:
@@ -262,7 +262,7 @@ class WordRules:
                 self.ackip_since = n
             elif n - self.ackip_since == self.D:
                 # 58: the controller releases SACK after ACKIP (000_37bf2397999f1108.txt:3201-3202)
-                self._emit("SACK-HELD", self.fc, self.ts, f"G1_STW.15 held {self.D} cycles after G1_ZSW.11 rose", cycles=self.D)
+                self._emit("SACK-HELD", self.fc, self.tc, f"G1_STW.15 held {self.D} cycles after G1_ZSW.11 rose", cycles=self.D)
         elif not SACK:
             self.ackip_since = None
         if not first and fall(SERR, pSERR):
