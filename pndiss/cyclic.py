@@ -439,7 +439,9 @@ class CyclicTracker(AxisTracking):
         for ax in self.axes.values():
             chk = ax.checker
             s = chk.summary()
-            encs.append({**ax.info, "telegram": ax.telegram, "telegram_source": ax.source, "profile": ax.profile,
+            info = ax.info if ax.info.get("station") else {   # (an AR found from content before DCP named it)
+                **ax.info, "station": self.a.session.station_name(ax.info.get("device_mac"))}
+            encs.append({**info, "telegram": ax.telegram, "telegram_source": ax.source, "profile": ax.profile,
                          "profile_reason": ax.reason, **s,
                          # the length guess fits several telegrams of the profile: reported, not judged
                          **({"telegram_unsure": tg.telegrams_for_length(ax.checker.io_len.get("actual"),

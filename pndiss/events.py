@@ -78,6 +78,10 @@ class ColumnFrameTimes(FrameTimes):
         self.times[i[new]] = times[new]
 
 
+def _utc(ns: int) -> str:
+    return time.strftime("%Y-%m-%dT%H:%M:%S", time.gmtime(ns // 1_000_000_000)) + f".{ns % 1_000_000_000:09d}"[:7]
+
+
 def _mac(s: str) -> str | None:
     s = s.strip().lower().replace("-", ":")
     return s if re.fullmatch(r"([0-9a-f]{2}:){5}[0-9a-f]{2}", s) else None
@@ -126,10 +130,41 @@ class Scope:
             if not sep:
                 raise UsageError(f"--time {time_range!r}: expected FROM..TO (either side may be empty)")
             span = (_when(lo, "FROM"), _when(hi, "TO"))
+            if span[0] is not None and span[1] is not None and span[0][0] == span[1][0] and span[0][1] > span[1][1]:
+                raise UsageError(f"--time {time_range!r}: FROM is after TO")
         return cls(station, span)
+
+    def unmatched(self, analyzer) -> str | None:
+        """Why this scope holds nothing of the capture -- a station no frame names, a time range outside it -- or
+        None. A typo in a CI gate (--station xac77-l --fail-on error) must not pass as "no violations"."""
+        a = analyzer
+        if self.station is not None:
+            names = {s.get("name") for s in a.stations.by_mac.values()} | {
+                e.get("station") for e in a.cyclic.summary()["encoders"]}
+            if self.station not in names and (self.mac is None or self.mac not in a.stations.by_mac):
+                known = sorted(n for n in names if n)
+                return (f"--station {self.station}: no station of that name or MAC in the capture"
+                        + (f" (stations: {', '.join(known[:12])}{' ...' if len(known) > 12 else ''})" if known else ""))
+        if self.span is not None and a.first_ts is not None:
+            lo, hi = self.span
+            first, last = a.first_ts, a.last_ts
+            if (lo is not None and self._ns(lo) > last) or (hi is not None and self._ns(hi) < first):
+                return (f"--time: the range holds no frame of the capture (it spans 0 to {(last - first) / 1e9:,.3f} s, "
+                        "seconds since its first frame)")
+        return None
 
     def bind(self, analyzer) -> None:
         self.a = analyzer
+
+    def text(self) -> str:
+        """The scope as the user gave it: 'station X, time FROM..TO'."""
+        out = []
+        if self.station:
+            out.append(f"station {self.station}")
+        if self.span:
+            out.append("time " + "..".join("" if w is None else (f"{w[1]:g} s" if w[0] == "rel" else
+                                                                 _utc(w[1])) for w in self.span))
+        return ", ".join(out)
 
     def describe(self) -> dict:
         d = {}

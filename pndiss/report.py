@@ -131,7 +131,7 @@ def render_verdict(con: Console, summary: dict, log) -> None:
         con.print(Text(visible(note, 300)))
     if summary.get("scope"):
         sc = summary["scope"]
-        con.print(Text("scope: " + visible(", ".join(f"{k} {v}" for k, v in sc.items()))
+        con.print(Text("scope: " + visible(summary.get("scope_text") or ", ".join(f"{k} {v}" for k, v in sc.items()))
                        + " (verdict, JSONL and exit code; the tables below show the whole capture)"))
     if vd.no_profinet(summary):
         con.print(Text("VERDICT: no PROFINET frames found", style="bold yellow"))

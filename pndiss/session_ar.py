@@ -171,7 +171,7 @@ class ArLayer:
             self._taken_over(frame_maps, arq, controller, device, fn, ts)
         alarm = (rb.get(0x0103) or [None])[0]
         alarm_res = (sb.get(0x8103) or [None])[0]
-        ar = {"frame": fn, "ts_ns": ts, "kind": "ar", "ar_uuid": ar_uuid, "request_frame": call["frame"],
+        ar = {"frame": fn, "ts_ns": ts, "kind": "ar", "source": "connect", "ar_uuid": ar_uuid, "request_frame": call["frame"],
               "ok": ok, "status": res["status"], "ar_type": arq["artype_req"], "ar_type_name": arq["ar_type_name"],
               "session_key": arq["session_key"], "controller_mac": controller, "device_mac": device,
               "controller_station": station, "station": dev_station,

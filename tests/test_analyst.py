@@ -159,13 +159,18 @@ def test_3_follow_prints_violations_while_the_pipe_is_open():
 def test_3_station_and_time_filters():
     s = _summary(DUP, "--station", "02:00:00:00:02:01")
     assert s["verdict"]["total"] == 1
-    assert _summary(DUP, "--station", "02:00:00:00:03:01")["verdict"]["total"] == 0
+    assert _summary(DUP, "--station", "02:00:00:00:00:01")["verdict"]["total"] == 0   # the PLC: in the capture
     assert _summary(DUP, "--time", "..0.0001")["verdict"]["total"] == 0
     assert _summary(DUP, "--time", "0..")["verdict"]["total"] == 1
     r = run("analyze", FAULT, "-q", "--station", "encoder-1", "--fail-on", "error")
-    assert r.returncode == 1
-    r = run("analyze", FAULT, "-q", "--station", "nobody", "--fail-on", "error")
-    assert r.returncode == 0
+    assert r.returncode == 1 and "(in scope: station encoder-1)" in r.stdout + r.stderr
+    # a station or range the capture does not hold is a usage error, not "no violations": a typo in a CI gate
+    # (--station encoder-l --fail-on error) must not pass (an independent audit)
+    for bad, said in ((("--station", "nobody"), "no station of that name or MAC in the capture (stations: "),
+                      (("--station", "02:00:00:00:03:01"), "no station of that name or MAC"),
+                      (("--time", "1000.."), "the range holds no frame"), (("--time", "5..2"), "FROM is after TO")):
+        r = run("analyze", FAULT, "-q", *bad, "--fail-on", "error")
+        assert r.returncode == 2 and said in r.stderr and "Traceback" not in r.stderr, (bad, r.stderr)
     assert run("analyze", FAULT, "--time", "abc").returncode == 2
 
 
@@ -330,7 +335,7 @@ def test_8_cli_tests_skip_without_shared(tmp_path):
 def test_exit_codes_0_1_2():
     assert run("analyze", T81, "-q").returncode == 0
     assert run("analyze", FAULT, "-q", "--fail-on", "error").returncode == 1
-    assert run("analyze", FAULT, "-q", "--fail-on", "error", "--station", "nobody").returncode == 0
+    assert run("analyze", FAULT, "-q", "--fail-on", "error", "--station", "nobody").returncode == 2   # not in it
     assert run("analyze", "/nonexistent.pcapng").returncode == 2
 
 

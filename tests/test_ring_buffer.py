@@ -3,6 +3,7 @@ docs/engine.md): the same violations and events as the single file, whatever the
 pieces that overlap are refused; a multi-interface dumpcap's small reorder at a file boundary is not."""
 from __future__ import annotations
 
+import os
 import random
 
 import pytest
@@ -125,3 +126,24 @@ def test_the_newest_piece_cut_short_before_its_first_frame(session):
     a = e.value.analyzer
     assert a.frames == first and e.value.cut_short
     assert [(d["file"], d["after_frame"]) for d in a.summary()["input"]["damaged"]] == [(paths[1], first)]
+
+
+def test_the_summary_of_a_ring_keeps_its_schema(session, tmp_path):
+    """pndiss analyze over a ring's files: ``capture`` stays a string (the first file, as its schema says) and
+    ``capture_files`` lists them in time order; the verdict line names a file, not a Python list (an independent
+    audit: the list broke the summary's own schema)."""
+    import json
+    import subprocess
+    import sys
+    import jsonschema
+    tmp, src, n = session
+    paths = _pieces(tmp, src, [n // 3, 2 * n // 3], name="schema")
+    out = tmp_path / "s.json"
+    r = subprocess.run([sys.executable, "-m", "pndiss", "analyze", *paths[::-1], "-q", "--summary-json", str(out)],
+                       capture_output=True, text=True, cwd=capedit.ROOT, env={**os.environ, "PYTHONPATH": capedit.ROOT})
+    assert r.returncode == 0, r.stderr
+    s = json.load(open(out))
+    schema = json.load(open(os.path.join(capedit.ROOT, "pndiss", "data", "summary.schema.json")))
+    jsonschema.validate(s, schema)
+    assert s["capture"] == paths[0] and s["capture_files"] == paths
+    assert "[" not in s["verdict"]["line"]

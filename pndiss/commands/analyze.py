@@ -257,10 +257,19 @@ def run(args) -> int:
     if error is not None and (a is None or not a.reader.damaged):
         print(f"pndiss: error: {error} ({error.frames} frames read before it)", file=sys.stderr)
         return 2
+    if scope is not None:
+        why = scope.unmatched(a)
+        if why is not None:
+            raise UsageError(why)
     summary = a.summary()
-    summary["capture"] = args.capture if len(captures) == 1 else captures
+    summary["capture"] = args.capture
+    if len(captures) > 1:   # a ring buffer's files, in time order: the capture is the first of them
+        from ..driver import ring_order
+        summary["capture_files"] = ring_order(captures)
+        summary["capture"] = summary["capture_files"][0]
     if scope is not None:
         summary["scope"] = scope.describe()
+        summary["scope_text"] = scope.text()
     summary["verdict"] = {**a.violations.summary(), "line": one_line(summary, a.violations)}
     if args.summary_json:
         out = open_out(args.summary_json)
@@ -273,7 +282,8 @@ def run(args) -> int:
             raise UsageError(f"cannot write {args.summary_json}: {e.strerror}") from None
         close_out(out, args.summary_json)
     if args.quiet:
-        print("pndiss: " + one_line(summary, a.violations), file=report_out)
+        print("pndiss: " + one_line(summary, a.violations) + (f" (in scope: {scope.text()})" if scope else ""),
+              file=report_out)
     else:
         render_report(summary, a, to_stderr)
     if error is not None:

@@ -49,7 +49,7 @@ WITH p AS (
 c AS (
     SELECT strftime(ts, '%Y-%m-%d') AS day, count(*) AS connects,
            count(*) - count(DISTINCT capture_hash || coalesce(device_mac, '')) AS restarts
-    FROM ars GROUP BY ALL),
+    FROM ars WHERE source IS DISTINCT FROM 'inferred from content' GROUP BY ALL),   -- (no Connect: found from content)
 a AS (
     SELECT strftime(ts, '%Y-%m-%d') AS day,
            count(*) FILTER (WHERE phase = 'aborted') AS aborts,
