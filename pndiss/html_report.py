@@ -156,7 +156,7 @@ def _stations(summary: dict) -> str:
             ", ".join(str(c) for c in a.get("control") or []), a.get("frame"), a.get("release_frame")]
            for a in summary.get("session", {}).get("ars", [])]
     return ("<h3>Stations</h3>" + _table(["name", "MAC", "IP", "type", "vendor/device", "LLDP chassis",
-                                          "LLDP port", "frames"], st)
+                                          "LLDP port", "DCP/LLDP/alarm frames"], st)
             + "<h3>Application relations</h3>" + _table(["AR UUID", "controller → device", "type", "status",
                                                           "control", "connect frame", "release frame"], ars))
 

@@ -148,9 +148,10 @@ class Timeline:
             for name, v in _flat_bits(bits):
                 name = f"{side} {name}"
                 if v is not True and v is not False and v != 0 and v != 1:
-                    if name not in self._multi:
+                    if name not in self._multi:   # a multi-bit field (the sign-of-life): no lane on any axis
                         self._multi.add(name)
-                        enc.lanes.pop(name, None)
+                        for other in self.encoders.values():
+                            other.lanes.pop(name, None)
                     continue
                 lane = enc.lanes.get(name)
                 if lane is None:

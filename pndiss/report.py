@@ -204,7 +204,7 @@ def _stations(con: Console, stations: list[dict]) -> None:
         port_list.setdefault(dev, []).append(p)
     t = Table(title="Stations")
     t.add_column("MAC", no_wrap=True)
-    for c in ("NameOfStation", "IP", "vendor/device", "role / type", "seen in"):
+    for c in ("NameOfStation", "IP", "vendor/device", "role / type", "named by"):
         t.add_column(c)
     for s in stations:
         if s["mac"] in ports:
@@ -215,7 +215,8 @@ def _stations(con: Console, stations: list[dict]) -> None:
             if s.get("vendor_name"):
                 vd_ += f" ({s['vendor_name']})"
         role = " ".join(str(x) for x in (s.get("role"), s.get("type_of_station")) if x)
-        seen = ", ".join(sorted(s.get("via", []))) if s.get("via") else f"{s['frames']} frames"
+        # (the frames that told its name, role or address: DCP, LLDP, alarms -- not every frame it sent)
+        seen = ", ".join(sorted(s.get("via", []))) if s.get("via") else f"{s['frames']} DCP/LLDP/alarm frames"
         if s["mac"] in port_list:
             seen += f"; LLDP ports {', '.join(sorted(port_list[s['mac']]))}"
         row(t, s["mac"], s.get("name", ""), s.get("ip", ""), vd_, role, seen)

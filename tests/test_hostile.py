@@ -239,3 +239,22 @@ def test_iodata_with_zero_iocs_length_at_the_end():
     io = iodata.decode(fm, bytes([1, 2, 0x80, 0x80]))
     assert [o["slot"] for o in io["objects"]] == [1] and [c["slot"] for c in io["iocs"]] == [2]
     assert io["gap_at"] is None
+
+
+@pytest.mark.parametrize("cmd", ["analyze", "export", "plot", "report"])
+def test_a_capture_cut_short_exits_2_in_every_command(tmp_path, cmd):
+    """A capture cut in the middle of a packet: every command says so, covers what was read and exits 2, the
+    same in all four (an independent audit: plot said it and exited 0)."""
+    cap = a_capture()
+    with open(cap, "rb") as f:
+        data = f.read()
+    cut = str(tmp_path / "cut.pcapng")
+    with open(cut, "wb") as f:
+        f.write(data[: len(data) * 2 // 3 + 3])
+    out = str(tmp_path / ("o.mcap" if cmd == "export" else "o.html"))
+    args = [cmd, cut] + (["-q"] if cmd == "analyze" else ["-o", out])
+    r = pndiss(*args, timeout=120)
+    assert r.returncode == 2, (cmd, r.returncode, r.stderr[-500:])
+    assert "Traceback" not in r.stderr and "error" in r.stderr
+    if cmd != "analyze":
+        assert os.path.getsize(out) > 0   # what was read is there

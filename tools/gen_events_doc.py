@@ -22,7 +22,7 @@ ABOUT = {
     "alarm": "an RTA alarm PDU: header, DATA/ACK/NACK/ERR, AlarmNotification with diagnosis items",
     "ip_fragment": "an IPv4 fragment of a PNIO datagram (reassembled later)",
     "rpc": "one DCE/RPC PDU: header, operation, request/response pairing, PNIO-CM blocks, PNIO status",
-    "ar": "an application relationship completed by a Connect response: IOCRs, data objects, telegrams and their "
+    "ar": "an application relationship completed by a Connect response (`source` \"connect\"): IOCRs, data objects, telegrams and their "
           "source; `phase` (parameterisation, or refused) and `phases` (phase, frame) so far; in a capture without "
           "the Connect, one found from the cyclic content (`source` \"inferred from content\", `confidence`, "
           "`evidence`, `learnt_from` = first/last frame learnt from)",
@@ -42,6 +42,7 @@ ABOUT = {
 EXTRA = {
     "capture_gap": {"station", "frame_id", "src", "dst", "direction", "cycles_missing", "prev_frame", "next_frame"},
     "ar": {"source", "telegram", "confidence", "evidence", "learnt_from"},
+    "malformed": {"layer", "reason"},
 }
 
 

@@ -53,6 +53,7 @@ def run(args) -> int:
     settings = settings_from_args(args)
     tl = Timeline(args.max_points)
     progress = None if args.no_progress else ProgressReporter(args.capture, True, "reading for the plot")
+    damaged = False
     try:
         analyze_file(args.capture, settings, tl.on_event, progress.update if progress else None)
     except NotACapture:
@@ -60,6 +61,7 @@ def run(args) -> int:
     except CaptureError as e:
         print(f"pndiss: error: {e} ({e.frames} frames read before it); plotting what was read",
               file=sys.stderr)
+        damaged = True   # exit 2 after the picture, as analyze, export and report do on a damaged file
     finally:
         if progress:
             progress.close()
@@ -70,4 +72,4 @@ def run(args) -> int:
         raise UsageError(str(e)) from None
     except OSError as e:
         raise UsageError(f"cannot write {args.output}: {e.strerror}") from None
-    return 0
+    return 2 if damaged else 0
