@@ -23,6 +23,7 @@ from .coltext import INT, Pool, Val, thin
 from .mcap_export import McapExporter
 from .mcap_schemas import dumps as _dumps
 from .mcap_topics import RT_CONST, TG_CONST
+from .telegrams import CHANGE_MASKS
 
 SEQ_MASK = 0xFFFFFFFF
 
@@ -238,7 +239,9 @@ class McapSink(colrows.HeldSink):
                     k0 = (int(ds[0]), int(tr[0]), None if first else int(d_cycle[0]), None, None)
                 else:
                     names = colrows.signal_names(b)
-                    keys = cols[4:4 + len(names)]
+                    # (not the sign-of-life counters: telegrams.CHANGE_MASKS, as mcap_topics._telegram)
+                    keys = [c & CHANGE_MASKS[nm] if nm in CHANGE_MASKS else c
+                            for nm, c in zip(names, cols[4:4 + len(names)])]
                     k0 = (None, None, {nm: int(c[0]) for nm, c in zip(names, keys)})
                 for c in keys:
                     changed[1:] |= c[1:] != c[:-1]

@@ -14,6 +14,7 @@ import os
 import re
 
 from .mcap_schemas import SCHEMAS, type_of
+from .telegrams import CHANGE_MASKS
 
 # event kind -> (schema key, fixed topic) for the events that are not per-station
 _FIXED = {"dcp": ("event", "/pn/dcp"), "lldp": ("event", "/pn/lldp"), "alarm": ("event", "/pn/alarms"),
@@ -141,8 +142,7 @@ class Topics:
                 "telegram": tg, "side": side,
                 **{part: [str(k) for k in ev[part]] if isinstance(ev.get(part), dict) else []
                    for part in ("signals", "bits")}})
-        if (self.on_change or self.decimate > 1) and not self._keep(
-                ch, (ev.get("words"), ev.get("raw"), ev.get("signals")), ev.get("ts_ns") or 0):
+        if (self.on_change or self.decimate > 1) and not self._keep(ch, _change_key(ev), ev.get("ts_ns") or 0):
             return
         self._write(ch, ev, {k: v for k, v in ev.items() if k not in _TG_CONST})
 
@@ -214,3 +214,13 @@ class Topics:
     def _learn(self, mac, name) -> None:
         if isinstance(mac, str) and isinstance(name, str) and name and mac not in self._names:
             self._names[mac] = name
+
+
+def _change_key(ev: dict):
+    """What on_change compares of a telegram sample: its signals without the sign-of-life counters
+    (telegrams.CHANGE_MASKS: they step every cycle), else its words and raw bytes."""
+    sig = ev.get("signals")
+    if isinstance(sig, dict):
+        return (None, None, {k: v & CHANGE_MASKS[k] if k in CHANGE_MASKS and isinstance(v, int) else v
+                             for k, v in sig.items()})
+    return (ev.get("words"), ev.get("raw"), sig)

@@ -120,6 +120,26 @@ def bit_fields(signal: str, profile: str = "generic") -> tuple:
     return tuple(out)
 
 
+COUNTERS = ("sign_of_life",)   # bit fields that change every cycle by design: no change for on_change thinning
+
+
+def _change_masks() -> dict[str, int]:
+    out = {}
+    for sig, rows in BITMAPS.items():
+        counters = 0
+        for b in rows:
+            if b["name"] in COUNTERS:
+                counters |= ((1 << b["width"]) - 1) << b["bit"]
+        if counters:
+            out[sig] = ((1 << (8 * SIGNALS[sig]["size"])) - 1) & ~counters
+    return out
+
+
+# signal -> the bits of it whose change is a change (MCAP --on-change, the dataset's on_change cycles): the
+# sign-of-life counters step every cycle, so with them every sample of a standing shaft would differ
+CHANGE_MASKS: dict[str, int] = _change_masks()
+
+
 @lru_cache(maxsize=None)
 def reserved_mask(signal: str, profile: str = "generic") -> int:
     """Bits of a control/status word with no meaning for ``profile`` (behaviour.md §9.8 #60-63)."""

@@ -2,7 +2,8 @@
 
 Volume as the MCAP export offers it (pndiss/mcap_export.py):
 - ``full``: every data object of every cyclic frame;
-- ``on_change`` (default): a row when the words, IOPS or ``judged`` change against the axis' previous
+- ``on_change`` (default): a row when the words (their sign-of-life counters left out: they step every
+  cycle, telegrams.CHANGE_MASKS), IOPS or ``judged`` change against the axis' previous
   row in that direction, plus a keyframe: the first row of every ``keyframe_s`` time slot (so a
   reader finds the current values at most one slot back);
 - ``decimate:N``: every Nth row of the axis and direction; ``on_change,decimate:N`` both;
@@ -16,6 +17,7 @@ import numpy as np
 import pyarrow as pa
 
 from .. import telegrams as tg
+from ..telegrams import CHANGE_MASKS
 from . import arrays
 from .schema import CYCLES_HEAD, arrow_schema, bit_columns, ts_array
 
@@ -105,7 +107,8 @@ class CycleTable:
             keep |= (np.arange(idx0, idx0 + n) % self.decimate) == 0
         if self.on_change:
             cols = [b.iops.astype(np.int64), b.judged.astype(np.int64)]
-            cols += [np.asarray(b.signals[s]).astype(np.int64, copy=False) for s in sorted(b.signals)]
+            cols += [np.asarray(b.signals[s]).astype(np.int64, copy=False) & CHANGE_MASKS.get(s, -1)
+                     for s in sorted(b.signals)]   # (not the sign-of-life counters: telegrams.CHANGE_MASKS)
             m = np.stack(cols)
             prev = np.empty_like(m)
             prev[:, 1:] = m[:, :-1]
