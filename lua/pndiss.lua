@@ -703,6 +703,13 @@ local function connect_request(key, pinfo)
     -- streams of the AR the controller holds with it start their capture-loss tracking afresh
     restart_gaps(nil, req.controller, req.dst, "aborted")
     for _, a in ipairs(held(req.controller, req.dst, req.ar)) do restart_gaps(a) end
+    -- cyclic_axes.restart_between: and any stream between the two, of an AR the capture never knew
+    for sk, _ in pairs(gap_streams) do
+        local _, src, dst = sk:match("^([^|]*)|([^|]*)|([^|]*)$")
+        if (src == req.controller and dst == req.dst) or (src == req.dst and dst == req.controller) then
+            gap_stream(sk, true)
+        end
+    end
 end
 
 local on_reconnect     -- CyclicTracker.on_reconnect (section 7): an AR UUID connected again

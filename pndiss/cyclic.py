@@ -454,6 +454,8 @@ class CyclicTracker(AxisTracking):
             ar = self.a.session.ars.get(fm.ar_uuid) if fm is not None and fm.ar_uuid else None
             if ar is not None and ar.get("phase") in ("released", "aborted") and ar.get("phases"):
                 encs[-1]["ar_ended"] = {"phase": ar["phase"], "frame": ar["phases"][-1]["frame"]}
+            if ar is not None:   # which connection: a device reconnected has one axis per AR
+                encs[-1]["ar_uuid"], encs[-1]["ar_frame"] = ar.get("ar_uuid"), ar.get("frame")
         before = self.unmapped_before_ar()
         return {"silent_streams": self._silent(), "longer_than_iocr": list(self.trailers.values()),
                 "frames_mapped": self.mapped, "frames_unmapped": self.unmapped - before,

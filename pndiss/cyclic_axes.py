@@ -176,6 +176,10 @@ class AxisTracking:
         elif phase in ("released", "aborted"):
             self.restart_gaps(key for key, _fm in self.a.session.frame_keys(ar))   # a later AR: no capture loss
 
+    def restart_between(self, a: str, b: str) -> None:
+        """Every cyclic stream between MACs ``a`` and ``b`` starts a new cycle counter (a new AR between them)."""
+        self.restart_gaps([k for k in self.gaps.streams if {k[1], k[2]} == {a, b}])
+
     def restart_gaps(self, keys) -> None:
         """These streams' next frames start a new cycle counter (an AR ends or is being replaced)."""
         for key in keys:

@@ -13,6 +13,17 @@ SHOWN_SETTINGS = ("profile", "telegram", "compat", "class4", "preset_control", "
                   "max_master_sol_failures", "sol_threshold_ge", "sol_monitor_rt", "velocity_unit")
 
 
+def connection(e: dict, encs: list) -> str:
+    """' (AR of the Connect in frame N, aborted at frame M)' when the device reconnected: one axis per AR, else ''."""
+    same = [x for x in encs if (x.get("device_mac"), x.get("slot"), x.get("subslot"))
+            == (e.get("device_mac"), e.get("slot"), e.get("subslot"))]
+    if len(same) < 2:
+        return ""
+    end = e.get("ar_ended") or {}
+    return (f" (AR {same.index(e) + 1} of {len(same)}" + (f", Connect frame {e['ar_frame']}" if e.get("ar_frame") else "")
+            + (f", {end['phase']} at frame {end['frame']}" if end else "") + ")")
+
+
 def sections(summary: dict) -> list:
     from rich.table import Table   # the renderer only for a terminal report (-q prints one plain line)
     from rich.text import Text
@@ -26,16 +37,16 @@ def sections(summary: dict) -> list:
     t = Text("Encoders (cyclic telegrams, reference encoder)\n", style="bold")
     for e in encs:
         nviol = sum(v["events"] for v in e["violations"].values())
-        t.append(visible(f"{e.get('station') or '-'} ({e.get('device_mac') or '-'}) slot {e['slot']}/{e['subslot']}"),
-                 style="bold")
+        t.append(visible(f"{e.get('station') or '-'} ({e.get('device_mac') or '-'}) slot {e['slot']}/{e['subslot']}"
+                         + connection(e, encs)), style="bold")
         t.append(visible(f": telegram {e['telegram']} ({telegram_source(e)}); profile {e['profile']} "
                          f"({profile_reason(e)}); {e['cycles']:,} cycles, {e['gated_cycles']:,} not judged, "
                          f"{e['state_changes']:,} state changes, {nviol:,} violations", 400))
         t.append("\n")
     out.append(t)
     for e in encs:
-        name = f"{e.get('station') or e.get('device_mac')} slot {e['slot']}/{e['subslot']}"
-        name = visible(name, 60)
+        name = f"{e.get('station') or e.get('device_mac')} slot {e['slot']}/{e['subslot']}" + connection(e, encs)
+        name = visible(name, 80)
         st = Table(title=f"Settings in force: {name}")
         st.add_column("setting")
         st.add_column("value")

@@ -18,6 +18,7 @@ import tempfile
 
 from . import __version__
 from .plot import SEV_COLOURS, Timeline, render_png
+from .cyclic_report import connection
 from .report_data import ReportCollector, axis_key
 
 SEVERITIES = ("error", "warning", "info")
@@ -153,26 +154,38 @@ def _stations(summary: dict) -> str:
     ars = [[a.get("ar_uuid"), f"{a.get('controller_station') or a.get('controller_mac')} → "
             f"{a.get('station') or a.get('device_mac')}", a.get("ar_type_name"),
             (a.get("status") or {}).get("text") if isinstance(a.get("status"), dict) else a.get("status"),
-            ", ".join(str(c) for c in a.get("control") or []), a.get("frame"), a.get("release_frame")]
+            ", ".join(str(c) for c in a.get("control") or []), a.get("frame"), _end(a)]
            for a in summary.get("session", {}).get("ars", [])]
     return ("<h3>Stations</h3>" + _table(["name", "MAC", "IP", "type", "vendor/device", "LLDP chassis",
                                           "LLDP port", "DCP/LLDP/alarm frames"], st)
             + "<h3>Application relations</h3>" + _table(["AR UUID", "controller → device", "type", "status",
-                                                          "control", "connect frame", "release frame"], ars))
+                                                          "control", "connect frame", "ended"], ars))
+
+
+def _end(a: dict) -> str:
+    """How and where the AR ended: 'released at frame N', 'aborted at frame N: cause', or ''."""
+    ph = a.get("phase")
+    if ph not in ("released", "aborted"):
+        return ""
+    at = next((p.get("frame") for p in reversed(a.get("phases") or []) if p.get("phase") == ph), a.get("release_frame"))
+    return f"{ph} at frame {at}" + (f": {a['abort_cause']}" if a.get("abort_cause") else "")
 
 
 def _axes(summary: dict, col: ReportCollector) -> str:
     tl = col.timeline
     out = []
-    encs = {(str(e.get("device_mac")), str(e.get("slot")), str(e.get("subslot"))): e
-            for e in summary.get("cyclic", {}).get("encoders", [])}
+    all_encs = summary.get("cyclic", {}).get("encoders", [])
+    encs: dict = {}
+    for e in all_encs:   # a device that reconnected: one entry per AR, one timeline for the axis
+        encs.setdefault((str(e.get("device_mac")), str(e.get("slot")), str(e.get("subslot"))), []).append(e)
     for key, enc in tl.encoders.items():
-        e = encs.get(key, {})
         marks = [(v.get("ts_ns"), str(v.get("rule")), str(v.get("severity"))) for v in col.violations
                  if axis_key(v) == key and isinstance(v.get("ts_ns"), int)]
-        out.append(f"<h3>{esc(enc.label)}</h3><p>telegram {esc(e.get('telegram'))} (from "
-                   f"{esc(e.get('telegram_source'))}), profile {esc(e.get('profile'))} — "
-                   f"{esc(e.get('profile_reason'))}; {esc(e.get('cycles'))} cycles</p>")
+        out.append(f"<h3>{esc(enc.label)}</h3>")
+        for e in encs.get(key) or [{}]:
+            out.append(f"<p>telegram {esc(e.get('telegram'))} (from "
+                       f"{esc(e.get('telegram_source'))}), profile {esc(e.get('profile'))} — "
+                       f"{esc(e.get('profile_reason'))}; {esc(e.get('cycles'))} cycles{esc(connection(e, all_encs))}</p>")
         out.append(_img(_png_uri(_axis_timeline(tl, key, marks), ""), f"{enc.label} position and speed"))
     return "".join(out) or "<p class='none'>no telegram samples in this capture</p>"
 
@@ -203,9 +216,9 @@ def _values(p: dict) -> str:
     for x in p.get("params") or []:
         if not isinstance(x, dict):
             continue
-        vals = x.get("values")
+        vals = x.get("values") or (x.get("written") or {}).get("values")   # (a change: the values written)
         val = x.get("error") or (", ".join(str(v) for v in vals[:8]) + (" …" if len(vals) > 8 else "")
-                                 if isinstance(vals, list) else "")
+                                 + (" (written)" if not x.get("values") else "") if isinstance(vals, list) else "")
         parts.append(f"P{x.get('pnu')} {x.get('name') or ''}: {val}")
     return "; ".join(parts)
 
@@ -222,9 +235,10 @@ def _result(r: dict):
     return r.get("result") or (st.get("text") if isinstance(st, dict) else st)
 
 
-def _records(col: ReportCollector) -> str:
+def _records(col: ReportCollector, names: dict) -> str:
     rows = [[r.get("frame"), r.get("kind"), r.get("op"), f"0x{r['index']:04X}" if isinstance(r.get("index"), int)
-             else r.get("index"), r.get("index_name"), r.get("station") or r.get("device_mac"),
+             else r.get("index"), r.get("index_name"), r.get("station") or names.get(r.get("device_mac"))
+             or r.get("device_mac"),   # (a record_result names only the MAC: the station's name as the rows above)
              f"{r.get('slot')}.{r.get('subslot')}", r.get("length"), _result(r)]
             for r in col.records]
     more = f"<p>{col.n_records} in all, the first {len(rows)} shown.</p>" if col.n_records > len(rows) else ""
@@ -249,7 +263,7 @@ def render(summary: dict, col: ReportCollector, capture: str) -> str:
         "axes": _axes(summary, col),
         "violations": _violations(capture, col),
         "parameters": _parameters(col),
-        "records": _records(col),
+        "records": _records(col, {st.get("mac"): st.get("name") for st in summary.get("stations", []) if st.get("name")}),
         "settings": _table(["setting", "value"], [[k, v] for k, v in summary.get("settings", {}).items()], "kv"),
     }
     titles = {"verdict": "Verdict", "stations": "Stations and ARs", "axes": "Axes", "violations": "Violations",

@@ -199,6 +199,11 @@ class ArLayer:
         again = ok and ar_uuid in self.ars and self.ars[ar_uuid]["ok"]
         if ok or ar_uuid not in self.ars:  # a refused retry does not hide the AR that is up
             self.ars[ar_uuid] = rec   # bounded: the oldest AR goes, with its frame maps (_forget_ar)
+        if ok:
+            # the new AR's providers count afresh: whatever its streams carried before (an AR the capture neither
+            # saw connect nor could infer, started before the capture) leaves no counter state (an independent
+            # audit: its first cycles taken for stale copies, a fault in them missed, or the pause counted lost)
+            self.a.cyclic.restart_gaps(map_keys)
         for cr in rb.get(0x0102, []):  # RT_CLASS_UDP: follow the UDP port the AR names
             if cr["iocr_properties_rtclass"] == 4:
                 self.rt_ports.add(arq["cminitiator_udprtport"])
@@ -225,6 +230,9 @@ class ArLayer:
             return
         self.end_inferred(arq["cminitiator_mac_add"], device, "aborted", fn, ts,
                           f"a new Connect of the same controller (frame {fn})")
+        # ... and whatever ran between the two before, an AR the capture never knew (it started before the capture,
+        # too short to infer): the device may send the new AR's frames before the response, with new counters
+        self.a.cyclic.restart_between(arq["cminitiator_mac_add"], device)
         for old in self._held(arq["cminitiator_mac_add"], device, arq["ar_uuid"]):
             self.a.cyclic.restart_gaps([key for key, _fm in self.frame_keys(old)])
 

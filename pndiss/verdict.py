@@ -279,6 +279,15 @@ def not_checked(summary: dict) -> list[str]:
     if no_range:
         out.append(f"position range against the hardware: not checked for {_names(no_range)} (steps and "
                    "revolutions unknown): --set st_phys=N --set mt_phys=N")
+    # POSITION-DISCONTINUITY needs an endless shaft's range R and a profile that says the count is continuous
+    # (value_rules._continuity_profile): a generic or inferred axis, or an unknown range, is not judged
+    no_cont = [e for e in encs if not (e.get("profile") in ("scancon", "hohner", "lika") or (
+        e.get("profile") == "psm" and _value(e, "scaling"))) or _value(e, "R") is None]
+    if no_cont:
+        out.append(f"position jumps (POSITION-DISCONTINUITY): not checked for {_names(no_cont)} (profile "
+                   f"{'/'.join(sorted({str(e.get('profile')) for e in no_cont}))} or range unknown: only an endless "
+                   "shaft of a known vendor with a known range is continuous by its manual): --profile VENDOR and "
+                   "--set st_phys=N --set mt_phys=N")
     open_ = [e for e in encs if _value(e, "telegram") in tg.CONTROL_WORDS and
              str(_source(e, "compat", "")).endswith(DEFAULT_SOURCE)]
     if open_:

@@ -173,3 +173,19 @@ def test_report_says_what_was_not_checked(tmp_path):
     assert "No violations." in d.text
     # its cyclic frames belong to ARs of ordinary IO devices (Connect seen, no encoder telegram)
     assert "Not checked: " in d.text and "cyclic frames of ARs without an encoder telegram" in d.text
+
+
+def test_a_reconnected_device_shows_each_ar(tmp_path):
+    """A device that reconnected has one axis per AR: the report says which AR each paragraph is (Connect frame,
+    how it ended), the AR table says how the first AR ended, and a parameter write shows the value written
+    (an independent audit: the first AR's cycles vanished, the aborted AR read 'OK', 'P65000: ok')."""
+    sys.path.insert(0, os.path.join(ROOT, "tests"))
+    import capedit
+    src = capedit.simulate(str(tmp_path / "re.pcapng"), "--cycles", "3000", "--restart", "1200",
+                           "--restart-mode", "abort")
+    _out, html = make_report(tmp_path, src)
+    assert "AR 1 of 2, Connect frame" in html and "AR 2 of 2, Connect frame" in html
+    assert "aborted at frame" in html
+    out = subprocess.run([sys.executable, "-m", "pndiss", "analyze", src, "--no-progress"], capture_output=True,
+                         text=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": ROOT, "COLUMNS": "200"}).stdout
+    assert "(AR 1 of 2, Connect frame" in out and "(AR 2 of 2, Connect frame" in out
