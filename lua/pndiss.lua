@@ -1528,6 +1528,24 @@ local function pair_response(key, rsp, frame, ts, profile)
         end
         if #blocks_ > 0 and #blocks_ ~= #q.params then
             w[#w + 1] = string.format("%d value blocks for %d requested parameters", #blocks_, #q.params)
+        elseif q.request_id == 0x01 and #q.params >= 2 and #blocks_ == #q.params then
+            -- profidrive.order_broken (#84): the blocks hold the requested element counts in another order
+            local want, got, sw, sg, same, err = {}, {}, {}, {}, true, false
+            for i, a in ipairs(q.params) do
+                want[i] = math.max(1, a.count or 0)
+                got[i] = blocks_[i].no_of_values or -1
+                if blocks_[i].format == 0x44 then err = true end
+                if want[i] ~= got[i] then same = false end
+                sw[i], sg[i] = want[i], got[i]
+            end
+            table.sort(sw)
+            table.sort(sg)
+            local perm = true
+            for i = 1, #sw do if sw[i] ~= sg[i] then perm = false end end
+            if not err and not same and perm then
+                w[#w + 1] = "value blocks not in request order (elements requested [" .. table.concat(want, ", ")
+                    .. "], values answered [" .. table.concat(got, ", ") .. "])"
+            end
         end
     end
     local reqp = q and q.params or {}

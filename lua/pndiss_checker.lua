@@ -1889,6 +1889,9 @@ local function param(chk, ev)
   end
   local aborted = false
   local nparams = #params
+  for _, prob in ipairs(ev.pairing or {}) do   -- #84: paired by position, a block would be another parameter's
+    if find(tostring(prob), "not in request order", 1, true) then return end
+  end
   local neg = isint(rid) and band(rid, 0x80) ~= 0
   if neg and nparams == 1 and isint(params[1].format) and params[1].format ~= 0x44 then
     -- #83: the one block of a negative single-parameter response is the error (format 0x44, 001_...:1970-1978)

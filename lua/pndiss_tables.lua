@@ -1759,6 +1759,7 @@ T.checker = {
     [4098] = true,
   },
   pairing_rules = {
+    {"not in request order", "BMP-ORDER"},
     {"overwritten", "BMP-PIPELINED"},
     {"pipelined", "BMP-PIPELINED"},
     {"response id mismatch", "BMP-RESPID-MISMATCH"},

@@ -341,3 +341,22 @@ def test_pairing_a_response_the_file_puts_after_the_next_write():
     pp.request("k", req(2), 2, 300)
     ev = pp.response("k", rsp(1), 3, 350)
     assert ev["superseded_request_frames"] == [1] and ev["request_frame"] == 2
+
+
+def test_pairing_blocks_out_of_request_order():
+    """#84 (001_9461bb7bc8c2767b.txt:1925): a response repeats no PNU, but when the blocks of a positive
+    multi-parameter read hold the requested element counts in another order the order is provably wrong: a
+    pairing note (BMP-ORDER) -- paired by position, P922 was judged on P979's six values (an independent audit:
+    a false TELEGRAM-SELECTION-MISMATCH). The same counts in order, or equal counts, say nothing."""
+    req = decode_record(0xB02E, build_param_request(1, 1, [{"pnu": 922}, {"pnu": 979, "count": 6}]), write=True)
+    for blocks, broken in (([{"format": 0x43, "values": [1] * 6}, {"format": 0x06, "values": [81]}], True),
+                           ([{"format": 0x06, "values": [81]}, {"format": 0x43, "values": [1] * 6}], False)):
+        pp = ParamPairer()
+        pp.request("k", req, 1, 0)
+        ev = pp.response("k", decode_response(build_param_response(1, 1, blocks)), 2, 0)
+        assert any("not in request order" in p for p in ev["pairing"]) == broken, ev["pairing"]
+    same = decode_record(0xB02E, build_param_request(2, 1, [{"pnu": 922}, {"pnu": 925}]), write=True)
+    pp = ParamPairer()
+    pp.request("k", same, 1, 0)
+    ev = pp.response("k", decode_response(build_param_response(2, 1, [{"format": 0x06, "values": [1]}] * 2)), 2, 0)
+    assert not ev["pairing"]

@@ -63,6 +63,9 @@ CASES = [
     ("BMP-NOT-MIRRORED", {}, [param(922, [81], pairing=["request ref mismatch (request 0x01, response 0x02)"])],
      [param(922, [81])]),
     ("BMP-RESPID-MISMATCH", {}, [param(922, error=ERR(0x00), rid=0x01)], [param(922, error=ERR(0x00))]),
+    # 84: the pairer's note that the blocks are out of request order; P922's "value" is then not judged
+    ("BMP-ORDER", {}, [param(922, [20753], pairing=["value blocks not in request order (elements requested [1, 6], "
+                                                     "values answered [6, 1])"])], [param(922, [81])]),
     ("BMP-NEG-FORMAT", {}, [param(922, error=ERR(0x123))], [param(922, error=ERR(0x23))]),
     # an error entry is format 0x44 with 1 or 2 values (001_9461bb7bc8c2767b.txt:1970-1978)
     ("BMP-NEG-FORMAT", {}, [neg(1234, 0x44, 3)], [neg(1234, 0x44, 2)]),

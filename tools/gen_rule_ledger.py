@@ -17,11 +17,11 @@ OUT = os.path.join(ROOT, "docs", "rules.md")
 SKIP_DIRS = ("pndiss/sim",)            # fault injectors name rules but do not check them
 
 # Why a rule cannot be decided from a capture (or only partly).
-NOT_DECIDABLE = {
-    "BMP-ORDER": "a PROFIdrive response repeats no PNU/subindex (records/profidrive.py, 001_9461bb7bc8c2767b.txt:1891-1900); "
-                 "the pairer assigns blocks to requests by position, so a capture cannot show a reordering",
-}
+NOT_DECIDABLE: dict = {}
 PARTIAL = {
+    "BMP-ORDER": "a PROFIdrive response repeats no PNU/subindex (001_9461bb7bc8c2767b.txt:1891-1900): decided where the "
+                 "blocks of a positive multi-parameter read hold the requested element counts in another order "
+                 "(records/profidrive.order_broken); blocks of equal counts swapped cannot be told",
     "PARK-ERROR-REPORTED": "SERR rising, or a diagnosis alarm of the axis' submodule appearing, while parked; an AR "
                            "inferred from the cyclic content has no slot/subslot, so its alarms are not correlated",
     "BF00-ERROR-NOT-REPORTED": "0x1002 in G1_XIST2, or a 0x9011 diagnosis alarm of the axis' submodule, within D_preset "

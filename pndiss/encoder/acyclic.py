@@ -21,7 +21,7 @@ COMMISSIONING_DIAG = 0x9011   # channel error type: user parameter data assignme
 ISO_MODE_DATA = 0x8030   # record index of IsochronousModeData (pnio_cm.py record names)
 ABORTING_ERRORS = {0x05, 0x16, 0x17, 0x18}       # 001_9461bb7bc8c2767b.txt:2089, 2099 (#85)
 # words of the ParamPairer's pairing problems -> rule (behaviour.md §9.10 #76, #81)
-PAIRING_RULES = (("overwritten", "BMP-PIPELINED"), ("pipelined", "BMP-PIPELINED"),
+PAIRING_RULES = (("not in request order", "BMP-ORDER"), ("overwritten", "BMP-PIPELINED"), ("pipelined", "BMP-PIPELINED"),
                  ("response id mismatch", "BMP-RESPID-MISMATCH"), ("ref", "BMP-NOT-MIRRORED"), ("axis", "BMP-NOT-MIRRORED"), ("number of param", "BMP-NOT-MIRRORED"),
                  ("value blocks for", "BMP-NOT-MIRRORED"))
 RECORD_RULES = {"BF00-LENGTH", "BF00-RESERVED-NONZERO", "BF00-VALUE-OUT-OF-RANGE", "BMP-BAD-REQUEST",
@@ -269,6 +269,8 @@ def _param(chk, ev: dict) -> None:
     if isinstance(rid, int) and rid & 0x80 == 0 and any(p.get("error") for p in params):
         # 82: a positive response cannot carry errors (001_9461bb7bc8c2767b.txt:1914-1920)
         _v(chk, "BMP-RESPID-MISMATCH", ev, f"positive response ID 0x{rid:02X} with a parameter error", frame=frame)
+    if any("not in request order" in str(x) for x in ev.get("pairing") or ()):
+        return   # 84: paired by position, each block would be judged as another parameter's values
     neg = isinstance(rid, int) and rid & 0x80
     if neg and len(params) == 1 and isinstance(params[0].get("format"), int) and params[0]["format"] != 0x44:
         # 83: the one block of a negative single-parameter response is the error (format 0x44, 001_...:1970-1978)

@@ -327,10 +327,27 @@ class ParamPairer:
         rparams = req["params"]
         if blocks and len(blocks) != len(rparams):
             ev["pairing"].append(f"{len(blocks)} value blocks for {len(rparams)} requested parameters")
+        elif order_broken(req, blocks):
+            want = [max(1, a.get("count") or 0) for a in rparams]
+            ev["pairing"].append(f"value blocks not in request order (elements requested {want}, values answered "
+                                 f"{[b.get('no_of_values') for b in blocks]})")
         ev["params"] = [_param(rparams[i] if i < len(rparams) else None,
                                blocks[i] if i < len(blocks) else None, profile)
                         for i in range(max(len(rparams), len(blocks)))]
         return ev
+
+
+def order_broken(req: dict, blocks: list) -> bool:
+    """#84: a positive multi-parameter read whose value blocks hold the requested numbers of elements in another
+    order (001_9461bb7bc8c2767b.txt:1925): a response repeats no PNU, but these counts prove the order wrong --
+    paired by position, one parameter's values would be judged as another's (an independent audit)."""
+    rparams = req.get("params") or []
+    if req.get("request_id") != 0x01 or len(rparams) < 2 or len(blocks) != len(rparams) \
+            or any(b.get("format") == 0x44 for b in blocks):
+        return False
+    want = [max(1, a.get("count") or 0) for a in rparams]
+    got = [b.get("no_of_values") for b in blocks]
+    return got != want and sorted(want) == sorted(x if isinstance(x, int) else -1 for x in got)
 
 
 def _param(addr: dict | None, blk: dict | None, profile: str) -> dict:
