@@ -1551,6 +1551,7 @@ T.plugin_rules = {
   "BMP-NOT-MIRRORED",
   "BMP-RESPID-MISMATCH",
   "BMP-NEG-FORMAT",
+  "BMP-ORDER",
   "BMP-MULTI-NOT-ABORTED",
   "BMP-WRITE-RO-ACCEPTED",
   "BMP-PRESET-LIMIT-ACCEPTED",
@@ -1560,9 +1561,7 @@ T.plugin_rules = {
   "BMP-CLASS4-WRITE-ACCEPTED",
   "BMP-PROFILE-PARAM-UNREADABLE",
 }
-T.unsupported_rules = {
-  ["BMP-ORDER"] = "not decidable from a capture: a PROFIdrive response repeats no PNU/subindex, so the pairer assigns value blocks by position and a reordering cannot show (docs/rules.md); the Python core does not report it either",
-}
+T.unsupported_rules = {}
 T.checker = {
   aborting_errors = {
     [5] = true,

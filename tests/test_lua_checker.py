@@ -96,10 +96,14 @@ def _all_python_rules() -> set:
 def test_every_rule_emitted_by_the_lua_port():
     """The seeded random corpus plus the fault captures of what it misses: the Lua port emits every
     rule the Python checker can emit (and equals Python on all of it)."""
+    import encoder_table
+    from test_rules_records import CASES as RECORD_CASES
     with Recorder() as rec:
         for seed in range(400):
             scenarios.run(random.Random(seed))
         scenarios.held_xist1_session()
+        for _rule, cfg, bad, _good in RECORD_CASES:   # (BMP-ORDER: no simulator fault makes it)
+            encoder_table.rule_ids(bad, **cfg)
     res = replay(rec)
     _check(res, "seeded corpus")
     seen = set(res["lua_rules"])
