@@ -545,7 +545,7 @@ for _, n in ipairs({"pn_io.opnum", "pn_io.block_type", "pn_io.ar_uuid", "pn_io.c
                     "pn_rt.frame_id", "pn_rt.ds", "pn_rt.transfer_status", "pn_rt.cycle_counter", "pn_io.send_clock_factor", "pn_io.reduction_ratio",
                     "pn_io.error_code", "pn_io.error_decode", "pn_io.error_code1", "pn_io.error_code2",
                     "pn_io.control_command", "pn_io.pdu_type.type", "pn_io.alarm_type", "pn_io.send_seq_num",
-                    "pn_io.alarm_src_endpoint", "pn_io.channel_error_type", "pn_io.channel_properties.specifier", "pn_io.artype_req",
+                    "pn_io.alarm_src_endpoint", "pn_io.alarm_dst_endpoint", "pn_io.localalarmref", "pn_io.channel_error_type", "pn_io.channel_properties.specifier", "pn_io.artype_req",
                     "pn_dcp.service_id", "lldp.chassis.subtype", "lldp.chassis.id", "lldp.port.subtype", "lldp.port.id",
                     "lldp.profinet.subtype",
                     "pn_dcp.suboption_vendor_id", "pn_dcp.suboption_device_id", "pn_dcp.suboption_device_devicevendorvalue",
@@ -617,7 +617,7 @@ local function held(controller, device, ar)
     for _, a in ipairs(ar_order) do
         local d = ar_devs[a]
         if a ~= ar and d ~= nil and d[1] == device and d[2] == controller and ar_phase[a] ~= nil
-                and ar_phase[a] ~= "released" and ar_phase[a] ~= "aborted" then
+                and ar_phase[a] ~= "released" and ar_phase[a] ~= "aborted" and d[5] then   -- (an IO AR: d[5])
             out[#out + 1] = a
         end
     end
@@ -660,6 +660,9 @@ local function connect_request(key, pinfo)
             req.controller = m[1] and tostring(m[1].value)
             local at = inside(all("pn_io.artype_req"), b)[1]   -- a label in tshark 4.0: its two bytes are the ARType
             req.ar_type = at and at.range:len() == 2 and at.range:uint() or nil
+        elseif b.type == 0x0103 then   -- AlarmCRBlockReq: the controller's local alarm reference
+            local r = inside(all("pn_io.localalarmref"), b)[1]
+            req.cref = r and r.value
         elseif b.type == 0x0102 then
             local function first(n) local l = inside(all(n), b); return l[1] and l[1].value end
             local cr = {type = first("pn_io.iocr_type"), ref = first("pn_io.iocr_reference"),
@@ -752,6 +755,9 @@ local function connect_response(key, pinfo)
         elseif b.type == 0x8101 then
             local m = inside(all("pn_io.cmresponder_macadd"), b)
             if m[1] then device = tostring(m[1].value) end
+        elseif b.type == 0x8103 then   -- AlarmCRBlockRes: the device's local alarm reference
+            local r = inside(all("pn_io.localalarmref"), b)[1]
+            req.dref = r and r.value
         elseif b.type == 0x8102 then
             local r, f = inside(all("pn_io.iocr_reference"), b), inside(all("pn_io.frame_id"), b)
             if r[1] and f[1] then res_fid[r[1].value] = f[1].value end
@@ -766,7 +772,9 @@ local function connect_response(key, pinfo)
             end
         end
     end
-    if req.ar and (ok or ar_devs[req.ar] == nil) then ar_devs[req.ar] = {device, req.controller} end
+    if req.ar and (ok or ar_devs[req.ar] == nil) then   -- device, controller, alarm refs, an IO AR (replaces)
+        ar_devs[req.ar] = {device, req.controller, req.cref, req.dref, replaces(req)}
+    end
     -- session._connect: dev_station = the station table's name (DCP, an earlier Connect) or the ARServerBlock's;
     -- it goes into the station table, a refused Connect's too
     local station = station_of(device)
@@ -2201,15 +2209,29 @@ local function rta_error(pinfo)
     local t = X["pn_io.pdu_type.type"]()
     if t == nil or t.value ~= 4 then return end
     local src, dst = tostring(pinfo.dl_src), tostring(pinfo.dl_dst)
+    -- session_ar._names_endpoints: of several ARs between the two, the one whose alarm references the PDU's
+    -- endpoints name; one whose references are unknown when none does; none: an AR known only from its content
+    local se, de = X["pn_io.alarm_src_endpoint"](), X["pn_io.alarm_dst_endpoint"]()
+    local pick, unknown
     for i = #ar_order, 1, -1 do
         local ar = ar_order[i]
         local d = ar_devs[ar]
         local ph = ar_phase[ar]
-        if d and ((d[1] == src and d[2] == dst) or (d[1] == dst and d[2] == src))
+        if pick == nil and d and ((d[1] == src and d[2] == dst) or (d[1] == dst and d[2] == src))
                 and ph ~= "released" and ph ~= "aborted" then
-            ar_moves(ar, "aborted", pinfo.number)
-            return
+            local mine, theirs = d[4], d[3]    -- the device sent it; the controller: the other way round
+            if d[2] == src then mine, theirs = d[3], d[4] end
+            if mine == nil or theirs == nil or se == nil or de == nil then
+                unknown = unknown or ar
+            elseif mine == se.value and theirs == de.value then
+                pick = ar
+            end
         end
+    end
+    pick = pick or unknown
+    if pick ~= nil then
+        ar_moves(pick, "aborted", pinfo.number)
+        return
     end
     restart_gaps(nil, src, dst, "aborted")
 end

@@ -264,10 +264,12 @@ class ArLayer:
                                f"another controller's Connect took its encoder module (frame {fn})")
 
     def _held(self, controller: str, device: str, ar_uuid: str) -> list:
-        """The ARs other than ``ar_uuid`` this controller holds with this device (up: not ended or refused)."""
+        """The IO ARs other than ``ar_uuid`` this controller holds with this device (up: not ended or refused)."""
         return [ar for ar in self.ars.values()
                 if ar["ar_uuid"] != ar_uuid and ar["ok"] and ar["controller_mac"] == controller
-                and ar["device_mac"] == device and ar.get("phase") not in ("released", "aborted", "refused")]
+                and ar["device_mac"] == device and ar.get("phase") not in ("released", "aborted", "refused")
+                # (an IO AR: a SoftPLC's supervisor or Device Access AR runs beside it, a new IO AR does not end it)
+                and ar.get("ar_type") != SUPERVISOR_AR_TYPE and ar.get("iocrs")]
 
     def _forget_ar(self, _uuid, old: dict) -> None:
         """An AR evicted from the bounded table: drop its frame maps (those no newer AR replaced)."""
@@ -333,17 +335,23 @@ class ArLayer:
                 if "applready" in b["command"]:
                     self.set_phase(ar, "application_ready", fn, ts, "ApplicationReady")
 
-    def on_rta_error(self, fn, ts, src, dst, status: dict | None = None) -> None:
+    def on_rta_error(self, fn, ts, src, dst, status: dict | None = None, endpoints: tuple = (None, None)) -> None:
         """An ERR-RTA-PDU between an AR's controller and device aborts the AR (wire.md §7.1); the cause says who
-        sent it and its PNIOStatus (e.g. a consumer's data hold timer expired): who ended the AR, and why."""
-        for ar in reversed(list(self.ars.values())):
-            if {src, dst} == {ar["controller_mac"], ar["device_mac"]} and ar["ok"] \
-                    and ar["phase"] not in ("released", "aborted"):
-                who = "controller" if src == ar["controller_mac"] else "device"
-                why = f": {status['text']}" if status and status.get("text") else ""
-                self.set_phase(ar, "aborted", fn, ts, f"ERR-RTA-PDU from the {who} {src}{why}")
-                return
+        sent it and its PNIOStatus (e.g. a consumer's data hold timer expired): who ended the AR, and why. Of
+        several ARs between the two (a SoftPLC's supervisor or Device Access AR beside its IO AR) the one whose
+        alarm references the PDU's endpoints name (``endpoints`` = (source, destination)); an AR whose references
+        the capture does not know is taken when none names them; none at all: an AR known only from its content."""
         why = f": {status['text']}" if status and status.get("text") else ""
+        cands = [ar for ar in reversed(list(self.ars.values()))
+                 if {src, dst} == {ar["controller_mac"], ar["device_mac"]} and ar["ok"]
+                 and ar["phase"] not in ("released", "aborted")]
+        fits = [_names_endpoints(ar, src, endpoints) for ar in cands]
+        pick = next((ar for ar, f in zip(cands, fits) if f is True), None) \
+            or next((ar for ar, f in zip(cands, fits) if f is None), None)
+        if pick is not None:
+            who = "controller" if src == pick["controller_mac"] else "device"
+            self.set_phase(pick, "aborted", fn, ts, f"ERR-RTA-PDU from the {who} {src}{why}")
+            return
         self.end_inferred(src, dst, "aborted", fn, ts, f"ERR-RTA-PDU from {src}{why}")
 
     def end_inferred(self, a: str, b: str, phase: str, fn: int, ts: int, cause: str) -> None:
@@ -389,6 +397,17 @@ class ArLayer:
 
 SYSRED_AR_TYPE = 0x0020       # IOCARSR: system redundancy (S2/R1), one AR per controller of the H system
 SUPERVISOR_AR_TYPE = 0x0006   # IOSAR (wire.md; tshark pn_io_ar_type): an engineering tool beside the controller
+
+
+def _names_endpoints(ar: dict, src: str, endpoints: tuple):
+    """Whether an ERR-RTA-PDU from ``src`` with (source, destination) alarm endpoints belongs to ``ar``: True / False
+    by its AlarmCR's local alarm references (the sender's own is the source), None when either side is unknown."""
+    cr = ar.get("alarm_cr") or {}
+    mine, theirs = (cr.get("controller_ref"), cr.get("device_ref")) if src == ar["controller_mac"] \
+        else (cr.get("device_ref"), cr.get("controller_ref"))
+    if None in (mine, theirs) or None in endpoints:
+        return None
+    return (mine, theirs) == tuple(endpoints)
 
 
 def _replaces(arq: dict, iocrs) -> bool:

@@ -296,3 +296,33 @@ def test_release_marks_ar():
     assert ar["released"] and ar["release_frame"] == 10
     assert all(getattr(fm, "released", False) for fm in ar["maps"])
     assert ar["control"] == ["prmend"]  # Connect, Write, Control(PrmEnd), Read, Release
+
+
+def _ar(uuid, ar_type, iocrs, cref, dref, c="00:1b:1b:11:22:33", d="00:0e:cf:00:00:03"):
+    return {"ar_uuid": uuid, "ok": True, "ar_type": ar_type, "iocrs": iocrs, "controller_mac": c, "device_mac": d,
+            "station": "enc", "phase": "data_exchange", "phases": [{"phase": "data_exchange", "frame": 1}],
+            "alarm_cr": {"controller_ref": cref, "device_ref": dref}, "maps": [], "map_keys": []}
+
+
+def test_err_rta_aborts_the_ar_its_endpoints_name_and_a_new_io_ar_leaves_a_supervisor_ar():
+    """A SoftPLC (one MAC) holds an IO AR (alarm references 1/1) and a supervisor AR (2/5) with the device. An
+    ERR-RTA-PDU with endpoints 1/1 aborts the IO AR, not the later supervisor AR; a new IO Connect ends the IO AR
+    only: a supervisor or Device Access AR runs beside it (an independent audit: the supervisor AR was aborted
+    and the IO AR ran on)."""
+    from pndiss.analyzer import Analyzer
+    a = Analyzer(Settings())
+    io, sup = _ar("io", 0x0001, [{"frame_id": 0x8000}], 1, 1), _ar("sup", 0x0006, [], 2, 5)
+    a.session.ars["io"], a.session.ars["sup"] = io, sup
+    c, d = io["controller_mac"], io["device_mac"]
+    assert [x["ar_uuid"] for x in a.session._held(c, d, "new")] == ["io"]
+    a.session.on_rta_error(100, 1, d, c, None, (1, 1))   # from the device: its reference 1, the controller's 1
+    assert io["phase"] == "aborted" and sup["phase"] == "data_exchange"
+    # endpoints the capture's ARs do not name: none of them (an AR known only from its content, or none)
+    io2 = _ar("io2", 0x0001, [{"frame_id": 0x8000}], 3, 3)
+    a.session.ars["io2"] = io2
+    a.session.on_rta_error(200, 2, c, d, None, (9, 9))
+    assert io2["phase"] == "data_exchange" and sup["phase"] == "data_exchange"
+    # references unknown (no AlarmCR block seen): the latest AR of the two MACs, as before
+    io2["alarm_cr"] = None
+    a.session.on_rta_error(300, 3, c, d, None, (9, 9))
+    assert io2["phase"] == "aborted"
