@@ -836,8 +836,17 @@ local function connect_response(key, pinfo)
                 end
                 fm.objects[#fm.objects + 1] = obj
             end
+            -- session_ar._connect: another controller's AR known only from its content on this frame ID of the
+            -- device ended unseen (the PLC replaced); and the new AR's streams count afresh
+            for _, om in pairs(maps) do
+                if om.source == "content" and om.frame_id == fid and s == device and om.device == device
+                        and om.controller ~= d and om.phase ~= "released" and om.phase ~= "aborted" then
+                    restart_gaps(nil, device, om.controller, "aborted")
+                end
+            end
             maps[fid .. "|" .. s .. "|" .. d] = fm
             keys[#keys + 1] = {fid, s, d, fm}
+            if gap_streams[fid .. "|" .. s .. "|" .. d] ~= nil then gap_stream(fid .. "|" .. s .. "|" .. d, true) end
         end
     end
     -- session_ar._taken_over: another controller's AR owning an encoder module this AR owns too ended unseen

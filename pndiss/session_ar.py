@@ -200,6 +200,13 @@ class ArLayer:
         if ok or ar_uuid not in self.ars:  # a refused retry does not hide the AR that is up
             self.ars[ar_uuid] = rec   # bounded: the oldest AR goes, with its frame maps (_forget_ar)
         if ok:
+            # another controller's AR known only from its content, on a frame ID the device now sends to this one:
+            # it ended unseen (the PLC replaced, its abort not captured; a device sends one CR per frame ID)
+            for fid, s_mac, d_mac in map_keys:
+                for k, m in list(self.maps.items()):
+                    if m.source == "content" and k[0] == fid and k[1] == s_mac == device and k[2] != d_mac:
+                        self.end_inferred(device, k[2], "aborted", fn, ts,
+                                          f"another controller's Connect (frame {fn}) took its frame ID 0x{fid:04X}")
             # the new AR's providers count afresh: whatever its streams carried before (an AR the capture neither
             # saw connect nor could infer, started before the capture) leaves no counter state (an independent
             # audit: its first cycles taken for stale copies, a fault in them missed, or the pause counted lost)

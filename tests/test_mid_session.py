@@ -448,3 +448,34 @@ def test_a_connect_restarts_the_counters_of_an_ar_the_capture_never_knew(tmp_pat
     g = s["cyclic"]["capture_gaps"]
     assert g["count"] == 0 and not g.get("stale"), g
     _same_both_ways(path)
+
+
+def test_another_controllers_connect_ends_the_inferred_ar(tmp_path):
+    """A capture that starts mid-session; the PLC is replaced: its abort is not captured and another controller
+    (another MAC) connects the device on the same frame IDs. The AR known only from its content ended there (an
+    ar_phase event), and the device is not reported silent while it exchanges data with the new PLC (an
+    independent audit: "went silent (power, a cable, a crash?)")."""
+    from pndiss.capture import open_capture
+    from pndiss.sim.pcapng import Writer
+    from pndiss.verdict import trust
+    from test_fastpath import _same_both_ways
+    src = capedit.simulate(str(tmp_path / "ra.pcapng"), "--encoders", "1", "--cycles", "3000", "--restart", "1200",
+                           "--restart-mode", "abort", "--start-mid-session", "300", "--seed", "3")
+    evs = []
+    analyze_file(src, sink=lambda e: evs.append(e) if e["kind"] in ("alarm", "ar") else None)
+    err = next(e["frame"] for e in evs if e["kind"] == "alarm" and (e.get("pdu_type") or {}).get("type") == 4)
+    old = bytes.fromhex(next(e for e in evs if e["kind"] == "ar")["controller_mac"].replace(":", ""))
+    new = bytes.fromhex("021b1b445566")
+    path = str(tmp_path / "new-plc.pcapng")
+    with open(path, "wb") as f:
+        w = Writer(f)
+        for fn, ts, _lt, d in open_capture(src):
+            if fn == err:
+                continue   # the abort is not captured
+            w.write(ts, bytes(d).replace(old, new) if fn > err else bytes(d))
+    evs = []
+    s = analyze_file(path, sink=lambda e: evs.append(e) if e["kind"] == "ar_phase" else None).summary()
+    ended = [e for e in evs if e["ar_uuid"] is None and e["phase"] == "aborted"]
+    assert ended and "another controller's Connect" in ended[0]["cause"]
+    assert not s["cyclic"]["silent_streams"] and not any("went silent" in t for t in trust(s))
+    _same_both_ways(path)
