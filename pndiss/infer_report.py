@@ -31,7 +31,7 @@ def map_template(streams: list[dict], controllers=()) -> str:
                      'direction = "input"      # or "output": which MAC is the controller is not known')
         out += ["", "[[frames]]", f'frame_id = "0x{s["frame_id"]:04X}"', f'src = "{s["src"]}"', f'dst = "{s["dst"]}"',
                 direction,
-                f'# C_SDU length {s["c_sdu_len"]} bytes; seen in frames {s["frames"][0]}..{s["frames"][1]}',
+                f'# C_SDU length {s["c_sdu_len"]} bytes; sampled in frames {s["frames"][0]}..{s["frames"][1]}',
                 "[[frames.objects]]", "api = 0x3D00", "slot = 1", "subslot = 1", "offset = 0",
                 "telegram = 81            # 81..84, 86..89, 100, 101, 860"]
     return "\n".join(out) + "\n"

@@ -333,8 +333,9 @@ def not_checked(summary: dict) -> list[str]:
     cyc = summary.get("cyclic", {})
     n = cyc.get("frames_before_ar") or 0
     if n >= 100 or (n and (cyc.get("content_inference") or {}).get("inferred")):   # not a start-up's few frames
-        out.append(f"{n:,} cyclic frame{'s' if n != 1 else ''} came before {'their' if n != 1 else 'its'} AR was known "
-                   "(before its Connect response, or before the telegram was inferred from the content): not judged")
+        out.append(f"{n:,} cyclic frame{'s' if n != 1 else ''} of streams an AR of the capture maps came before that "
+                   "AR was known (before its Connect response, before the telegram was inferred from the content, or of "
+                   "an earlier AR on the same frame IDs the capture does not show): not judged")
     gated = sum(e.get("gated_cycles", 0) for e in encs if not e.get("telegram_unsure"))
     if gated:
         out.append(f"{gated:,} cycles not judged (provider stopped, DataValid 0, TransferStatus not 0, IOPS bad, or "

@@ -238,7 +238,7 @@ def test_capture_from_the_start_up_without_its_connect(tmp_path):
         c = s["cyclic"]
         inf, = c["content_inference"]["inferred"]
         assert inf["frame"] < 300 and c["encoders"][0]["cycles"] > 280
-        assert any("came before their AR was known" in line for line in not_checked(s))
+        assert any("came before that AR was known" in line for line in not_checked(s))
         got.append((inf["frame"], c["frames_before_ar"], c["encoders"][0]["cycles"]))
     assert got[0] == got[1]
     if shutil.which("tshark"):
