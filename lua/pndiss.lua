@@ -837,7 +837,7 @@ local function connect_response(key, pinfo)
                 fm.objects[#fm.objects + 1] = obj
             end
             -- session_ar._connect: another controller's AR known only from its content on this frame ID of the
-            -- device ended unseen (the PLC replaced); and the new AR's streams count afresh
+            -- device ended unseen (the PLC replaced)
             for _, om in pairs(maps) do
                 if om.source == "content" and om.frame_id == fid and s == device and om.device == device
                         and om.controller ~= d and om.phase ~= "released" and om.phase ~= "aborted" then
@@ -846,7 +846,6 @@ local function connect_response(key, pinfo)
             end
             maps[fid .. "|" .. s .. "|" .. d] = fm
             keys[#keys + 1] = {fid, s, d, fm}
-            if gap_streams[fid .. "|" .. s .. "|" .. d] ~= nil then gap_stream(fid .. "|" .. s .. "|" .. d, true) end
         end
     end
     -- session_ar._taken_over: another controller's AR owning an encoder module this AR owns too ended unseen
@@ -2194,16 +2193,13 @@ function ar_moves(ar, phase, fn)
 end
 
 -- PNIO-CM Control / Release of an AR (session._control, session._release)
-local function control(op, pt, fn, pinfo)
+local function control(op, pt, fn)
     local want = (op == 4 and pt == 0) and "control" or ((op == 1 and pt == 2) and "release" or nil)
     if want == nil then return end
     for _, b in ipairs(blocks()) do
         local u = inside(all("pn_io.ar_uuid"), b)[1]
         local ar = u and tostring(u)
         if want == "release" and b.type == 0x8114 then
-            if ar_keys[ar or ""] == nil then   -- (session_ar._release: an AR the capture saw no Connect of)
-                restart_gaps(nil, tostring(pinfo.dl_src), tostring(pinfo.dl_dst), "released")
-            end
             ar_moves(ar, "released", fn)
         elseif want == "control" and b.type >= 0x0110 and b.type <= 0x0117 and b.type ~= 0x0115 then
             local c = inside(all("pn_io.control_command"), b)[1]
@@ -2854,7 +2850,7 @@ local function first_pass(pinfo)
         if op.value == 0 and pt and key then
             if pt.value == 0 then connect_request(key, pinfo) elseif pt.value == 2 then connect_response(key, pinfo) end
         end
-        if pt then control(op.value, pt.value, pinfo.number, pinfo) end
+        if pt then control(op.value, pt.value, pinfo.number) end
         items = record_items(pinfo, records_of_frame())
         if pt and pt.value == 2 and op.value == 3 and key and not wrote[key] then write_responses(pinfo) end
         if pt and pt.value == 2 and op.value == 3 and req_frame ~= nil then write_refusals(pinfo, req_frame) end

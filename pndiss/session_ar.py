@@ -207,10 +207,8 @@ class ArLayer:
                     if m.source == "content" and k[0] == fid and k[1] == s_mac == device and k[2] != d_mac:
                         self.end_inferred(device, k[2], "aborted", fn, ts,
                                           f"another controller's Connect (frame {fn}) took its frame ID 0x{fid:04X}")
-            # the new AR's providers count afresh: whatever its streams carried before (an AR the capture neither
-            # saw connect nor could infer, started before the capture) leaves no counter state (an independent
-            # audit: its first cycles taken for stale copies, a fault in them missed, or the pause counted lost)
-            self.a.cyclic.restart_gaps(map_keys)
+            # (its streams started afresh at the Connect request: _connect_requested; not here -- the device may
+            # send the new AR's frames before this response, and their state, a mirror port's copies, must stay)
         for cr in rb.get(0x0102, []):  # RT_CLASS_UDP: follow the UDP port the AR names
             if cr["iocr_properties_rtclass"] == 4:
                 self.rt_ports.add(arq["cminitiator_udprtport"])
@@ -323,7 +321,10 @@ class ArLayer:
         self.counts["releases"] += 1
         for b in pdu["blocks"]:
             if b["block_type"] == 0x8114 and b.get("ar_uuid") not in self.ars and src and dst:
-                self.end_inferred(src, dst, "released", fn, ts, "Release")   # an AR the capture saw no Connect of
+                # an AR the capture saw no Connect of: the AR known only from its content between these MACs, or a
+                # supervisor / Device Access AR beside it (a SoftPLC's) -- its Release cannot say which, so the
+                # inferred AR is not ended here (its next Connect ends it) but is not reported silent after it
+                self.unknown_releases[frozenset((src, dst))] = ts
             if b["block_type"] == 0x8114 and b.get("ar_uuid") in self.ars:
                 ar = self.ars[b["ar_uuid"]]
                 ar["released"] = True
