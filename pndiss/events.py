@@ -139,9 +139,15 @@ class Scope:
         None. A typo in a CI gate (--station xac77-l --fail-on error) must not pass as "no violations"."""
         a = analyzer
         if self.station is not None:
-            names = {s.get("name") for s in a.stations.by_mac.values()} | {
-                e.get("station") for e in a.cyclic.summary()["encoders"]}
-            if self.station not in names and (self.mac is None or self.mac not in a.stations.by_mac):
+            encs = a.cyclic.summary()["encoders"]
+            ars = list(a.session.ars.values())
+            names = {s.get("name") for s in a.stations.by_mac.values()} | {e.get("station") for e in encs} | {
+                ar.get(k) for ar in ars for k in ("station", "controller_station")}
+            # every MAC the capture shows a station by: DCP / LLDP / alarms, ARs, encoder axes, cyclic streams
+            macs = set(a.stations.by_mac) | {e.get("device_mac") for e in encs} | {
+                ar.get(k) for ar in ars for k in ("device_mac", "controller_mac")} | {
+                m for key in a.cyclic.gaps.streams for m in key[1:]}
+            if self.station not in names and (self.mac is None or self.mac not in macs):
                 known = sorted(n for n in names if n)
                 return (f"--station {self.station}: no station of that name or MAC in the capture"
                         + (f" (stations: {', '.join(known[:12])}{' ...' if len(known) > 12 else ''})" if known else ""))

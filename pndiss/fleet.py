@@ -55,7 +55,10 @@ def plan(paths: list[str], store, retry_failed: bool = False, client=None, hash_
     sizes = {p: _plain_size(p) for p in paths}
     seen = collections.Counter(sizes.values())
     taken = {r.get("size_bytes") for r in done.values()}
-    now = [p for p in paths if sizes[p] is None or seen[sizes[p]] > 1 or sizes[p] in taken]
+    if any(z is None for z in sizes.values()):
+        now = list(paths)   # a compressed input's content size is unknown: any plain one may be its copy -- all now
+    else:
+        now = [p for p in paths if seen[sizes[p]] > 1 or sizes[p] in taken]
     if client is not None:
         run = uuid.uuid4().hex[:12]   # task keys of this run: another run on the same scheduler has its own
         hashed = client.gather(client.map(hash_one, now, pure=False,
@@ -116,7 +119,8 @@ def hash_one(path: str) -> tuple:
         return path, "", 0, e.strerror or str(e)
 
 
-def analyse_one(store, path: str, sha: str | None, settings, cycles: str, write_thread: bool = False) -> Outcome:
+def analyse_one(store, path: str, sha: str | None, settings, cycles: str, write_thread: bool = False,
+                retry_failed: bool = False) -> Outcome:
     """The Dask task: analyse one capture into the dataset. A file that cannot be analysed is
     recorded with its error by the writer and comes back as ``failed``, never raised. ``sha`` None:
     the plan left the hashing to this task; a capture the dataset holds already comes back ``skipped``
@@ -127,7 +131,7 @@ def analyse_one(store, path: str, sha: str | None, settings, cycles: str, write_
     if sha is None:
         _path, sha, _size, _err = hash_one(path)
         row = store.row(sha) if sha else None
-        if row is not None and not row.get("error"):
+        if row is not None and not (retry_failed and row.get("error")):
             return Outcome(path, sha, "skipped", row=row, seconds=time.perf_counter() - t0)
     row = store.write(path, sha, settings, cycles, write_thread)
     dt = time.perf_counter() - t0
@@ -142,10 +146,11 @@ def same_content(outcomes: list[Outcome]) -> list[Outcome]:
     (a compressed copy: the plan hashes only copies it can tell by size): ``duplicate`` of the first."""
     first: dict[str, str] = {}
     for o in outcomes:
-        if o.status in ("analysed", "skipped", "duplicate") and o.sha256:
-            if o.status in ("analysed", "skipped") and o.sha256 in first:   # (skipped: the twin came first)
+        if o.status in ("analysed", "skipped") and o.sha256:   # (a plan's duplicate names its first already)
+            if o.sha256 in first:   # (skipped: the twin came first)
                 o.status, o.same_as = "duplicate", first[o.sha256]
-            first.setdefault(o.sha256, o.path)
+            else:
+                first[o.sha256] = o.path
     return outcomes
 
 
@@ -154,18 +159,19 @@ def error_kind(error: str) -> str:
     return "internal" if error.startswith("internal error") else "input"
 
 
-def run_local(todo, store, settings, cycles: str, on_done=None) -> list[Outcome]:
+def run_local(todo, store, settings, cycles: str, on_done=None, retry_failed: bool = False) -> list[Outcome]:
     """The same work in this process, one file after another (``--workers 0``; the reference run)."""
     out = []
     for path, sha, _size in todo:
-        o = analyse_one(store, path, sha, settings, cycles, write_thread=True)
+        o = analyse_one(store, path, sha, settings, cycles, write_thread=True, retry_failed=retry_failed)
         out.append(o)
         if on_done is not None:
             on_done(o)
     return out
 
 
-def run_dask(client, todo, store, settings, cycles: str, on_done=None, retries: int = 2) -> list[Outcome]:
+def run_dask(client, todo, store, settings, cycles: str, on_done=None, retries: int = 2,
+             retry_failed: bool = False) -> list[Outcome]:
     """One task per capture, the biggest first (a long file started last would leave the other
     workers idle at the end); outcomes in completion order."""
     from distributed import as_completed
@@ -174,8 +180,9 @@ def run_dask(client, todo, store, settings, cycles: str, on_done=None, retries: 
     run = uuid.uuid4().hex[:12]   # a run writing another dataset on the same scheduler must not share our tasks
     futures = {}
     for rank, (path, sha, _size) in enumerate(order):
-        fut = client.submit(analyse_one, store, path, sha, settings, cycles, key=f"pndiss-fleet-{task_name(path, sha)}-{run}",
-                            pure=False, retries=retries, priority=len(order) - rank)
+        fut = client.submit(analyse_one, store, path, sha, settings, cycles, False, retry_failed,
+                            key=f"pndiss-fleet-{task_name(path, sha)}-{run}", pure=False, retries=retries,
+                            priority=len(order) - rank)
         futures[fut] = (path, sha)
     out = []
     for fut in as_completed(futures):

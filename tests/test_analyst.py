@@ -388,3 +388,23 @@ def test_trust_names_an_assumed_v41_mode_and_unjudged_presets():
     assert any("2 preset(s)" in t and "--set p65000=N" in t for t in verdict.not_checked(s))
     e["settings"]["compat"]["source"] = "captured 0xBF00"
     assert not any("V4.1 mode" in t for t in verdict.trust(s))
+
+
+def test_3_station_mac_known_only_from_cyclic_frames(tmp_path):
+    """--station MAC for a device that sent no DCP, LLDP or alarm frame (a mid-session capture): its MAC is in the
+    capture by its cyclic streams and ARs, so it is a scope, not a usage error (the review of 2026-11-25), in any
+    letter case."""
+    sys.path.insert(0, os.path.join(ROOT, "tests"))
+    import capedit
+    def named(fn, d):   # DCP (FrameID 0xFEFC..0xFEFF) and LLDP frames dropped
+        o = 16 if d[12:14] == b"\x81\x00" else 12
+        et = d[o:o + 2]
+        return et != b"\x88\xcc" and not (et == b"\x88\x92" and 0xFEFC <= int.from_bytes(d[o + 2:o + 4], "big") <= 0xFEFF)
+    path = str(tmp_path / "nodcp.pcapng")
+    capedit.rewrite(FAULT, path, named)
+    from pndiss.analyzer import analyze_file
+    assert "02:00:00:00:01:01" not in analyze_file(path).stations.by_mac   # (no DCP / LLDP / alarm named it)
+    for mac in ("02:00:00:00:01:01", "02-00-00-00-01-01".upper()):
+        r = run("analyze", path, "-q", "--station", mac, "--fail-on", "error")
+        assert r.returncode == 1, (mac, r.stderr)
+    assert run("analyze", path, "-q", "--station", "02:00:00:00:09:09").returncode == 2

@@ -340,27 +340,30 @@ def test_inputs_hashed_by_their_tasks_unless_a_size_may_be_a_copy(tmp_path):
     captures: an input no other input (or captured file) shares a size with is hashed by its own task. A copy
     is still never analysed twice: the same size is hashed up front; a compressed one's twin is found by the
     task (skipped) or after the run (duplicate)."""
-    a, b = CAPS[0], CAPS[1]
-    assert os.path.getsize(a) != os.path.getsize(b)
+    a, b, c = CAPS[0], CAPS[1], CAPS[2]
+    assert len({os.path.getsize(x) for x in (a, b, c)}) == 3
     src = tmp_path / "in"
     src.mkdir()
     shutil.copy(a, src / "a.pcapng")
-    (src / "b.pcapng.gz").write_bytes(gzip.compress(open(b, "rb").read()))
+    shutil.copy(c, src / "c.pcapng")
     root = str(tmp_path / "ds")
     store = DatasetStore(root)
     p = fleet.plan(find_captures([str(src)]), store)
+    assert [t[1] for t in p.todo] == [None, None]   # no size shared: each task hashes its own
+    # a compressed input in the run: its content's size is unknown, any plain input may be its copy -- all hashed now
+    (src / "b.pcapng.gz").write_bytes(gzip.compress(open(b, "rb").read()))
+    p = fleet.plan(find_captures([str(src)]), store)
     todo = {os.path.basename(t[0]): t[1] for t in p.todo}
-    assert todo["a.pcapng"] is None and todo["b.pcapng.gz"] == content_hash(b)   # compressed: hashed now
+    assert todo == {"a.pcapng": content_hash(a), "b.pcapng.gz": content_hash(b), "c.pcapng": content_hash(c)}
     out = fleet.same_content(p.outcomes + fleet.run_local(p.todo, store, Settings(), "none"))
-    assert sorted(o.status for o in out) == ["analysed", "analysed"]
-    assert {o.sha256 for o in out} == {content_hash(a), content_hash(b)}
+    assert sorted(o.status for o in out) == ["analysed"] * 3
     # the plain twin of the compressed capture the dataset holds: its size is new, its task finds it done
     shutil.copy(b, src / "b-plain.pcapng")
     p = fleet.plan([str(src / "b-plain.pcapng")], store)
     assert p.todo[0][1] is None
     out = fleet.run_local(p.todo, store, Settings(), "none")
     assert [o.status for o in out] == ["skipped"] and out[0].row["capture_hash"] == content_hash(b)
-    # in one run with its compressed twin (a fresh dataset): analysed once, the other a duplicate
+    # in one run with its compressed twin (a fresh dataset): analysed once, the other a duplicate (the plan hashes both)
     root2 = str(tmp_path / "ds2")
     store2 = DatasetStore(root2)
     p = fleet.plan([str(src / "b.pcapng.gz"), str(src / "b-plain.pcapng")], store2)

@@ -77,12 +77,12 @@ def run(args) -> int:
         if not p.todo:
             results = []
         elif args.workers == 0:
-            results = fleet.run_local(p.todo, store, settings, args.cycles, on_done)
+            results = fleet.run_local(p.todo, store, settings, args.cycles, on_done, retry_failed=args.retry_failed)
         else:
             if client is None:   # started only when there is work: a re-run with nothing to do is instant
                 client, cluster = early.take() if early else fleet.connect(None, workers)
                 early = None
-            results = fleet.run_dask(client, p.todo, store, settings, args.cycles, on_done)
+            results = fleet.run_dask(client, p.todo, store, settings, args.cycles, on_done, retry_failed=args.retry_failed)
     finally:
         if progress:
             progress.close()

@@ -172,9 +172,10 @@ ABOUT = {
     "states": "`state` events: state changes of a reference encoder (control by PLC, preset, parking, ...)",
     "capture_gaps": "`capture_gap` events: cycles of a cyclic stream the capture lost (not judged)",
     "axes": "the summary's encoder axes (one per data object with a telegram): telegram and its source, "
-            "profile, `cycles` (elapsed: judged or lost; a deadline counts them), `gated_cycles` (reported, not "
-            "judged: IOPS / DataStatus, no setpoint sent), `lost_cycles` (cycles not judged because a setpoint or an "
-            "actual value is missing from the capture: either direction), the settings in force",
+            "profile, `cycles` (elapsed: judged, lost, or never sent by a controller that stopped; a deadline counts "
+            "them), `gated_cycles` (reported, not judged: IOPS / DataStatus, no setpoint sent), `lost_cycles` (cycles "
+            "not judged because a setpoint or an actual value is missing from the capture: either direction), the "
+            "settings in force",
     "cycles": "per-axis cyclic data, one row per data object of a cyclic frame (setpoint or actual): every "
               "signal and every bit of the telegram table (full, on change or decimated)",
 }
