@@ -216,7 +216,8 @@ def trust(summary: dict) -> list[str]:
         out.append(f"unmapped streams: {cyc['frames_unmapped']:,} cyclic frames of no AR the capture shows "
                    "(no Connect in the capture maps them -- or, in a Linux cooked capture without destination "
                    "addresses, several ARs of one sender share their frame ID -- and nothing was inferred from the "
-                   "content): give them with --map or --set telegram=N")
+                   "content): if some are encoders, give them with --map or --set telegram=N; an ordinary IO "
+                   "device's need nothing")
     if acc.get("malformed"):
         out.append(f"malformed frames: {acc['malformed']:,} (listed below)")
     for ar in (summary.get("session") or {}).get("ars", []):
