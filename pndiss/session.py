@@ -19,6 +19,7 @@ from .session_records import MAX_CALLS, RecordLayer, param_pairer
 from .session_rpc import PORT_RT_UDP, RpcLayer
 
 RESEND_WINDOW_NS = 10_000_000_000   # a client resends an unanswered DCE/RPC request within seconds (wire.md §5.1)
+EARLY_WINDOW_NS = 1_000_000_000     # a request stamped after its own response by less: interfaces' clocks apart
 
 
 class SessionTracker(RpcLayer, ArLayer, RecordLayer):
@@ -45,7 +46,8 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
         self.ffff_writes: dict[str, int] = lim.table(s.max_stations, "profiles")  # device MAC -> frame of a 0xFFFF write
         self.telegram_p922: dict[tuple, int] = lim.table(s.max_stations, "profiles")  # (device mac, api, slot, subslot) -> P922
         self.counts = {"rpc": 0, "rpc_fragments": 0, "rpc_retransmissions": 0, "ip_fragments": 0, "records": 0, "params": 0,
-                       "connects": 0, "connect_refused": 0, "releases": 0}
+                       "connects": 0, "connect_refused": 0, "releases": 0, "responses_before_request": 0,
+                       "responses_before_request_max_ns": 0}
         self.pairer = param_pairer()
         self.usermap = None
         self.gsdml = None
@@ -73,6 +75,13 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
                 self.counts["rpc_retransmissions"] += 1
                 return
             done = self.answered.get(key)
+            if done is not None and done[1] is None and call is not None and call["frame"] == fn \
+                    and 0 <= ts - done[2] <= EARLY_WINDOW_NS:
+                # its response came first, stamped earlier: the capture's interfaces' clocks differ (two NICs, a
+                # TAP's ports written apart) -- what the server answered cannot precede the question
+                self.counts["responses_before_request"] += 1
+                self.counts["responses_before_request_max_ns"] = max(self.counts["responses_before_request_max_ns"],
+                                                                     ts - done[2])
             if done is not None and done[1] == pdu and ts - done[2] <= RESEND_WINDOW_NS and (call is None or call["frame"] == fn):
                 # the same call again after its response (the client missed it and resends; the server answers
                 # from its cache, at most once): the same request bytes under an answered act|seq run once. A

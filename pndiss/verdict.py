@@ -165,6 +165,13 @@ def trust(summary: dict) -> list[str]:
                    f"{q['last_frame']:,}, {q['silent_ns'] / 1e9:,.3f} s before the capture ends, with no Release or abort "
                    "of their AR in the capture: the sender went silent (power, a cable, a crash?) -- no rule judges "
                    "cycles that never came")
+    sc = (summary.get("session") or {}).get("counts") or {}
+    if sc.get("responses_before_request", 0) >= 2:
+        out.append(f"responses before their requests: {sc['responses_before_request']:,} DCE/RPC responses are stamped "
+                   f"before the request they answer, by up to {sc['responses_before_request_max_ns'] / 1e6:,.3f} ms: "
+                   "the capture's interfaces' clocks differ (two NICs, a TAP's ports) -- the two directions are "
+                   "that far apart in time, so setpoints may pair with the wrong actual values and response times "
+                   "are wrong; capture through one interface or a TAP that stamps both ports with one clock")
     tr = cyc.get("longer_than_iocr") or ()
     if tr:
         extra = sorted({q["extra_bytes"] for q in tr})

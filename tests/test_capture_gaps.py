@@ -591,3 +591,28 @@ def test_a_taps_trailer_on_cyclic_frames_is_said(tmp_path):
     clean = analyze_file(src).summary()
     assert clean["cyclic"]["longer_than_iocr"] == [] and not any(t.startswith("trailer:") for t in trust(clean))
     _same_both_ways(path)
+
+
+def test_responses_stamped_before_their_requests_are_said(tmp_path):
+    """Two NICs (or a TAP's two ports) whose clocks differ by 3 ms: the device's frames are stamped 3 ms early,
+    the file sorted by stamp, and every DCE/RPC response of the device precedes its request. That cannot be: the
+    summary counts them (session.counts.responses_before_request, with the largest lead) and Trust says the
+    interfaces' clocks differ (an independent audit: accepted silently, violations against both sides). The
+    capture as made says nothing."""
+    from pndiss.capture import open_capture
+    from pndiss.sim.pcapng import Writer
+    from pndiss.verdict import trust
+    src = capedit.simulate(str(tmp_path / "s.pcapng"), "--cycles", "600")
+    dev = bytes.fromhex("020000000101")
+    frames = sorted(((ts - 3_000_000 if d[6:12] == dev else ts), bytes(d)) for _fn, ts, _lt, d in open_capture(src))
+    path = str(tmp_path / "skew.pcapng")
+    with open(path, "wb") as f:
+        w = Writer(f)
+        for ts, d in frames:
+            w.write(ts, d)
+    s = analyze_file(path).summary()
+    c = s["session"]["counts"]
+    assert c["responses_before_request"] >= 2 and 0 < c["responses_before_request_max_ns"] <= 3_000_000
+    assert any(t.startswith("responses before their requests:") for t in trust(s))
+    clean = analyze_file(src).summary()
+    assert clean["session"]["counts"]["responses_before_request"] == 0
