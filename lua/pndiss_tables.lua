@@ -2076,6 +2076,9 @@ T.checker = {
     ["BMP-NOT-MIRRORED"] = {
       kind = "record",
     },
+    ["BMP-ORDER"] = {
+      kind = "record",
+    },
     ["BMP-PIPELINED"] = {
       kind = "record",
     },

@@ -46,6 +46,7 @@ class FakeAnalyzer:
                                      "on_reconnect": lambda _s, *args: None,
                                      "on_write_refused": lambda _s, ev: None,
                                      "restart_gaps": lambda _s, keys: None,
+                                     "restart_between": lambda _s, a, b: None,
                                      "on_new_ar": lambda _s, dev: None})()
         self.session = SessionTracker(self)
 
