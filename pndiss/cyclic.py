@@ -477,8 +477,8 @@ class CyclicTracker(AxisTracking):
             if fm is None or st.ts is None or fm.released or fm.phase in ("released", "aborted"):
                 continue
             rel = self.a.session.unknown_releases.get(frozenset(key[1:]))
-            if rel is not None and st.ts >= rel - 1_000_000_000:
-                continue   # a Release between the two, of an AR the capture saw no Connect of, ended it
+            if rel is not None and abs(st.ts - rel) <= 1_000_000_000:
+                continue   # it stopped at a Release between the two, of an AR the capture saw no Connect of
             cycle = fm.cycle_time_ns or fm.learnt_cycle_ns or 1_000_000
             quiet = end - st.ts
             if quiet > max(200_000_000, 50 * cycle):

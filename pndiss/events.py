@@ -141,15 +141,19 @@ class Scope:
         if self.station is not None:
             encs = a.cyclic.summary()["encoders"]
             ars = list(a.session.ars.values())
+            # (a controller's name only as DCP names it: keep() maps names to MACs by the station table)
             names = {s.get("name") for s in a.stations.by_mac.values()} | {e.get("station") for e in encs} | {
-                ar.get(k) for ar in ars for k in ("station", "controller_station")}
+                ar.get("station") for ar in ars}
             # every MAC the capture shows a station by: DCP / LLDP / alarms, ARs, encoder axes, cyclic streams
             macs = set(a.stations.by_mac) | {e.get("device_mac") for e in encs} | {
                 ar.get(k) for ar in ars for k in ("device_mac", "controller_mac")} | {
                 m for key in a.cyclic.gaps.streams for m in key[1:]}
             if self.station not in names and (self.mac is None or self.mac not in macs):
-                known = sorted(n for n in names if n)
-                return (f"--station {self.station}: no station of that name or MAC in the capture"
+                known = sorted(n for n in names if n) or sorted(m for m in macs if m)
+                ip = re.fullmatch(r"\d{1,3}(\.\d{1,3}){3}", self.station.strip())
+                return (f"--station {self.station}: "
+                        + ("takes a NameOfStation or a MAC address, not an IP address" if ip else
+                           "no station of that name or MAC in the capture")
                         + (f" (stations: {', '.join(known[:12])}{' ...' if len(known) > 12 else ''})" if known else ""))
         if self.span is not None and a.first_ts is not None:
             lo, hi = self.span

@@ -55,10 +55,10 @@ def plan(paths: list[str], store, retry_failed: bool = False, client=None, hash_
     sizes = {p: _plain_size(p) for p in paths}
     seen = collections.Counter(sizes.values())
     taken = {r.get("size_bytes") for r in done.values()}
-    if any(z is None for z in sizes.values()):
+    if any(_compressed(p) for p, z in sizes.items() if z is None):
         now = list(paths)   # a compressed input's content size is unknown: any plain one may be its copy -- all now
-    else:
-        now = [p for p in paths if seen[sizes[p]] > 1 or sizes[p] in taken]
+    else:   # (not a capture, unreadable: hashed now too -- the writer records it under that hash)
+        now = [p for p in paths if sizes[p] is None or seen[sizes[p]] > 1 or sizes[p] in taken]
     if client is not None:
         run = uuid.uuid4().hex[:12]   # task keys of this run: another run on the same scheduler has its own
         hashed = client.gather(client.map(hash_one, now, pure=False,
@@ -99,6 +99,16 @@ def _plain_size(path: str) -> int | None:
     except OSError:
         return None
     return size if magic in PLAIN_MAGIC else None
+
+
+def _compressed(path: str) -> bool:
+    """gzip, xz or zstd by its magic (pndiss/inputs.py opens them)."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4)
+    except OSError:
+        return False
+    return head[:2] == b"\x1f\x8b" or head == b"\xfd7zX" or head == b"\x28\xb5\x2f\xfd"
 
 
 # pcap (micro- and nanosecond, either byte order) and pcapng

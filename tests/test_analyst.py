@@ -408,3 +408,8 @@ def test_3_station_mac_known_only_from_cyclic_frames(tmp_path):
         r = run("analyze", path, "-q", "--station", mac, "--fail-on", "error")
         assert r.returncode == 1, (mac, r.stderr)
     assert run("analyze", path, "-q", "--station", "02:00:00:00:09:09").returncode == 2
+    # the controller's name only from its Connect (no DCP of it): no station the scope could keep events of
+    r = run("analyze", path, "-q", "--station", "plc", "--fail-on", "error")
+    assert r.returncode == 2 and "no station of that name" in r.stderr
+    r = run("analyze", path, "-q", "--station", "192.168.0.10")
+    assert r.returncode == 2 and "not an IP address" in r.stderr

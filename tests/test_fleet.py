@@ -350,6 +350,11 @@ def test_inputs_hashed_by_their_tasks_unless_a_size_may_be_a_copy(tmp_path):
     store = DatasetStore(root)
     p = fleet.plan(find_captures([str(src)]), store)
     assert [t[1] for t in p.todo] == [None, None]   # no size shared: each task hashes its own
+    (src / "junk.pcap").write_bytes(b"not a capture\n" * 10)   # not compressed: hashed now, the others still not
+    p = fleet.plan(find_captures([str(src)]), store)
+    assert sorted((os.path.basename(t[0]), t[1] is None) for t in p.todo) == [
+        ("a.pcapng", True), ("c.pcapng", True), ("junk.pcap", False)]
+    (src / "junk.pcap").unlink()
     # a compressed input in the run: its content's size is unknown, any plain input may be its copy -- all hashed now
     (src / "b.pcapng.gz").write_bytes(gzip.compress(open(b, "rb").read()))
     p = fleet.plan(find_captures([str(src)]), store)
