@@ -171,7 +171,8 @@ class ArLayer:
             self._taken_over(frame_maps, arq, controller, device, fn, ts)
         alarm = (rb.get(0x0103) or [None])[0]
         alarm_res = (sb.get(0x8103) or [None])[0]
-        ar = {"frame": fn, "ts_ns": ts, "kind": "ar", "source": "connect", "ar_uuid": ar_uuid, "request_frame": call["frame"],
+        ar = {"frame": fn, "ts_ns": ts, "kind": "ar", "source": "connect", "ar_uuid": ar_uuid,
+              "request_frame": call["frame"],
               "ok": ok, "status": res["status"], "ar_type": arq["artype_req"], "ar_type_name": arq["ar_type_name"],
               "session_key": arq["session_key"], "controller_mac": controller, "device_mac": device,
               "controller_station": station, "station": dev_station,
@@ -368,8 +369,8 @@ class ArLayer:
         new Connect of its controller. Its streams' cycle counters end with it: the next AR's providers count
         afresh (an independent audit: the new AR's first 101 cycles taken for stale copies, a fault in them
         missed; or the pause to the new Connect counted as capture loss)."""
-        ended = [(k, fm) for k, fm in self.maps.items() if fm.source == "content" and fm.phase not in ("released", "aborted")
-                 and {fm.controller_mac, fm.device_mac} == {a, b}]
+        ended = [(k, fm) for k, fm in self.maps.items() if fm.source == "content"
+                 and fm.phase not in ("released", "aborted") and {fm.controller_mac, fm.device_mac} == {a, b}]
         if not ended:
             return
         for _k, fm in ended:
