@@ -209,6 +209,11 @@ class Scope:
             v = ev.get(k)
             if v is not None and v in self.macs:
                 return True
+        if ev.get("side") == "controller" and ev.get("kind") == "violation" and self.macs and self.a is not None:
+            # a controller-side rule names the device's axis: in scope of the controller of the device's AR(s)
+            dev = ev.get("device_mac")
+            if dev and self.macs & self.a.session.controllers_of(dev):
+                return True
         if not self.mac and self.a is not None and not self.macs:
             for mac, s in self.a.stations.by_mac.items():
                 if s.get("name") == self.station:

@@ -162,6 +162,11 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
         """(frame ID, src, dst) lookup keys of an AR's frame maps still in force (a later AR may reuse them)."""
         return [(k, self.maps[k]) for k in ar["map_keys"] if any(self.maps.get(k) is m for m in ar["maps"])]
 
+    def controllers_of(self, device: str) -> set:
+        """The MACs of the controllers the capture shows holding an AR with ``device`` (Connects, inferred maps)."""
+        return {ar["controller_mac"] for ar in self.ars.values() if ar.get("device_mac") == device} | {
+            fm.controller_mac for fm in self.maps.values() if fm.device_mac == device and fm.controller_mac}
+
     def has_connect(self, controller: str, device: str) -> bool:
         """A Connect between these MACs was seen (an AR, or a request still open): no content inference."""
         macs = {controller, device}

@@ -413,3 +413,13 @@ def test_3_station_mac_known_only_from_cyclic_frames(tmp_path):
     assert r.returncode == 2 and "no station of that name" in r.stderr
     r = run("analyze", path, "-q", "--station", "192.168.0.10")
     assert r.returncode == 2 and "not an IP address" in r.stderr
+
+
+def test_3_station_of_the_plc_keeps_its_violations():
+    """--station with the PLC's MAC keeps the controller-side violations of its ARs (they name the device's axis,
+    not the controller's MAC); the encoder's own violations stay out (review of 2026-11-25)."""
+    ctrl = os.path.join(CAP, "fault-preset-req-stuck.pcapng")
+    r = run("analyze", ctrl, "-q", "--station", "02:00:00:00:00:01", "--fail-on", "warning")
+    assert r.returncode == 1 and "PRESET-REQ-STUCK" in r.stdout + r.stderr, r.stderr
+    enc = run("analyze", FAULT, "-q", "--station", "02:00:00:00:00:01", "--fail-on", "error")   # an encoder's fault
+    assert enc.returncode == 0, enc.stdout + enc.stderr
