@@ -2213,11 +2213,35 @@ end
 -- session.on_rta_error: an ERR-RTA-PDU between an AR's controller and device aborts the latest such AR
 local function rta_error(pinfo)
     local t = X["pn_io.pdu_type.type"]()
-    if t == nil or t.value ~= 4 then return end
+    if t == nil then return end
     local src, dst = tostring(pinfo.dl_src), tostring(pinfo.dl_dst)
+    local se, de = X["pn_io.alarm_src_endpoint"](), X["pn_io.alarm_dst_endpoint"]()
+    local refs_key = "*refs|" .. (src < dst and (src .. "|" .. dst) or (dst .. "|" .. src))   -- (in alarm_seq)
+    if t.value ~= 4 then
+        -- session_ar.on_alarm_endpoints: alarms no known AR numbers so, between the MACs of an AR known only from
+        -- its content, are its: its alarm references (each side's own is its source endpoint)
+        if se == nil or de == nil then return end
+        local inferred = false
+        for _, fm in pairs(maps) do
+            if fm.source == "content" and ((fm.controller == src and fm.device == dst)
+                                           or (fm.controller == dst and fm.device == src)) then inferred = true end
+        end
+        if not inferred then return end
+        for _, ar in ipairs(ar_order) do
+            local d = ar_devs[ar]
+            if d and ((d[1] == src and d[2] == dst) or (d[1] == dst and d[2] == src)) then
+                local mine, theirs = d[4], d[3]
+                if d[2] == src then mine, theirs = d[3], d[4] end
+                if mine ~= nil and theirs ~= nil and mine == se.value and theirs == de.value then return end
+            end
+        end
+        local r = alarm_seq[refs_key] or {}
+        r[src], r[dst] = se.value, de.value
+        alarm_seq[refs_key] = r
+        return
+    end
     -- session_ar._names_endpoints: of several ARs between the two, the one whose alarm references the PDU's
     -- endpoints name; one whose references are unknown when none does; none: an AR known only from its content
-    local se, de = X["pn_io.alarm_src_endpoint"](), X["pn_io.alarm_dst_endpoint"]()
     local pick, unknown
     for i = #ar_order, 1, -1 do
         local ar = ar_order[i]
@@ -2239,6 +2263,8 @@ local function rta_error(pinfo)
         ar_moves(pick, "aborted", pinfo.number)
         return
     end
+    local r = alarm_seq[refs_key]   -- the inferred AR numbers its alarms otherwise: another unseen AR ended
+    if r ~= nil and se ~= nil and de ~= nil and (r[src] ~= se.value or r[dst] ~= de.value) then return end
     restart_gaps(nil, src, dst, "aborted")
 end
 

@@ -242,11 +242,13 @@ class Analyzer:
             d = alarm.decode(pdu, body, frame_id)
             d.update(frame=fn, ts_ns=ts, kind="alarm", src=src, dst=dst, frame_id=frame_id)
             self.emit(d)
+            eps = (d.get("alarm_src_endpoint"), d.get("alarm_dst_endpoint"))
             if d.get("pdu_type", {}).get("type") == alarm.ERR:
-                self.session.on_rta_error(fn, ts, src, dst, d.get("status"),   # the AR is aborted
-                                          (d.get("alarm_src_endpoint"), d.get("alarm_dst_endpoint")))
-            elif d.get("alarm_type") is not None:
-                self.cyclic.on_alarm(d)   # a diagnosis of an encoder submodule (#48, #70)
+                self.session.on_rta_error(fn, ts, src, dst, d.get("status"), eps)   # the AR is aborted
+            else:
+                self.session.on_alarm_endpoints(src, dst, eps)
+                if d.get("alarm_type") is not None:
+                    self.cyclic.on_alarm(d)   # a diagnosis of an encoder submodule (#48, #70)
             self.activity.on_event(d)
             self.stations.seen(src)
         elif cls in rt.PTCP_CLASSES:

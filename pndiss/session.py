@@ -60,6 +60,8 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
         self._fallback: dict[tuple, armap.FrameMap | None] = {}
         self._fallback_gen = 0   # the map generation the cached answers are of
         self.map_generation = 0  # bumped whenever a lookup answer may change (cache key for callers)
+        self.inferred_refs: dict = lim.table(s.max_stations, "releases")   # {MAC, MAC} -> {MAC: its alarm reference}
+        #                                                                 of the AR known only from its content
         self.unknown_releases: dict = lim.table(s.max_stations, "releases")   # {MAC, MAC} -> time of a Release of
         #                                                                    an AR no Connect of the capture named
 

@@ -361,7 +361,25 @@ class ArLayer:
             who = "controller" if src == pick["controller_mac"] else "device"
             self.set_phase(pick, "aborted", fn, ts, f"ERR-RTA-PDU from the {who} {src}{why}")
             return
+        refs = self.inferred_refs.get(frozenset((src, dst)))
+        if refs is not None and None not in endpoints and (refs.get(src), refs.get(dst)) != tuple(endpoints):
+            # the AR known only from its content numbers its alarms otherwise: another AR the capture never saw
+            # connect (a SoftPLC's supervisor AR) ended -- as with its Release, the inferred AR runs on
+            self.unknown_releases[frozenset((src, dst))] = ts
+            return
         self.end_inferred(src, dst, "aborted", fn, ts, f"ERR-RTA-PDU from {src}{why}")
+
+    def on_alarm_endpoints(self, src: str, dst: str, endpoints: tuple) -> None:
+        """An alarm PDU (notification or acknowledgement) between two MACs: when no AR the capture knows numbers
+        its alarms so and an AR known only from its content runs between them, its alarm references are these
+        (each side's own is its source endpoint) -- what tells its ERR-RTA-PDU from another unseen AR's."""
+        if None in endpoints or not any(fm.source == "content" and {fm.controller_mac, fm.device_mac} == {src, dst}
+                                        for fm in self.maps.values()):
+            return
+        if any({src, dst} == {ar["controller_mac"], ar["device_mac"]} and _names_endpoints(ar, src, endpoints)
+               for ar in self.ars.values()):
+            return
+        self.inferred_refs.setdefault(frozenset((src, dst)), {}).update({src: endpoints[0], dst: endpoints[1]})
 
     def end_inferred(self, a: str, b: str, phase: str, fn: int, ts: int, cause: str) -> None:
         """The AR between MACs ``a`` and ``b`` that the capture knows only from its cyclic content (no Connect:

@@ -511,3 +511,39 @@ def test_a_release_of_an_ar_the_capture_never_saw_does_not_end_the_inferred_one(
     assert got == [r for r, _f in want] and got, (got, want)
     base, _ = _run(src)
     assert a.summary()["session"]["counts"]["releases"] == base.summary()["session"]["counts"]["releases"] + 1
+
+
+def _with_err_rta(src: str, dst: str, at: int, ep_src: int, ep_dst: int) -> str:
+    """src with an ERR-RTA-PDU of the controller (endpoints ep_src -> ep_dst) inserted before frame index ``at``."""
+    import struct
+    from pndiss.capture import open_capture
+    from pndiss.sim.pcapng import Writer
+    frames = [(ts, bytes(d)) for _fn, ts, _lt, d in open_capture(src)]
+    ctrl, dev = bytes.fromhex("020000000001"), bytes.fromhex("020000000101")
+    body = struct.pack(">HHBBHHH", ep_dst, ep_src, 0x14, 0x11, 0xFFFE, 0xFFFF, 4) + bytes.fromhex("cf81fd05")
+    fr = dev + ctrl + b"\x88\x92" + struct.pack(">H", 0xFE01) + body
+    frames.insert(at, (frames[at][0], fr + bytes(max(0, 60 - len(fr)))))
+    with open(dst, "wb") as f:
+        w = Writer(f)
+        for ts, d in frames:
+            w.write(ts, d)
+    return dst
+
+
+def test_an_unseen_ars_err_rta_does_not_end_the_inferred_ar_whose_alarms_say_otherwise(tmp_path):
+    """Mid-session, the encoder's diagnosis alarms name the inferred AR's alarm references (device 2, controller
+    1). An ERR-RTA-PDU between the same MACs with other endpoints (another AR the capture never saw connect) does
+    not end it; one with its endpoints does. Engine, reference and the plugin agree (review 10)."""
+    from test_fastpath import _same_both_ways
+    src = capedit.simulate(str(tmp_path / "se.pcapng"), "--scenario", "sensor-error", "--cycles", "3000",
+                           "--start-mid-session", "200", "--seed", "5")
+    for eps, ended in (((7, 9), False), ((1, 2), True)):
+        path = _with_err_rta(src, str(tmp_path / f"err-{eps[0]}.pcapng"), 4000, *eps)
+        evs = []
+        analyze_file(path, sink=lambda e: evs.append(e) if e["kind"] == "ar_phase" else None)
+        assert bool([e for e in evs if e["ar_uuid"] is None and e["phase"] == "aborted"]) == ended, (eps, evs)
+        _same_both_ways(path)
+        if shutil.which("tshark") is not None:
+            from test_lua_plugin import compare
+            n, bad, lua_viol, py_viol = compare(path)
+            assert n > 1000 and not bad and lua_viol == py_viol, bad[:5]

@@ -326,3 +326,20 @@ def test_err_rta_aborts_the_ar_its_endpoints_name_and_a_new_io_ar_leaves_a_super
     io2["alarm_cr"] = None
     a.session.on_rta_error(300, 3, c, d, None, (9, 9))
     assert io2["phase"] == "aborted"
+
+
+def test_an_inferred_ars_alarm_references_tell_its_err_rta_from_another_unseen_ars():
+    """An AR known only from its content whose alarms were seen (references 1 / 1): an ERR-RTA-PDU between the same
+    MACs with other endpoints (2 / 5: a SoftPLC's supervisor AR the capture never saw connect) does not end it; one
+    with its own endpoints does (review 10: the unseen supervisor AR's abort ended the inferred IO AR)."""
+    from pndiss import armap
+    from pndiss.analyzer import Analyzer
+    a = Analyzer(Settings())
+    c, d = "00:1b:1b:11:22:33", "00:0e:cf:00:00:03"
+    fm = armap.FrameMap(frame_id=0x8002, direction="input", controller_mac=c, device_mac=d, source="content")
+    a.session.maps[(0x8002, d, c)] = fm
+    a.session.on_alarm_endpoints(d, c, (1, 1))        # the device's alarm: its reference 1, the controller's 1
+    a.session.on_rta_error(10, 1, c, d, None, (2, 5))  # another AR's abort
+    assert fm.phase is None
+    a.session.on_rta_error(20, 2, c, d, None, (1, 1))  # its own
+    assert fm.phase == "aborted"
