@@ -1384,7 +1384,7 @@ function Checker:continuity(pos, ppos, pre, PKA, PDONE)
   local d = delta(ppos, pos, R)
   -- value_rules._red_zone: LIKA with a range R that is no power of two jumps where the physical range wraps (to 0 or
   -- from 0)
-  local red = c.profile == "lika" and not is_pow2(R) and (pos <= step or pos >= R - step or ppos <= step or ppos >= R - step)
+  local red = c.profile == "lika" and not is_pow2(R) and (pos <= step or ppos <= step)
   if abs(d) > step and not red then
     -- #42: endless shaft is continuous modulo R (001_9461bb7bc8c2767b.txt:993-995)
     local o = self:hit("POSITION-DISCONTINUITY")

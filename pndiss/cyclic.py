@@ -97,6 +97,7 @@ class CyclicTracker(AxisTracking):
         # response, as real devices do) are not "unknown streams" in the verdict's trust signals
         self.unmapped_by_key: dict = lim.table(self.s.max_streams, "streams")
         self.trailers: dict = {}      # stream key -> its frames' bytes after the IOCR's C_SDU (_trailer_check)
+        self.trailer_checked: set = set()   # IO devices' streams looked at (an encoder's: when its objects are)
         self.no_telegram = 0          # frames of a known AR that carry no encoder telegram (IO devices)
         self.mapped = 0
         self.gated = 0
@@ -182,8 +183,14 @@ class CyclicTracker(AxisTracking):
             self.map_generation = gen
             self.frames.clear()
             self.misses.clear()
+            self.trailer_checked.clear()
         if self.stream_sink is not None:
             self.stream_sink(key, fn, ts, pdu, csdu_off - 2)
+        if key not in self.trailer_checked:   # once per stream and map generation, before copies are told apart
+            self.trailer_checked.add(key)
+            fm = self.a.session.lookup(*key)
+            if fm is not None:
+                self._trailer_check(key, fm, fn, len(pdu) - csdu_off - 4)
         # a mirror port's copy of the previous frame is no cycle; capture loss: cycles this stream sent that
         # the capture does not hold (pndiss/gaps.py)
         cc, last = (pdu[-4] << 8) | pdu[-3], (pdu[-2], bytes(pdu[csdu_off:len(pdu) - 4]))
@@ -237,7 +244,6 @@ class CyclicTracker(AxisTracking):
                 if not o.length_checked:
                     o.length_checked = True
                     self._length_check(o, fr, fn, ts)
-                    self._trailer_check(key, fr, fn, n_csdu)
                 if do.length < o.layout.length:
                     continue
                 o.sig = o.layout.decode(csdu, o.start)
@@ -407,14 +413,14 @@ class CyclicTracker(AxisTracking):
                                                                          "severity": "error", "side": side,
                                                                          "message": words})["events"] += 1
 
-    def _trailer_check(self, key: tuple, fr: _Frame, fn: int, n_csdu: int) -> None:
+    def _trailer_check(self, key: tuple, fm, fn: int, n_csdu: int) -> None:
         """Bytes after the C_SDU + APDU status the Connect gave the stream (its IOCR DataLength, at least 40):
         a TAP or switch appending its own trailer (time stamps, port). The cycle counter and status are read at
         the frame's end, as Wireshark reads them: there they are the trailer's (an independent audit: thousands
         of "lost" cycles and stale frames, the encoder barely judged, and no word why)."""
-        dl = fr.fm.data_length
+        dl = fm.data_length
         if dl and n_csdu > max(40, dl) and key not in self.trailers and len(self.trailers) < MAX_SILENT:
-            self.trailers[key] = {"frame_id": key[0], "src": key[1], "dst": key[2], "station": fr.fm.station,
+            self.trailers[key] = {"frame_id": key[0], "src": key[1], "dst": key[2], "station": fm.station,
                                   "first_frame": fn, "data_length": dl, "extra_bytes": n_csdu - max(40, dl)}
 
     # -- results -----------------------------------------------------------------------------------
@@ -476,6 +482,8 @@ class CyclicTracker(AxisTracking):
             fm = self.a.session.lookup(*key)
             if fm is None or st.ts is None or fm.released or fm.phase in ("released", "aborted"):
                 continue
+            if key in self.trailers:
+                continue   # its counter is read in a trailer: its frames looked like copies, it did not stop
             rel = self.a.session.unknown_releases.get(frozenset(key[1:]))
             if rel is not None and abs(st.ts - rel) <= 1_000_000_000:
                 continue   # it stopped at a Release between the two, of an AR the capture saw no Connect of

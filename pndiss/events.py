@@ -148,7 +148,7 @@ class Scope:
             macs = set(a.stations.by_mac) | {e.get("device_mac") for e in encs} | {
                 ar.get(k) for ar in ars for k in ("device_mac", "controller_mac")} | {
                 m for key in a.cyclic.gaps.streams for m in key[1:]}
-            if self.station not in names and (self.mac is None or self.mac not in macs):
+            if self.station.lower() not in {str(n).lower() for n in names if n} and (self.mac is None or self.mac not in macs):
                 known = sorted(n for n in names if n) or sorted(m for m in macs if m)
                 ip = re.fullmatch(r"\d{1,3}(\.\d{1,3}){3}", self.station.strip())
                 return (f"--station {self.station}: "
@@ -200,7 +200,7 @@ class Scope:
         if self.station is None:
             return True
         st = ev.get("station")
-        if st.__class__ is str and st == self.station:
+        if st.__class__ is str and st.lower() == self.station.lower():   # (NameOfStation: a DNS name, any case)
             mac = ev.get("device_mac")
             if mac and mac not in self.macs:
                 self.macs.add(mac)  # the name's MAC: frames that carry only MACs are in scope too
@@ -216,6 +216,6 @@ class Scope:
                 return True
         if not self.mac and self.a is not None and not self.macs:
             for mac, s in self.a.stations.by_mac.items():
-                if s.get("name") == self.station:
+                if str(s.get("name") or "").lower() == self.station.lower():
                     self.macs.add(mac)
         return False

@@ -164,6 +164,7 @@ def test_3_station_and_time_filters():
     assert _summary(DUP, "--time", "0..")["verdict"]["total"] == 1
     r = run("analyze", FAULT, "-q", "--station", "encoder-1", "--fail-on", "error")
     assert r.returncode == 1 and "(in scope: station encoder-1)" in r.stdout + r.stderr
+    assert run("analyze", FAULT, "-q", "--station", "ENCODER-1", "--fail-on", "error").returncode == 1   # DNS names
     # a station or range the capture does not hold is a usage error, not "no violations": a typo in a CI gate
     # (--station encoder-l --fail-on error) must not pass (an independent audit)
     for bad, said in ((("--station", "nobody"), "no station of that name or MAC in the capture (stations: "),

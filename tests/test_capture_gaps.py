@@ -587,6 +587,8 @@ def test_a_taps_trailer_on_cyclic_frames_is_said(tmp_path):
     # (the encoder's input frames at standstill all look like copies of the first, read at the trailer: the check
     # runs where a frame's data objects are decoded, so the setpoint stream names it)
     assert tr and {q["extra_bytes"] for q in tr} == {6} and SP in {q["frame_id"] for q in tr}
+    # the IO device's streams too, and none of them "went silent" (their frames looked like copies of the first)
+    assert {q["frame_id"] for q in tr} >= {0x8100, 0x8101} and not s["cyclic"]["silent_streams"]
     assert any(t.startswith("trailer:") and "editcap -C" in t for t in trust(s))
     clean = analyze_file(src).summary()
     assert clean["cyclic"]["longer_than_iocr"] == [] and not any(t.startswith("trailer:") for t in trust(clean))

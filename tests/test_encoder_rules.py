@@ -100,6 +100,10 @@ XIST = [
     ("POSITION-DISCONTINUITY", dict(profile="lika", shift=0, scaling=1, tmr=20_000_000),
      ["0x1400 0x2000 | 0x1200 0x2000 15000000 15000000", "0x1400 0x2000 | 0x1200 0x2000 5000000 5000000"],
      ["0x1400 0x2000 | 0x1200 0x2000 13554431 13554431", "0x1400 0x2000 | 0x1200 0x2000 0 0"]),
+    # ... a jump into the top of the range is no red-zone wrap (an independent audit: excused before)
+    ("POSITION-DISCONTINUITY", dict(profile="lika", shift=0, scaling=1, tmr=20_000_000),
+     ["0x1400 0x2000 | 0x1200 0x2000 9000000 9000000", "0x1400 0x2000 | 0x1200 0x2000 19000000 19000000"],
+     ["0x1400 0x2000 | 0x1200 0x2000 19999999 19999999", "0x1400 0x2000 | 0x1200 0x2000 0 0"]),
 ]
 
 PARK_ERR = [

@@ -143,7 +143,8 @@ def _red_zone(k) -> bool:
 
 
 def _near_zero(x, R: int, step: int):
-    return (x <= step) | (x >= R - step)
+    # (the red zone's end jumps to 0, and back from 0: the top of the range wraps continuously, no exemption there)
+    return x <= step
 
 
 def _discontinuity_v(k, V):
