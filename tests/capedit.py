@@ -21,6 +21,15 @@ def simulate(out: str, *args: str) -> str:
     return out
 
 
+def write(path: str, frames) -> str:
+    """A pcapng of ``frames`` [(time stamp ns, bytes)] in that order; returns path."""
+    with open(path, "wb") as f:
+        w = Writer(f)
+        for ts, d in frames:
+            w.write(ts, d)
+    return path
+
+
 def rewrite(src: str, dst: str, keep) -> dict:
     """Copy the frames of src for which keep(fn, data) is true into dst; returns {old frame no.: new frame no.}."""
     renum = {}

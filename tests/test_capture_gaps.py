@@ -495,7 +495,6 @@ def test_a_sender_gone_silent_is_reported(tmp_path):
     The summary lists the silent stream and the Trust section says so -- before, nothing did (an independent audit);
     the cycle counter cannot show it, as no later frame of the stream comes."""
     from pndiss.capture import open_capture
-    from pndiss.sim.pcapng import Writer
     from pndiss.verdict import trust
     src = capedit.simulate(str(tmp_path / "s.pcapng"), "--scenario", "startup", "--cycles", "1500")
     frames = [(ts, bytes(d)) for _fn, ts, _lt, d in open_capture(src)]
@@ -507,11 +506,7 @@ def test_a_sender_gone_silent_is_reported(tmp_path):
     cut = cyc_ts[len(cyc_ts) // 2]
     # every frame of the device stops half-way; the capture ends before the controller's Release
     kept = [(ts, d) for ts, d in frames if not (d[6:12] == dev and ts > cut) and ts <= cyc_ts[-1]]
-    path = str(tmp_path / "silent.pcapng")
-    with open(path, "wb") as f:
-        w = Writer(f)
-        for ts, d in kept:
-            w.write(ts, d)
+    path = capedit.write(str(tmp_path / "silent.pcapng"), kept)
     s = analyze_file(path).summary()
     silent = s["cyclic"]["silent_streams"]
     assert [q["direction"] for q in silent] == ["input"] and silent[0]["src"] == dev.hex(":")
@@ -536,7 +531,6 @@ def test_cycles_the_controller_never_sent_are_not_lost(tmp_path):
     setpoint were never sent -- not judged (gated), not 'lost' (an independent audit: counted as lost cycles);
     the same loss with the setpoint stream going on afterwards stays lost. Engine and reference agree."""
     from pndiss.capture import open_capture
-    from pndiss.sim.pcapng import Writer
     from test_fastpath import _same_both_ways
     src = capedit.simulate(str(tmp_path / "s.pcapng"), "--scenario", "startup", "--cycles", "1500")
     frames = [(ts, bytes(d)) for _fn, ts, _lt, d in open_capture(src)]
@@ -547,13 +541,7 @@ def test_cycles_the_controller_never_sent_are_not_lost(tmp_path):
     cut, hold = sp_ts[len(sp_ts) // 2], sp_ts[len(sp_ts) // 2 + 20]
 
     def write(name, keep):
-        path = str(tmp_path / name)
-        with open(path, "wb") as f:
-            w = Writer(f)
-            for ts, d in frames:
-                if keep(ts, d):
-                    w.write(ts, d)
-        return path
+        return capedit.write(str(tmp_path / name), [(ts, d) for ts, d in frames if keep(ts, d)])
     # the controller stops; the capture ends 20 cycles later (the device's DataHold)
     stopped = write("stopped.pcapng", lambda ts, d: ts <= hold and not (out(d) and ts > cut))
     base = analyze_file(src).summary()["cyclic"]["encoders"][0]
@@ -573,15 +561,11 @@ def test_a_taps_trailer_on_cyclic_frames_is_said(tmp_path):
     frames are longer than their IOCR's C_SDU + APDU status and Trust says why nothing there means much (an
     independent audit: 24,576 "lost" cycles, "no violations", no word why); the untouched capture says nothing."""
     from pndiss.capture import open_capture
-    from pndiss.sim.pcapng import Writer
     from pndiss.verdict import trust
     from test_fastpath import _same_both_ways
     src = capedit.simulate(str(tmp_path / "s.pcapng"), "--cycles", "300", "--io-devices", "1")
-    path = str(tmp_path / "trailer.pcapng")
-    with open(path, "wb") as f:
-        w = Writer(f)
-        for _fn, ts, _lt, d in open_capture(src):
-            w.write(ts, bytes(d) + bytes.fromhex("3f3e3d3c3b3a"))
+    path = capedit.write(str(tmp_path / "trailer.pcapng"),
+                         [(ts, bytes(d) + bytes.fromhex("3f3e3d3c3b3a")) for _fn, ts, _lt, d in open_capture(src)])
     s = analyze_file(path).summary()
     tr = s["cyclic"]["longer_than_iocr"]
     # (the encoder's input frames at standstill all look like copies of the first, read at the trailer: the check
@@ -602,16 +586,11 @@ def test_responses_stamped_before_their_requests_are_said(tmp_path):
     interfaces' clocks differ (an independent audit: accepted silently, violations against both sides). The
     capture as made says nothing."""
     from pndiss.capture import open_capture
-    from pndiss.sim.pcapng import Writer
     from pndiss.verdict import trust
     src = capedit.simulate(str(tmp_path / "s.pcapng"), "--cycles", "600")
     dev = bytes.fromhex("020000000101")
     frames = sorted(((ts - 3_000_000 if d[6:12] == dev else ts), bytes(d)) for _fn, ts, _lt, d in open_capture(src))
-    path = str(tmp_path / "skew.pcapng")
-    with open(path, "wb") as f:
-        w = Writer(f)
-        for ts, d in frames:
-            w.write(ts, d)
+    path = capedit.write(str(tmp_path / "skew.pcapng"), frames)
     s = analyze_file(path).summary()
     c = s["session"]["counts"]
     assert c["responses_before_request"] >= 2 and 0 < c["responses_before_request_max_ns"] <= 3_000_000
