@@ -97,7 +97,8 @@ class CyclicTracker(AxisTracking):
         # response, as real devices do) are not "unknown streams" in the verdict's trust signals
         self.unmapped_by_key: dict = lim.table(self.s.max_streams, "streams")
         self.trailers: dict = {}      # stream key -> its frames' bytes after the IOCR's C_SDU (_trailer_check)
-        self.trailer_checked: set = set()   # IO devices' streams looked at (an encoder's: when its objects are)
+        self.trailer_checked: set = set()   # streams looked at for a trailer (per map generation)
+        self.trim_to: dict = {}       # stream key -> its C_SDU length by the Connect, where its frames are longer
         self.no_telegram = 0          # frames of a known AR that carry no encoder telegram (IO devices)
         self.mapped = 0
         self.gated = 0
@@ -191,6 +192,13 @@ class CyclicTracker(AxisTracking):
             fm = self.a.session.lookup(*key)
             if fm is not None:
                 self._trailer_check(key, fm, fn, len(pdu) - csdu_off - 4)
+        cut = self.trim_to.get(key)
+        if cut is not None and len(pdu) > csdu_off + cut + 4:
+            # bytes after the C_SDU + APDU status the Connect gives (a TAP's trailer, an FCS kept): the status and
+            # cycle counter are where the Connect puts them, not at the frame's end (the engine sends these one
+            # by one: engine.Window._categories)
+            pdu = pdu[:csdu_off + cut + 4]
+            ds_ok = judgeable(pdu[-2], pdu[-1])
         # a mirror port's copy of the previous frame is no cycle; capture loss: cycles this stream sent that
         # the capture does not hold (pndiss/gaps.py)
         cc, last = (pdu[-4] << 8) | pdu[-3], (pdu[-2], bytes(pdu[csdu_off:len(pdu) - 4]))
@@ -415,13 +423,16 @@ class CyclicTracker(AxisTracking):
 
     def _trailer_check(self, key: tuple, fm, fn: int, n_csdu: int) -> None:
         """Bytes after the C_SDU + APDU status the Connect gave the stream (its IOCR DataLength, at least 40):
-        a TAP or switch appending its own trailer (time stamps, port). The cycle counter and status are read at
-        the frame's end, as Wireshark reads them: there they are the trailer's (an independent audit: thousands
-        of "lost" cycles and stale frames, the encoder barely judged, and no word why)."""
+        a TAP or switch appending its own trailer (time stamps, port), or an FCS kept in a capture that does not
+        say so. Wireshark reads the cycle counter and status at the frame's end -- the trailer's (independent
+        audits: thousands of "lost" cycles and stale frames, the encoder barely judged, "no violations"); the
+        analysis reads them where the Connect puts them (``trim_to``) and names the streams."""
         dl = fm.data_length
-        if dl and n_csdu > max(40, dl) and key not in self.trailers and len(self.trailers) < MAX_SILENT:
-            self.trailers[key] = {"frame_id": key[0], "src": key[1], "dst": key[2], "station": fm.station,
-                                  "first_frame": fn, "data_length": dl, "extra_bytes": n_csdu - max(40, dl)}
+        if dl and n_csdu > max(40, dl):
+            self.trim_to[key] = max(40, dl)
+            if key not in self.trailers and len(self.trailers) < MAX_SILENT:
+                self.trailers[key] = {"frame_id": key[0], "src": key[1], "dst": key[2], "station": fm.station,
+                                      "first_frame": fn, "data_length": dl, "extra_bytes": n_csdu - max(40, dl)}
 
     # -- results -----------------------------------------------------------------------------------
     def finish(self) -> None:
@@ -482,8 +493,6 @@ class CyclicTracker(AxisTracking):
             fm = self.a.session.lookup(*key)
             if fm is None or st.ts is None or fm.released or fm.phase in ("released", "aborted"):
                 continue
-            if key in self.trailers:
-                continue   # its counter is read in a trailer: its frames looked like copies, it did not stop
             rel = self.a.session.unknown_releases.get(frozenset(key[1:]))
             if rel is not None and abs(st.ts - rel) <= 1_000_000_000:
                 continue   # it stopped at a Release between the two, of an AR the capture saw no Connect of

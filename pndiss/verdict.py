@@ -178,10 +178,10 @@ def trust(summary: dict) -> list[str]:
         who = sorted({q.get("station") or q["dst"] for q in tr})
         out.append(f"trailer: the cyclic frames of {len(tr)} stream(s) carry {'/'.join(map(str, extra))} byte(s) after "
                    f"the C_SDU and APDU status their Connect gives (first frame {min(q['first_frame'] for q in tr):,}; "
-                   f"{', '.join(who[:4])}{' ...' if len(who) > 4 else ''}): a TAP's or switch's trailer? Cycle counter "
-                   "and status are read at the frame's end, as Wireshark reads them: there they are the trailer's, so "
-                   "these streams' capture gaps, stale frames and judged cycles mean nothing -- capture without the "
-                   "trailer, or cut it off (editcap -C)")
+                   f"{', '.join(who[:4])}{' ...' if len(who) > 4 else ''}): a TAP's or switch's trailer, or an FCS the "
+                   "capture does not declare? The analysis reads cycle counter and status where the Connect puts "
+                   "them; Wireshark (and the rt / APDU fields of the outputs) reads them at the frame's end, where "
+                   "they are the trailer's -- capture without the trailer, or cut it off (editcap -C)")
     inp = summary.get("input") or {}
     for d in inp.get("damaged") or ():
         what = ("cut short in the middle of a packet (a capture still being written, or a capture tool stopped "

@@ -576,6 +576,11 @@ def test_a_taps_trailer_on_cyclic_frames_is_said(tmp_path):
     assert any(t.startswith("trailer:") and "editcap -C" in t for t in trust(s))
     clean = analyze_file(src).summary()
     assert clean["cyclic"]["longer_than_iocr"] == [] and not any(t.startswith("trailer:") for t in trust(clean))
+    # the analysis reads counter and status where the Connect puts them: judged as the capture without the trailer
+    # (an independent audit: a kept FCS or a 4-byte trailer left nothing judged and said "no violations")
+    assert s["cyclic"]["capture_gaps"]["count"] == 0 and not s["cyclic"]["capture_gaps"].get("stale")
+    assert [(e["cycles"], e["gated_cycles"]) for e in s["cyclic"]["encoders"]] == \
+        [(e["cycles"], e["gated_cycles"]) for e in clean["cyclic"]["encoders"]]
     _same_both_ways(path)
 
 
