@@ -188,10 +188,9 @@ class CyclicTracker(AxisTracking):
         if self.stream_sink is not None:
             self.stream_sink(key, fn, ts, pdu, csdu_off - 2)
         if key not in self.trailer_checked:   # once per stream and map generation, before copies are told apart
-            self.trailer_checked.add(key)
             fm = self.a.session.lookup(*key)
-            if fm is not None:
-                self._trailer_check(key, fm, fn, len(pdu) - csdu_off - 4)
+            if fm is None or self._trailer_check(key, fm, fn, pdu, csdu_off):
+                self.trailer_checked.add(key)
         cut = self.trim_to.get(key)
         if cut is not None and len(pdu) > csdu_off + cut + 4:
             # bytes after the C_SDU + APDU status the Connect gives (a TAP's trailer, an FCS kept): the status and
@@ -421,18 +420,27 @@ class CyclicTracker(AxisTracking):
                                                                          "severity": "error", "side": side,
                                                                          "message": words})["events"] += 1
 
-    def _trailer_check(self, key: tuple, fm, fn: int, n_csdu: int) -> None:
+    def _trailer_check(self, key: tuple, fm, fn: int, pdu: bytes, csdu_off: int) -> bool:
         """Bytes after the C_SDU + APDU status the Connect gave the stream (its IOCR DataLength, at least 40):
         a TAP or switch appending its own trailer (time stamps, port), or an FCS kept in a capture that does not
         say so. Wireshark reads the cycle counter and status at the frame's end -- the trailer's (independent
         audits: thousands of "lost" cycles and stale frames, the encoder barely judged, "no violations"); the
         analysis reads them where the Connect puts them (``trim_to``) and names the streams."""
         dl = fm.data_length
-        if dl and n_csdu > max(40, dl):
+        n_csdu = len(pdu) - csdu_off - 4
+        if not dl or n_csdu <= max(40, dl):
+            return True
+        here, end = _status_at(pdu, csdu_off + max(40, dl)), _status_at(pdu, len(pdu) - 4)
+        if here == end:
+            return end   # (no valid status at either place yet, a start-up's frame: the next frames decide)
+        if here:
+            # a status where the Connect puts it, none at the end (a stack that pads its C_SDU beyond 40 bytes keeps
+            # its status at the end: that is no trailer)
             self.trim_to[key] = max(40, dl)
             if key not in self.trailers and len(self.trailers) < MAX_SILENT:
                 self.trailers[key] = {"frame_id": key[0], "src": key[1], "dst": key[2], "station": fm.station,
                                       "first_frame": fn, "data_length": dl, "extra_bytes": n_csdu - max(40, dl)}
+        return True
 
     # -- results -----------------------------------------------------------------------------------
     def finish(self) -> None:
@@ -510,3 +518,8 @@ class CyclicTracker(AxisTracking):
         summ = self.summary()
         from .infer_report import sections as infer_sections
         return [x for x in [section(summ["capture_gaps"])] if x is not None] + infer_sections(summ) + sections(summ)
+
+
+def _status_at(pdu: bytes, at: int) -> bool:
+    """An APDU status at ``at`` (cycle counter, DataStatus, TransferStatus): DataValid set, TransferStatus 0."""
+    return at + 4 <= len(pdu) and bool(pdu[at + 2] & 0x04) and pdu[at + 3] == 0

@@ -581,6 +581,17 @@ def test_a_taps_trailer_on_cyclic_frames_is_said(tmp_path):
     assert s["cyclic"]["capture_gaps"]["count"] == 0 and not s["cyclic"]["capture_gaps"].get("stale")
     assert [(e["cycles"], e["gated_cycles"]) for e in s["cyclic"]["encoders"]] == \
         [(e["cycles"], e["gated_cycles"]) for e in clean["cyclic"]["encoders"]]
+    # a stack that pads its C_SDU beyond 40 bytes keeps the status at the frame's end: no trailer, read there
+
+    def rt(d):
+        o = 16 if d[12:14] == b"\x81\x00" else 12
+        return d[o:o + 2] == b"\x88\x92" and 0x80 <= d[o + 2] < 0xC0
+    padded = capedit.write(str(tmp_path / "padded.pcapng"), [(ts, bytes(d)[:-4] + bytes(4) + bytes(d)[-4:] if rt(d)
+                                                               else bytes(d)) for _fn, ts, _lt, d in open_capture(src)])
+    p = analyze_file(padded).summary()
+    assert p["cyclic"]["longer_than_iocr"] == [] and p["cyclic"]["capture_gaps"]["count"] == 0
+    assert [(e["cycles"], e["gated_cycles"]) for e in p["cyclic"]["encoders"]] == \
+        [(e["cycles"], e["gated_cycles"]) for e in clean["cyclic"]["encoders"]]
     _same_both_ways(path)
 
 
