@@ -117,11 +117,19 @@ class NotACapture(CaptureError):
     """The input is no pcap/pcapng at all (wrong magic, empty): every command refuses it at once."""
 
 
+def capture_magic(head: bytes) -> bool:
+    """``head`` (a file's first bytes) starts a pcap or pcapng file."""
+    if len(head) < 4:
+        return False
+    magic = struct.unpack_from("<I", head, 0)[0]
+    return magic in PCAP_MAGICS or magic == PCAPNG_SHB
+
+
 def _check_magic(path: str, head: bytes) -> int:
     if len(head) < 4:
         raise NotACapture(f"{path}: empty file or too short to be a capture (no pcap/pcapng header)")
     magic = struct.unpack_from("<I", head, 0)[0]
-    if magic not in PCAP_MAGICS and magic != PCAPNG_SHB:
+    if not capture_magic(head):
         raise NotACapture(f"{path}: not a pcap or pcapng file (magic 0x{magic:08x})")
     return magic
 

@@ -428,14 +428,15 @@ class CyclicTracker(AxisTracking):
         analysis reads them where the Connect puts them (``trim_to``) and names the streams."""
         dl = fm.data_length
         n_csdu = len(pdu) - csdu_off - 4
-        if not dl or n_csdu <= max(40, dl):
-            return True
-        here, end = _status_at(pdu, csdu_off + max(40, dl)), _status_at(pdu, len(pdu) - 4)
-        if here == end:
-            return end   # (no valid status at either place yet, a start-up's frame: the next frames decide)
-        if here:
-            # a status where the Connect puts it, none at the end (a stack that pads its C_SDU beyond 40 bytes keeps
-            # its status at the end: that is no trailer)
+        longer = bool(dl) and n_csdu > max(40, dl)
+        here = longer and _status_at(pdu, csdu_off + max(40, dl))
+        end = _status_at(pdu, len(pdu) - 4)
+        if longer and not here and not end:
+            return False   # no valid status at either place yet (a start-up's frame): the next frames decide
+        self.trim_to.pop(key, None)   # (decided afresh: a new Connect on the stream brings its own length)
+        if here and not end:
+            # a status where the Connect puts it and none at the end (a stack that pads its C_SDU beyond 40 bytes
+            # keeps its status at the end: that is no trailer)
             self.trim_to[key] = max(40, dl)
             if key not in self.trailers and len(self.trailers) < MAX_SILENT:
                 self.trailers[key] = {"frame_id": key[0], "src": key[1], "dst": key[2], "station": fm.station,

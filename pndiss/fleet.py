@@ -22,7 +22,9 @@ import uuid
 from dataclasses import dataclass, field
 
 from .errors import UsageError
+from .capture import capture_magic
 from .fleet_inputs import content_hash
+from .inputs import compressed
 
 @dataclass
 class Outcome:
@@ -92,27 +94,22 @@ def plan(paths: list[str], store, retry_failed: bool = False, client=None, hash_
 def _plain_size(path: str) -> int | None:
     """The size of an uncompressed pcap / pcapng file (its content's size), else None (compressed,
     not a capture, unreadable: hashed up front, as the content's size is unknown)."""
-    try:
-        with open(path, "rb") as f:
-            magic = f.read(4)
-            size = os.fstat(f.fileno()).st_size
-    except OSError:
-        return None
-    return size if magic in PLAIN_MAGIC else None
+    head, size = _head(path)
+    return size if capture_magic(head) else None
 
 
 def _compressed(path: str) -> bool:
-    """gzip, xz or zstd by its magic (pndiss/inputs.py opens them)."""
+    """gzip, xz or zstd (pndiss/inputs.py opens them)."""
+    return compressed(_head(path)[0])
+
+
+def _head(path: str) -> tuple[bytes, int]:
+    """A file's first 8 bytes and its size (b"", 0 when unreadable)."""
     try:
         with open(path, "rb") as f:
-            head = f.read(4)
+            return f.read(8), os.fstat(f.fileno()).st_size
     except OSError:
-        return False
-    return head[:2] == b"\x1f\x8b" or head == b"\xfd7zX" or head == b"\x28\xb5\x2f\xfd"
-
-
-# pcap (micro- and nanosecond, either byte order) and pcapng
-PLAIN_MAGIC = {bytes.fromhex(m) for m in ("a1b2c3d4", "d4c3b2a1", "a1b23c4d", "4d3cb2a1", "0a0d0d0a")}
+        return b"", 0
 
 
 def task_name(path: str, sha: str | None) -> str:

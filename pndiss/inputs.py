@@ -86,6 +86,11 @@ def position(path: str) -> int | None:
         return None
 
 
+def compressed(head: bytes) -> bool:
+    """``head`` (a file's first bytes) starts a gzip, xz or zstd stream (what open_input decompresses)."""
+    return head.startswith(GZIP_MAGIC) or head.startswith(XZ_MAGIC) or head.startswith(ZSTD_MAGIC)
+
+
 def open_input(path: str):
     """A binary reader for the capture at ``path`` (``-`` = stdin); raise CaptureError when unusable."""
     if path == "-":

@@ -13,6 +13,7 @@ from . import telegrams as tg
 from .armap import NOT_OWNED
 from .session_ar import diff_state as _diff_state
 from .encoder.config import DEFAULT_SOURCE
+from .encoder.value_rules import CONTINUITY_PROFILES
 from .rules import RULES
 
 MAX_ROWS = 2000  # (rule, side, station) rows kept; more are counted, not listed
@@ -289,7 +290,7 @@ def not_checked(summary: dict) -> list[str]:
                    "revolutions unknown): --set st_phys=N --set mt_phys=N")
     # POSITION-DISCONTINUITY needs an endless shaft's range R and a profile that says the count is continuous
     # (value_rules._continuity_profile): a generic or inferred axis, or an unknown range, is not judged
-    no_cont = [e for e in encs if not (e.get("profile") in ("scancon", "hohner", "lika") or (
+    no_cont = [e for e in encs if not (e.get("profile") in CONTINUITY_PROFILES or (
         e.get("profile") == "psm" and _value(e, "scaling"))) or _value(e, "R") is None]
     if no_cont:
         out.append(f"position jumps (POSITION-DISCONTINUITY): not checked for {_names(no_cont)} (profile "
