@@ -344,7 +344,8 @@ end
 -- until the maps change (map_generation: each Connect or P922 read), then every key is looked up
 -- again; an unmapped key is also looked up again every RELOOKUP_EVERY frames of that key
 local RELOOKUP_EVERY = 1024
-local misses
+local gen   -- per map generation: misses (key -> lookups that found nothing), checked (keys whose trailer
+            -- was looked at); trim (key -> C_SDU length by the Connect, for frames with a trailer) lives on
 
 -- capture loss, as pndiss/gaps.py: per (frame ID, src, dst) stream the CycleCounter of its last frame;
 -- round(advance / step) - 1 cycles are missing, once the step is known (Connect) or seen LEARN times
@@ -465,17 +466,18 @@ local function gap_faster(a, b)
         and (sa.known or sa.seen >= GAP_LEARN) and (sb.known or sb.seen >= GAP_LEARN)
 end
 local map_generation, cache_generation
-local function lookup(fid, src, dst)
+-- peek: the stream's map only (session.lookup), nothing cached or counted
+local function lookup(fid, src, dst, peek)
     if cache_generation ~= map_generation then
         cache_generation = map_generation
-        map_cache, misses = {}, {}
+        map_cache, gen = {}, {misses = {}, checked = {}, trim = gen.trim}
     end
     local key = fid .. "|" .. src .. "|" .. dst
     local c = map_cache[key]
-    if c ~= nil then
+    if c ~= nil and not peek then
         if c then return c end
-        misses[key] = misses[key] + 1
-        if misses[key] % RELOOKUP_EVERY ~= 0 then return nil end
+        gen.misses[key] = gen.misses[key] + 1
+        if gen.misses[key] % RELOOKUP_EVERY ~= 0 then return nil end
     end
     local fm = maps[key]
     if fm == nil and dst == NO_DST then
@@ -496,6 +498,7 @@ local function lookup(fid, src, dst)
               objects = {{api = 0, slot = 0, subslot = 0, offset = u.offset, length = L,
                           telegram = u.telegram, telegram_source = "map"}}}
     end
+    if peek then return fm end
     local out = false
     if fm then
         local dir = fm.direction == "output" and "setpoint" or "actual"
@@ -528,7 +531,7 @@ local function lookup(fid, src, dst)
         out = {fm = fm, dir = dir, objs = objs, last_csdu = nil}
     end
     map_cache[key] = out
-    if not out and misses[key] == nil then misses[key] = 0 end
+    if not out and gen.misses[key] == nil then gen.misses[key] = 0 end
     return out or nil
 end
 -- 4. Connect learning -----------------------------------------------------------------------------
@@ -807,6 +810,7 @@ local function connect_response(key, pinfo)
             if cr.type == 3 and cr.mcast then d = tostring(cr.mcast) end
             local fm = {direction = direction, device = device, controller = req.controller, ar = req.ar, frame_id = fid,
                         station = station, source = "connect", objects = {}, phase = "parameterisation",
+                        data_length = cr.data_length,   -- the C_SDU's length (a trailer: bytes beyond it)
                         primary_only = req.ar_type == 0x0020,   -- armap.FrameMap.primary_only: system redundancy
                         -- armap.FrameMap.cycle_time_ns: SendClockFactor x ReductionRatio x 31.25 us
                         cycle_ns = (cr.scf and cr.scf > 0 and cr.rr and cr.rr > 0) and cr.scf * cr.rr * 31250 or nil,
@@ -2595,35 +2599,71 @@ local function heuristic(tvb, pinfo, tree)
         if pinfo.caplen < pinfo.len then return false end
         local src, dst = tostring(pinfo.dl_src), tostring(pinfo.dl_dst)
         local key = fi.value .. "|" .. src .. "|" .. dst
-        local cc = X["pn_rt.cycle_counter"]()
-        local ds = X["pn_rt.ds"]()
-        local last = tostring(ds and ds.value) .. "|" .. tvb:raw()
+        local cc, ds, xs = X["pn_rt.cycle_counter"](), X["pn_rt.ds"](), X["pn_rt.transfer_status"]()
+        cc, ds, xs = cc and cc.value, ds and ds.value, xs and xs.value
+        -- a trailer (a TAP's, an FCS kept): bytes after the C_SDU the Connect gives, and tshark's counter and
+        -- status are the trailer's. Decided once per stream and map generation (cyclic.py _trailer_check): the
+        -- status where the Connect puts it and none at the frame's end -> read counter and status there
+        local trim, n = gen.trim[key], tvb:len()
+        local function byte(i)   -- the C_SDU and, after it, the 4 bytes tshark reads as the APDU status
+            if i < n then return tvb(i, 1):uint() end
+            return ({cc and bit.rshift(cc, 8), cc and bit.band(cc, 0xFF), ds, xs})[i - n + 1] or 0
+        end
+        if not gen.checked[key] then
+            local fm = lookup(fi.value, src, dst, true)
+            local at = fm and fm.data_length and math.max(40, fm.data_length)
+            local longer = at ~= nil and n > at
+            local here = longer and bit.band(byte(at + 2), 0x04) ~= 0 and byte(at + 3) == 0
+            local at_end = ds ~= nil and bit.band(ds, 0x04) ~= 0 and xs == 0
+            if fm == nil then
+                gen.checked[key] = true
+            elseif not longer or here or at_end then
+                gen.checked[key] = true
+                trim = (here and not at_end) and {at = at, extra = n - at} or nil
+                gen.trim[key] = trim
+            end
+        end
+        if trim and n > trim.at then
+            local at = trim.at
+            cc, ds, xs = bit.bor(bit.lshift(byte(at), 8), byte(at + 1)), byte(at + 2), byte(at + 3)
+            tvb = tvb(0, at):tvb()
+        else
+            trim = nil
+        end
+        local last = tostring(ds) .. "|" .. tvb:raw()
         local copy_of, is_copy = nil, false
-        if cc then copy_of, is_copy = gap_duplicate(key, cc.value, ts_ns(pinfo), last) end
+        trim = trim and {at = trim.at, extra = n - trim.at, cc = cc}   -- (what the tree says of this frame)
+        if cc then copy_of, is_copy = gap_duplicate(key, cc, ts_ns(pinfo), last) end
         if copy_of then
-            cyc_cache[pinfo.number] = {objs = {}, copy_of = copy_of, stale = not is_copy}
+            cyc_cache[pinfo.number] = {objs = {}, copy_of = copy_of, stale = not is_copy, trim = trim}
             return false
         end
-        local miss = cc and gap_advance(key, cc.value, ts_ns(pinfo), last, pinfo.number) or 0
+        local miss = cc and gap_advance(key, cc, ts_ns(pinfo), last, pinfo.number) or 0
         local fr = lookup(fi.value, src, dst)
-        if fr == nil and ds ~= nil and bit.band(ds.value, 0x14) == 0x14 then   -- mid-session capture: frames of
-            infer_offer(key, fi.value, src, dst, pinfo.number, tvb)             -- a provider in RUN (infer.offer)
+        if fr == nil and ds ~= nil and bit.band(ds, 0x14) == 0x14 then   -- mid-session capture: frames of
+            infer_offer(key, fi.value, src, dst, pinfo.number, tvb)       -- a provider in RUN (infer.offer)
         end
         if fr == nil or #fr.objs == 0 then return false end
         -- rt.judgeable: DataValid (bit 2), ProviderState RUN (bit 4) and TransferStatus 0, wire.md §2.3
-        local xs = X["pn_rt.transfer_status"]()
-        local ok_ds = ds ~= nil and bit.band(ds.value, 0x14) == 0x14 and (xs == nil or xs.value == 0)
+        local ok_ds = ds ~= nil and bit.band(ds, 0x14) == 0x14 and (xs == nil or xs == 0)
         local ph = fr.fm.phase   -- before PrmEnd or after the AR's end: not judged (cyclic.py NOT_JUDGED_PHASES)
         if ph == "parameterisation" or ph == "released" or ph == "aborted" then ok_ds = false end
         -- a system redundancy AR's frame that says Backup (DataStatus.State, bit 0): the device acts on the primary
-        if fr.fm.primary_only and ds ~= nil and ds.value % 2 == 0 then ok_ds = false end
+        if fr.fm.primary_only and ds ~= nil and ds % 2 == 0 then ok_ds = false end
         if ph == "released" or ph == "aborted" then   -- gaps.restart: a later AR here is no capture loss
             if gap_streams[key] ~= nil then gap_stream(key, true) end
         end
         cached = on_cyclic(pinfo, tvb, fr, ok_ds, miss, key)
+        cached.trim = trim
         cyc_cache[pinfo.number] = cached
     end
     if tree then
+        local t = cached.trim
+        if t then
+            tree:add(pndiss, tvb(t.at, math.min(4, tvb:len() - t.at)), string.format("PROFINET encoder: %d bytes after the "
+                .. "%d-byte C_SDU the Connect gives (a trailer: a TAP's, or an FCS kept): cycle counter %d and status "
+                .. "read here, not at the frame's end", t.extra, t.at, t.cc or 0))
+        end
         if cached.copy_of and cached.stale then
             tree:add(pndiss, tvb(0, 0), "PROFINET encoder: cycle counter not newer than frame " .. cached.copy_of
                      .. "'s (a late copy, or a repeated counter): a consumer discards it, not a cycle")
@@ -2946,7 +2986,7 @@ register_postdissector(pndiss)
 
 -- all per-capture state, new: Wireshark calls init before every (re)dissection of a file
 local function reset_state()
-    maps, map_cache, misses = {}, {}, {}
+    maps, map_cache, gen = {}, {}, {misses = {}, checked = {}, trim = {}}
     open_req = {}
     map_generation, cache_generation = 0, 0
     profiles, facts, ar_devs, p922_of, im0_seen = {}, {}, {}, {}, {}

@@ -759,3 +759,25 @@ def test_capture_clock_step_equal_python(tmp_path):
     assert s["cyclic"]["capture_gaps"]["clock_steps"] and not s["cyclic"]["capture_gaps"]["count"]
     n, bad, lua_viol, viol = compare(path)
     assert not bad and lua_viol == viol and any(r == "RESERVED-BIT-SET-G1ZSW" for _f, r in viol)
+
+
+def test_trailer_equal_python(tmp_path):
+    """The real FCS kept on every frame of a plain pcap (4 bytes after the APDU status, tshark reading them as cycle
+    counter and status): the plugin reads counter and status where the Connect puts them, as the core does -- the
+    same fields, the fault found (before, the plugin judged nothing of the session and missed the fault)."""
+    import zlib
+    from pndiss.capture import open_capture
+    src = str(tmp_path / "s.pcapng")
+    subprocess.run([sys.executable, "-m", "pndiss", "simulate", "--scenario", "motion", "--encoders", "2",
+                    "--io-devices", "1", "--cycles", "1500", "--inject", "RESERVED-BIT-SET-G1ZSW@1000",
+                    "--no-expected", "-o", src], check=True, capture_output=True, cwd=ROOT)
+    frames = [(ts, bytes(d) + struct.pack("<I", zlib.crc32(bytes(d)))) for _fn, ts, _lt, d in open_capture(src)]
+    path = str(tmp_path / "fcs.pcapng")
+    _pcapng(path, frames)
+    s = analyze_file(path).summary()
+    assert {q["extra_bytes"] for q in s["cyclic"]["longer_than_iocr"]} == {4}
+    n, bad, lua_viol, viol = compare(path)
+    assert not bad and lua_viol == viol and any(r == "RESERVED-BIT-SET-G1ZSW" for _f, r in viol)
+    # the tree says where counter and status were read
+    rc, out, _err = tshark(path, "-V", "-Y", "frame.number == 200")
+    assert "bytes after the" in out and "read here, not at the frame's end" in out
