@@ -180,6 +180,17 @@ def _to_next_run(good) -> int:
 HASHES_MAX = 4096   # prefix hashes remembered across windows (a plant's streams; a flood starts afresh)
 
 
+def _uniq(a):
+    """np.unique(a) without its np.ma.is_masked check, which imports numpy.ma (~30 ms of every run's start)."""
+    a = np.sort(a, axis=None)
+    if len(a) < 2:
+        return a
+    keep = np.empty(len(a), dtype=bool)
+    keep[0] = True
+    np.not_equal(a[1:], a[:-1], out=keep[1:])
+    return a[keep]
+
+
 def _distinct(h, eng):
     """np.unique(h, return_index=True, return_inverse=True), except that ``first`` names any frame of each
     value (a representative: every use only needs one). When every value is one an earlier window had -- a
@@ -198,7 +209,7 @@ def _distinct(h, eng):
             remap[idx] = np.arange(len(idx))
             return kh[idx], rep[idx], remap[pos]
     uh, first, inv = np.unique(h, return_index=True, return_inverse=True)
-    merged = np.union1d(kh, uh)
+    merged = _uniq(np.concatenate((kh, uh)))
     eng.hashes = merged if len(merged) <= HASHES_MAX else uh
     return uh, first, inv
 
@@ -453,7 +464,7 @@ class Window:
         range is short against the number of streams (a plant's parameter reads every few dozen frames: one
         unique of those frames, not a search per stream)."""
         if j - i < 8 * len(self.pos):
-            u = np.unique(self.sid[i:j])
+            u = _uniq(self.sid[i:j])
             return u[u >= 0].tolist()
         out = []
         for k, p in enumerate(self.pos):

@@ -8,7 +8,6 @@ the violation, so ``ts_ns`` always belongs to ``frame``.
 """
 from __future__ import annotations
 
-import calendar
 import re
 import time
 
@@ -104,6 +103,7 @@ def _when(text: str, what: str):
     if not m:
         raise UsageError(f"--time: {what} {text!r} is neither seconds since the first frame nor a UTC time "
                          "like 2026-01-01T08:00:00.5")
+    import calendar   # (only a --time bound needs it: imported here, not at every start)
     sec = calendar.timegm(time.strptime(f"{m.group(1)} {m.group(2)}", "%Y-%m-%d %H:%M:%S"))
     frac = m.group(3) or ".0"
     return ("abs", sec * 1_000_000_000 + int(round(float(frac) * 1e9)))

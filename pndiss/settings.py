@@ -6,7 +6,6 @@ and its source, so the report can print the settings in force (docs/settings.md 
 from __future__ import annotations
 
 import json
-import tomllib
 from dataclasses import asdict, dataclass, field, fields
 
 
@@ -54,6 +53,7 @@ class Settings:
         """Read a TOML or JSON config file with the same keys as the dataclass fields."""
         with open(path, "rb") as f:
             raw = f.read()
+        import tomllib   # (only a settings file needs it)
         data = json.loads(raw) if path.endswith(".json") else tomllib.loads(raw.decode())
         known = {f.name for f in fields(cls)}
         unknown = set(data) - known
