@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from . import telegrams as tg
-from .gaps import HALF_WRAP_NS, LEARN, WRAP
+from .gaps import LEARN, WRAP
+from .readinfo import JUMP_NS
 from .proto.rt import DS_JUDGED
 
 BLOCK = 4096         # pairs judged per vectorised pass
@@ -84,10 +85,10 @@ class Cols:
         # discarded and leaves the tracker where it was (gaps.duplicate)
         prev[0] = st.cc
         bad = ((self.cc[a:b] - prev) % WRAP) != st.step
-        if st.ts is not None:   # a pause of half a counter wrap or more: the time stamps tell (gaps.advance)
+        if st.ts is not None:   # a pause of half a second or more: a wrap, or a clock step (gaps.advance)
             t = self.ts[a:b]
-            bad[0] |= int(t[0]) - st.ts >= HALF_WRAP_NS
-            bad[1:] |= (t[1:] - t[:-1]) >= HALF_WRAP_NS
+            bad[0] |= int(t[0]) - st.ts >= JUMP_NS
+            bad[1:] |= (t[1:] - t[:-1]) >= JUMP_NS
         return bad
 
     def bulk_gaps(self, gaps, a: int, b: int) -> None:

@@ -465,6 +465,10 @@ def test_a_counter_that_contradicts_its_connect_is_not_trusted_again_at_every_ma
     (0, 2500, False, 2500, False),              # a real loss of 2.5 s: counted
     (10_000_000, 2500, False, 2500, False),     # ... its time stamp 10 ms late (a TAP's batch): still 2,500
     (1_500_000_000, 0, False, 1500, False),     # the stream alone paused, its counter restarted (a device reboot)
+    (1_000_000_000, 0, True, 0, True),          # 1 s ahead, under half a wrap: named too (an independent audit)
+    (600_000_000, 3, True, 3, True),            # 0.6 s ahead and three frames lost with it: the counter's 3, named
+    (0, 700, True, 700, False),                 # the whole capture lost 0.7 s: the counter agrees, counted, no step
+    (1_000_000_000, 0, False, 0, False),        # one stream's frames 1 s apart, the others going on: not the clock
 ])
 def test_a_clock_step_is_no_loss(jump_ns, cycles_lost, whole_capture, want_lost, step_said):
     """A pause of half a counter wrap or more is counted from the time stamps where the counter agrees (k + 1 steps
