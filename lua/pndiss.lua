@@ -1522,6 +1522,7 @@ local function pair_response(key, rsp, frame, ts, profile)
     end
     local blocks_ = rsp.params
     local q = p and p.req
+    if rsp.decode_error then w[#w + 1] = "value blocks do not decode: values not judged" end
     if q == nil then
         w[#w + 1] = "no request"
     else
@@ -1620,6 +1621,13 @@ local function record_items(pinfo, recs)
         end
         ev.decoded = dec or (not it.malformed and {index = r.index, index_name = it.index_name}) or nil
         on_record(ev, fn)
+        if not dec and (r.index == 0xB02E or r.index == 0xB02F) and r.op == "read" and len >= 4 then
+            -- profidrive.undecodable_response: the header still answers the request (paired, judged on it)
+            local rid = u8(t, 1)
+            dec = {kind = "parameter response", request_ref = u8(t, 0), response_id = rid, axis = u8(t, 2),
+                   response_id_name = response_id_name(rid), no_of_parameters = u8(t, 3), params = {},
+                   length = len, ok = false, decode_error = true}
+        end
         local nil_ar = r.ar == NIL_UUID
         local key = table.concat({nil_ar and (controller .. "/" .. device) or r.ar, r.api, r.slot, r.subslot}, "|")
         if (r.index == 0xB02E or r.index == 0xB02F) and dec then

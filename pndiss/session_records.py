@@ -55,6 +55,9 @@ class RecordLayer:
                 ev["decoded"] = _records.decode_record(hb["index"], data, write=op == "write", profile=profile)
             except Malformed as e:
                 ev["decode_error"] = f"{e.layer}: {e.reason}"
+                self.counts["records_undecoded"] += 1   # (the frame decoded; what the record holds did not: Trust)
+                if self.counts["first_record_undecoded"] is None:
+                    self.counts["first_record_undecoded"] = [fn, hb["index"], ev["decode_error"]]
         return ev
 
     def _param_key(self, hb, device, controller):
@@ -134,6 +137,9 @@ class RecordLayer:
             if hb["index"] == IDX_IM0 and isinstance(dec, dict) and ev["device_mac"]:
                 self.im0[ev["device_mac"]] = dec
                 self.profiles.pop(ev["device_mac"], None)
+            if hb["index"] in IDX_PARAM and self.pairer is not None and not isinstance(dec, dict) \
+                    and ev.get("decode_error"):
+                dec = _records.profidrive.undecodable_response(data, ev["decode_error"])
             if hb["index"] in IDX_PARAM and self.pairer is not None and isinstance(dec, dict):
                 self._param(fn, ts, hb, ev, dec)
         if req is not None and not pdu["status"]["ok"]:

@@ -360,3 +360,38 @@ def test_pairing_blocks_out_of_request_order():
     pp.request("k", same, 1, 0)
     ev = pp.response("k", decode_response(build_param_response(2, 1, [{"format": 0x06, "values": [1]}] * 2)), 2, 0)
     assert not ev["pairing"]
+
+
+def test_date_and_time_formats_are_sized():
+    """The data types a master must understand (001_...:2029) beyond the manuals' own: a Date (0x32, 7 octets and a
+    pad byte) in a multi-parameter read leaves the next block where it is (an independent audit: the whole response
+    was dropped, the request stayed pending)."""
+    raw = bytes.fromhex("0201000306010051" "3201" "7e1b0c0e091505" "00" "0701" "00001388")
+    d = decode_record(0xB02E, raw, write=False)
+    assert [(b["format_name"], b["values"]) for b in d["params"]] == \
+        [("Unsigned16", [0x51]), ("Date", ["7e1b0c0e091505"]), ("Unsigned32", [5000])]
+
+
+def test_undecodable_response_answers_its_request():
+    """A response whose value blocks do not decode (a reserved format, a count the record does not hold) still
+    answers the request written before it: the request is no longer pending (so the controller's next job is not
+    'pipelined'), the header is judged (a parameter count not mirrored), the values are not."""
+    from pndiss.records.profidrive import undecodable_response
+    pp = ParamPairer()
+    key = ("ar", 0, 1, 1)
+    req = build_param_request(2, 1, [{"pnu": 922}, {"pnu": 65000}, {"pnu": 979, "subindex": 1, "count": 6}])
+    pp.request(key, decode_record(0xB02E, req, write=True), 10, 1000)
+    bad = bytes.fromhex("020100044501000500")   # No. of Parameters 4 for 3, and a reserved format 0x45
+    with pytest.raises(Malformed):
+        decode_record(0xB02E, bad, write=False)
+    ev = pp.response(key, undecodable_response(bad, "profidrive: format 0x45 unknown"), 12, 2000)
+    assert ev["request_frame"] == 10 and not ev["ok"] and ev["decode_error"]
+    assert "value blocks do not decode: values not judged" in ev["pairing"]
+    assert any(p.startswith("number of parameters mismatch") for p in ev["pairing"])
+    assert all(not p["values"] for p in ev["params"])
+    # the next job pairs with its own request: nothing overwritten
+    pp.request(key, decode_record(0xB02E, build_param_request(3, 1, [{"pnu": 922}]), write=True), 20, 3000)
+    ev = pp.response(key, decode_record(0xB02E, build_param_response(3, 1, [{"format": 6, "values": [81]}]),
+                                        write=False), 22, 4000)
+    assert ev["pairing"] == [] and ev["request_frame"] == 20
+    assert undecodable_response(b"\x01\x02", "short") is None

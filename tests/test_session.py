@@ -343,3 +343,38 @@ def test_an_inferred_ars_alarm_references_tell_its_err_rta_from_another_unseen_a
     assert fm.phase is None
     a.session.on_rta_error(20, 2, c, d, None, (1, 1))  # its own
     assert fm.phase == "aborted"
+
+
+def test_undecodable_parameter_response_is_paired_and_said(tmp_path):
+    """A read response of 0xB02E whose value block has a reserved format (0x45): the record counts as not decoded
+    (Trust names it), the response still answers its request, and the controller's next job is no BMP-PIPELINED
+    (an independent audit: the response was dropped without a word, the request stayed pending, the next correct
+    job was the controller's error)."""
+    import capedit
+    from pndiss.analyzer import analyze_file
+    from pndiss.capture import open_capture
+    from pndiss.verdict import trust
+    src = capedit.simulate(str(tmp_path / "s.pcapng"), "--scenario", "motion", "--encoders", "1", "--param-polls", "20",
+                           "--cycles", "400", "--no-expected")
+    evs = []
+    analyze_file(src, sink=evs.append)
+    reads = [e for e in evs if e["kind"] == "record" and e.get("index") == 0xB02E and e["op"] == "read"]
+    target = reads[0]
+    data = bytes.fromhex(target["data"])
+    bad = data[:4] + b"\x45" + data[5:]   # the first block's format byte
+    frames = []
+    for fn, ts, _lt, d in open_capture(src):
+        d = bytes(d)
+        if fn == target["frame"]:
+            assert d.count(data) == 1
+            d = d.replace(data, bad)
+        frames.append((ts, d))
+    path = capedit.write(str(tmp_path / "bad.pcapng"), frames)
+    evs = []
+    s = analyze_file(path, sink=evs.append).summary()
+    assert not [e for e in evs if e["kind"] == "violation"]
+    p = [e for e in evs if e["kind"] == "param" and e["frame"] == target["frame"]]
+    assert p and p[0]["request_frame"] is not None and "value blocks do not decode: values not judged" in p[0]["pairing"]
+    c = s["session"]["counts"]
+    assert c["records_undecoded"] == 1 and c["first_record_undecoded"][0] == target["frame"]
+    assert any(t.startswith("records that do not decode: 1") for t in trust(s))

@@ -37,6 +37,16 @@ FORMATS: dict[int, tuple[str, int, str]] = {
     0x0A: ("OctetString", 1, "B"), 0x0B: ("Binary Date", 7, "hex"), 0x0C: ("TimeOfDay", 6, "hex"),
     0x0D: ("TimeDifference", 6, "hex"), 0x0F: ("Float64", 8, "d"), 0x1F: ("OctetString2", 2, "hex"),
     0x37: ("Integer64", 8, "q"), 0x38: ("Unsigned64", 8, "Q"),
+    # the other data types a master must understand (001_...:2029), named as tshark 4.0 names them; their sizes are
+    # the IEC 61158-5-10 types' (tshark 4.0 decodes no values of them: "Not supported or invalid format")
+    0x16: ("Bitstring8", 1, "hex"), 0x17: ("Bitstring16", 2, "hex"), 0x18: ("Bitstring32", 4, "hex"),
+    0x19: ("VisibleString1", 1, "hex"), 0x1A: ("VisibleString2", 2, "hex"), 0x1B: ("VisibleString4", 4, "hex"),
+    0x1C: ("VisibleString8", 8, "hex"), 0x1D: ("VisibleString16", 16, "hex"), 0x1E: ("OctetString1", 1, "hex"),
+    0x20: ("OctetString4", 4, "hex"), 0x21: ("OctetString8", 8, "hex"), 0x22: ("OctetString16", 16, "hex"),
+    0x24: ("UNICODE char", 2, "hex"), 0x27: ("UNICODEString", 2, "hex"), 0x32: ("Date", 7, "hex"),
+    0x33: ("BinaryDate2000", 7, "hex"), 0x34: ("TimeOfDay without date indication", 4, "hex"),
+    0x35: ("TimeDifference with date indication", 6, "hex"), 0x36: ("TimeDifference without date indication", 4, "hex"),
+    0x39: ("BitString64", 8, "hex"), 0x3A: ("NetworkTime", 8, "hex"), 0x3B: ("NetworkTime-Difference", 8, "hex"),
     0x40: ("Zero", 0, ""), 0x41: ("Byte", 1, "B"), 0x42: ("Word", 2, "H"), 0x43: ("Double word", 4, "I"),
     0x44: ("Error", 2, "H"),
     # normalised / fixed-point PROFIdrive types; the manuals only say "refer to PROFIdrive"
@@ -215,6 +225,19 @@ def decode_response(data: bytes, profile: str = "generic") -> dict:
     return out
 
 
+def undecodable_response(data: bytes, reason: str) -> dict | None:
+    """A parameter response whose value blocks do not decode (a count the record does not hold, a reserved format):
+    its header still answers the request written before it -- paired, judged on the header, its values not (an
+    independent audit: the request stayed pending and the controller's next job was called pipelined)."""
+    if len(data) < 4:
+        return None
+    ref, rid, axis, n = data[0], data[1], data[2], data[3]
+    return {"kind": "parameter response", "request_ref": ref, "response_id": rid,
+            "response_id_name": RESPONSE_IDS.get(rid, "manufacturer-specific" if 0x40 <= rid <= 0x7F or rid >= 0xC0
+                                                 else "reserved"),
+            "axis": axis, "no_of_parameters": n, "params": [], "length": len(data), "ok": False, "decode_error": reason}
+
+
 def legal_request_id(rid) -> bool:
     """0x01 request, 0x02 change, 0x40..0x7F manufacturer-specific; anything else is answered 0x80 / 0x21."""
     return rid in (1, 2) or (isinstance(rid, int) and 0x40 <= rid <= 0x7F)
@@ -301,6 +324,9 @@ class ParamPairer:
             ev["pairing"].append("request(s) in frame(s) " + ", ".join(map(str, early))
                                  + " pipelined before this response was read (refused by the device)")
         blocks = rsp.get("params", [])
+        if rsp.get("decode_error"):
+            ev["decode_error"] = rsp["decode_error"]
+            ev["pairing"].append("value blocks do not decode: values not judged")
         if pending is None:
             ev["pairing"].append("no request")
             ev["params"] = [_param(None, b, profile) for b in blocks]
