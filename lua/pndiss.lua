@@ -1551,22 +1551,44 @@ local function pair_response(key, rsp, frame, ts, profile)
         if #blocks_ > 0 and #blocks_ ~= #q.params then
             w[#w + 1] = string.format("%d value blocks for %d requested parameters", #blocks_, #q.params)
         elseif q.request_id == 0x01 and #q.params >= 2 and #blocks_ == #q.params then
-            -- profidrive.order_broken (#84): the blocks hold the requested element counts in another order
-            local want, got, sw, sg, same, err = {}, {}, {}, {}, true, false
+            -- profidrive.order_broken (#84): the blocks that hold values (an error or zero block keeps its place)
+            -- hold the requested element counts in another order; or (types_swapped) two of them each hold the
+            -- other parameter's declared data type in its number of elements
+            local want, got, sw, sg, same, pos = {}, {}, {}, {}, true, {}
+            local types = T.checker.param_types[profile] or T.checker.param_types.generic
+            local decl = {}
             for i, a in ipairs(q.params) do
                 want[i] = math.max(1, a.count or 0)
                 got[i] = blocks_[i].no_of_values or -1
-                if blocks_[i].format == 0x44 then err = true end
-                if want[i] ~= got[i] then same = false end
-                sw[i], sg[i] = want[i], got[i]
+                local f = blocks_[i].format
+                if bit.band(a.attribute or 0x10, 0xF0) == 0x10 then decl[i] = types[a.pnu] end
+                if f ~= 0x44 and f ~= 0x40 then
+                    pos[#pos + 1] = i
+                    if want[i] ~= got[i] then same = false end
+                    sw[#sw + 1], sg[#sg + 1] = want[i], got[i]
+                end
             end
             table.sort(sw)
             table.sort(sg)
-            local perm = true
+            local perm = #pos >= 2
             for i = 1, #sw do if sw[i] ~= sg[i] then perm = false end end
-            if not err and not same and perm then
+            local swapped = false
+            for _, x in ipairs(pos) do
+                for _, y in ipairs(pos) do
+                    if x < y and decl[x] and decl[y] and decl[x] ~= decl[y] and blocks_[x].format_name == decl[y]
+                            and blocks_[y].format_name == decl[x] and got[x] == want[y] and got[y] == want[x] then
+                        swapped = true
+                    end
+                end
+            end
+            if not same and perm then
                 w[#w + 1] = "value blocks not in request order (elements requested [" .. table.concat(want, ", ")
                     .. "], values answered [" .. table.concat(got, ", ") .. "])"
+            elseif swapped then
+                local dn, an = {}, {}
+                for i = 1, #q.params do dn[i], an[i] = decl[i] or "?", tostring(blocks_[i].format_name) end
+                w[#w + 1] = "value blocks not in request order (data types requested [" .. table.concat(dn, ", ")
+                    .. "], answered [" .. table.concat(an, ", ") .. "])"
             end
         end
     end

@@ -362,6 +362,27 @@ def test_pairing_blocks_out_of_request_order():
     assert not ev["pairing"]
 
 
+def test_pairing_order_in_a_partly_negative_response_and_by_data_type():
+    """#84 in a partly negative multi-parameter read: the error block keeps its place, the others' counts still prove
+    the swap; and with equal counts, two blocks that each hold the other parameter's declared data type (P922
+    Unsigned16, P65000 Unsigned32 in LIKA) do too (an independent audit: P922 judged on P979's or P65000's values,
+    a false TELEGRAM-SELECTION-MISMATCH). The right order, or one wrong type alone (BMP-DATATYPE's), says nothing."""
+    def pair(params, rid, blocks, profile="lika"):
+        pp = ParamPairer()
+        pp.request("k", decode_record(0xB02E, build_param_request(1, 1, params), write=True, profile=profile), 1, 0)
+        return pp.response("k", decode_response(build_param_response(1, rid, blocks)), 2, 0, profile=profile)["pairing"]
+    three = [{"pnu": 922}, {"pnu": 979, "count": 6}, {"pnu": 925}]
+    swapped = [{"format": 0x07, "values": [1] * 6}, {"format": 0x06, "values": [81]}, {"error": 0x00}]
+    assert any("elements requested [1, 6, 1]" in p for p in pair(three, 0x81, swapped))
+    assert not pair(three, 0x81, [swapped[1], swapped[0], swapped[2]])
+    two = [{"pnu": 922}, {"pnu": 65000}]
+    p = pair(two, 1, [{"format": 0x07, "values": [5000]}, {"format": 0x06, "values": [81]}])
+    assert p == ["value blocks not in request order (data types requested [Unsigned16, Unsigned32], "
+                 "answered [Unsigned32, Unsigned16])"]
+    assert not pair(two, 1, [{"format": 0x06, "values": [81]}, {"format": 0x07, "values": [5000]}])
+    assert not pair(two, 1, [{"format": 0x07, "values": [81]}, {"format": 0x07, "values": [5000]}])
+
+
 def test_date_and_time_formats_are_sized():
     """The data types a master must understand (001_...:2029) beyond the manuals' own: a Date (0x32, 7 octets and a
     pad byte) in a multi-parameter read leaves the next block where it is (an independent audit: the whole response

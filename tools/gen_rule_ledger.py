@@ -20,8 +20,10 @@ SKIP_DIRS = ("pndiss/sim",)            # fault injectors name rules but do not c
 NOT_DECIDABLE: dict = {}
 PARTIAL = {
     "BMP-ORDER": "a PROFIdrive response repeats no PNU/subindex (001_9461bb7bc8c2767b.txt:1891-1900): decided where the "
-                 "blocks of a positive multi-parameter read hold the requested element counts in another order "
-                 "(records/profidrive.order_broken); blocks of equal counts swapped cannot be told",
+                 "blocks of a multi-parameter read that hold values (error blocks keep their places) hold the requested "
+                 "element counts in another order (records/profidrive.order_broken), or two of them each the other "
+                 "parameter's declared data type (types_swapped); blocks of equal counts and types swapped cannot be "
+                 "told",
     "PARK-ERROR-REPORTED": "SERR rising, or a diagnosis alarm of the axis' submodule appearing, while parked; an AR "
                            "inferred from the cyclic content has no slot/subslot, so its alarms are not correlated",
     "BF00-ERROR-NOT-REPORTED": "0x1002 in G1_XIST2, or a 0x9011 diagnosis alarm of the axis' submodule, within D_preset "

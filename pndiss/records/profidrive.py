@@ -95,6 +95,7 @@ VENDOR_PARAMS: dict[str, dict[int, dict]] = {p: {int(k): v for k, v in t.items()
 
 
 TYPE_CODES = {name: code for code, (name, _, _) in FORMATS.items() if code < 0x40 or code > 0x44}
+_FORMAT_NAMES = frozenset(TYPE_CODES)
 
 
 def param_info(pnu: int, profile: str = "generic") -> dict | None:
@@ -357,23 +358,62 @@ class ParamPairer:
             want = [max(1, a.get("count") or 0) for a in rparams]
             ev["pairing"].append(f"value blocks not in request order (elements requested {want}, values answered "
                                  f"{[b.get('no_of_values') for b in blocks]})")
+        elif types_swapped(req, blocks, profile):
+            want = [_declared(a, profile) or "?" for a in rparams]
+            ev["pairing"].append(f"value blocks not in request order (data types requested [{', '.join(want)}], "
+                                 f"answered [{', '.join(str(b.get('format_name')) for b in blocks)}])")
         ev["params"] = [_param(rparams[i] if i < len(rparams) else None,
                                blocks[i] if i < len(blocks) else None, profile)
                         for i in range(max(len(rparams), len(blocks)))]
         return ev
 
 
-def order_broken(req: dict, blocks: list) -> bool:
-    """#84: a positive multi-parameter read whose value blocks hold the requested numbers of elements in another
-    order (001_9461bb7bc8c2767b.txt:1925): a response repeats no PNU, but these counts prove the order wrong --
-    paired by position, one parameter's values would be judged as another's (an independent audit)."""
+def _answered(req: dict, blocks: list) -> list[int]:
+    """The positions of a multi-parameter read's value blocks that hold values (an error or zero block keeps its
+    place and says nothing of the order)."""
     rparams = req.get("params") or []
-    if req.get("request_id") != 0x01 or len(rparams) < 2 or len(blocks) != len(rparams) \
-            or any(b.get("format") == 0x44 for b in blocks):
+    if req.get("request_id") != 0x01 or len(rparams) < 2 or len(blocks) != len(rparams):
+        return []
+    return [i for i, b in enumerate(blocks) if b.get("format") not in (FMT_ERROR, FMT_ZERO)]
+
+
+def order_broken(req: dict, blocks: list) -> bool:
+    """#84: a multi-parameter read whose value blocks hold the requested numbers of elements in another order
+    (001_9461bb7bc8c2767b.txt:1925): a response repeats no PNU, but these counts prove the order wrong -- paired by
+    position, one parameter's values would be judged as another's (independent audits; in a partly negative response
+    too: its error blocks keep their places)."""
+    pos = _answered(req, blocks)
+    if len(pos) < 2:
         return False
-    want = [max(1, a.get("count") or 0) for a in rparams]
-    got = [b.get("no_of_values") for b in blocks]
+    want = [max(1, req["params"][i].get("count") or 0) for i in pos]
+    got = [blocks[i].get("no_of_values") for i in pos]
     return got != want and sorted(want) == sorted(x if isinstance(x, int) else -1 for x in got)
+
+
+def _declared(addr: dict, profile: str) -> str | None:
+    """The data type the manuals give the value a read asks for (None for a description or text, or unknown)."""
+    a = addr.get("attribute")
+    if (0x10 if a is None else a) & 0xF0 != 0x10:
+        return None
+    info = param_info(addr.get("pnu"), profile) if addr.get("pnu") is not None else None
+    return info["type"] if info and info["type"] in _FORMAT_NAMES else None
+
+
+def types_swapped(req: dict, blocks: list, profile: str = "generic") -> bool:
+    """#84 where the counts are equal: two value blocks that each hold exactly the other parameter's declared data
+    type, in the other's number of elements (two different types; an independent audit: P922's block read as a
+    telegram number from P65000's Unsigned32)."""
+    pos = _answered(req, blocks)
+    rp = req.get("params") or []
+    t = {i: _declared(rp[i], profile) for i in pos}
+    n = {i: max(1, rp[i].get("count") or 0) for i in pos}
+    for x in pos:
+        for y in pos:
+            if x < y and t[x] and t[y] and t[x] != t[y] and blocks[x].get("format_name") == t[y] \
+                    and blocks[y].get("format_name") == t[x] and blocks[x].get("no_of_values") == n[y] \
+                    and blocks[y].get("no_of_values") == n[x]:
+                return True
+    return False
 
 
 def _param(addr: dict | None, blk: dict | None, profile: str) -> dict:
