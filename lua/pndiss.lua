@@ -1662,7 +1662,7 @@ local function record_items(pinfo, recs)
                 pev.controller_mac, pev.ar_uuid, pev.profile = controller, r.ar, profile
                 it.param = pev
                 on_record(pev, fn)
-                for _, prm in ipairs(pev.params) do
+                for _, prm in ipairs(pev.several_encoders and {} or pev.params) do
                     if prm.pnu == 922 and not prm.error and prm.values[1] ~= nil and (prm.subindex or 0) == 0
                             and bit.band(prm.attribute or 0x10, 0xF0) == 0x10 then   -- the value, not its description
                         p922_relabel(device, r.api, r.slot, r.subslot, prm.values[1])
@@ -2125,6 +2125,23 @@ function on_record(ev, fn)
     if lst == nil then lst = {}; dev_records[dev] = lst end
     local kept = #lst < 256
     if kept then lst[#lst + 1] = ev end
+    if ev.kind == "param" and ev.index == 0xB02F then
+        -- cyclic_axes.on_record: a global access's DO-ID may name any encoder module of the device: not applied to one
+        local slots, n = {}, 0
+        for _, fm in pairs(maps) do
+            if fm.device == dev and fm.source == "connect" then
+                for _, d in ipairs(fm.objects) do
+                    if d.telegram ~= nil and not slots[d.slot or 0] then slots[d.slot or 0], n = true, n + 1 end
+                end
+            end
+        end
+        if n > 1 then
+            ev.several_encoders = true   -- (no P922 relabel from it: record_items)
+            local copy = {}
+            for k, v in pairs(ev) do copy[k] = v end
+            copy.do_unknown, ev = true, copy
+        end
+    end
     for _, ax in ipairs(axis_list) do
         if (ax.info.device_mac or "") == dev and (ev.ar_uuid == nil or ax.fm.ar == nil or ev.ar_uuid == ax.fm.ar
                 or (ev.kind == "param" and ax.fm.phase ~= "released" and ax.fm.phase ~= "aborted"))

@@ -1743,6 +1743,7 @@ local function read(chk, ev, p, pnu, sub, vals, frame, vfloat)
   local c = chk.cfg
   local v = vals[1]
   datatype(chk, ev, p, pnu, frame)
+  if ev.do_unknown then return end   -- acyclic._read: the value may be another encoder's of the device
   local guessed = find(tostring(c.sources.telegram or ""), "length", 1, true) ~= nil
   local fits = telegram_fits(chk, v, vfloat)
   local vint = not vfloat and isint(v)
@@ -1796,12 +1797,25 @@ local function read(chk, ev, p, pnu, sub, vals, frame, vfloat)
   end
 end
 
+-- #86: read-only parameters refuse changes with 0x01 (001_9461bb7bc8c2767b.txt:2041)
+local function read_only(chk, ev, pnu, err, frame)
+  local ro = K.read_only[chk.cfg.profile]
+  if ro and pnu ~= nil and ro[pnu] and err == nil then
+    v_(chk, "BMP-WRITE-RO-ACCEPTED", ev, fmt("change of read-only P%d answered positively; expected error 0x01", pnu), frame)
+  end
+end
+
 local function change(chk, ev, p, pnu, sub, err, vals, frame, vfloat)
   local c = chk.cfg
   local w = p.written
   if w ~= nil and w.values ~= nil and #w.values > 0 then  -- a positive change answer has no values
     vals = w.values
     vfloat = K.float_formats[w.format] == true
+  end
+  if ev.do_unknown then   -- acyclic._change: a global access whose DO-ID may name another encoder of the device
+    if pnu == 65000 and err == nil then chk.p65000 = nil end
+    read_only(chk, ev, pnu, err, frame)
+    return
   end
   if pnu == 925 and err == nil and #vals > 0 and not vfloat then p925(chk, vals[1], "written", frame) end
   if pnu == 65000 then
@@ -1825,11 +1839,7 @@ local function change(chk, ev, p, pnu, sub, err, vals, frame, vfloat)
       chk.p65000 = v  -- R-PAR-1: stored only, no preset (001_9461bb7bc8c2767b.txt:845)
     end
   end
-  local ro = K.read_only[c.profile]
-  if ro and pnu ~= nil and ro[pnu] and err == nil then
-    -- #86: read-only parameters refuse changes with 0x01 (001_9461bb7bc8c2767b.txt:2041)
-    v_(chk, "BMP-WRITE-RO-ACCEPTED", ev, fmt("change of read-only P%d answered positively; expected error 0x01", pnu), frame)
-  end
+  read_only(chk, ev, pnu, err, frame)
   if pnu == 971 and err == nil and vals[1] ~= nil and vals[1] == 1 and c.profile == "lika" then
     chk.p971_pending = {frame, 0, ev.ts_ns or 0}
   end
@@ -1920,7 +1930,7 @@ local function param(chk, ev)
       if code ~= nil and K.aborting_errors[code] then aborted = true end
     end
     if chk.p980 ~= nil and truthy(pnu) and not chk.p980[pnu] and not (pnu >= 980 and pnu <= 989)
-        and (err == nil or code ~= 0x00) then
+        and (err == nil or code ~= 0x00) and not ev.do_unknown then
       -- #88: unknown PNU -> error 0x00 (001_9461bb7bc8c2767b.txt:2040); P980..P989 never list themselves,
       -- PNU 0 is the controller's bad request (#79)
       v_(chk, "BMP-UNKNOWN-PNU", ev, fmt("PNU %s is not in P980 but was answered ", tostring(pnu))

@@ -375,6 +375,11 @@ class AxisTracking:
         kept = len(lst) < 256
         if kept:
             lst.append(ev)
+        if ev.get("kind") == "param" and ev.get("index") == 0xB02F and len(self.a.session.encoder_slots(dev)) > 1:
+            # a global access: its DO-ID names the drive object, in a numbering only the device knows (records.md
+            # §3.2) -- on a device with several encoder modules its values may be any of them: judged for what holds
+            # for every axis, not applied to one (an independent audit: P65000 of DO 2 judged as slot 1's preset)
+            ev = dict(ev, do_unknown=True)
         for ax in self.axes.values():
             # records of the axis' AR; parameter accesses of any AR of the device while the axis' AR is up: an
             # engineering tool's Device Access AR writes the encoder's one P65000 too (behaviour.md §9.3 #27), and

@@ -183,6 +183,8 @@ class RecordLayer:
         self.counts["params"] += 1
         self.a.emit(ev)
         self.a.cyclic.on_record(ev)
+        if hb["index"] == 0xB02F and len(self.encoder_slots(rec["device_mac"])) > 1:
+            return   # its DO-ID may name another encoder module of the device (cyclic_axes.on_record): no relabel
         for prm in p.get("params", []):
             if prm.get("pnu") == P922 and not prm.get("error") and prm.get("values") and (prm.get("subindex") or 0) == 0 \
                     and (prm.get("attribute") is None or prm["attribute"] & 0xF0 == 0x10):   # the value, not (0x20) a text

@@ -114,6 +114,20 @@ def test_p65000_write_sets_preset_value_for_the_arithmetic():
     assert "PRESET-VALUE-WRONG" in rule_ids(pre + ["0x1400 0x3800 | 0x1200 0x3000 1000 1000"])
 
 
+def test_global_access_of_another_encoder_is_not_applied():
+    """A global access (0xB02F) on a device with several encoder modules (the session marks it do_unknown): its
+    DO-ID may name another encoder, so its P65000 / P922 values are not this axis' -- no preset judged on 5000, no
+    P922 mismatch -- while what holds for every axis of the profile still is (an independent audit: false
+    PRESET-VALUE-WRONG and TELEGRAM-SELECTION-MISMATCH on slot 1 from DO 2's parameters)."""
+    other = lambda ev: dict(ev, do_unknown=True)   # noqa: E731
+    pre = [other(param(65000, [5000], change=True)), "0x1400 0x2000 | 0x1200 0x2000 5000 5000",
+           "0x1400 0x2000 | 0x1200 0x2000 5000 5000", "0x1400 0x3800 | 0x1200 0x2000 5000 5000"]
+    assert "PRESET-VALUE-WRONG" not in rule_ids(pre + ["0x1400 0x3800 | 0x1200 0x3000 0 0"])
+    assert "TELEGRAM-SELECTION-MISMATCH" not in rule_ids([G, other(param(922, [83])), G])
+    assert "TELEGRAM-SELECTION-MISMATCH" in rule_ids([G, param(922, [83]), G])
+    assert "BMP-WRITE-RO-ACCEPTED" in rule_ids([G, other(param(922, [81], change=True)), G], profile="lika")
+
+
 def test_bf00_in_force_reconfigures_the_checker():
     # a captured 0xBF00 with compat = 0 switches CREQ to 'held at 0' (behaviour.md §2.2)
     rows = [bf00({"compat": 0, "problems": []}), "0x1400 0x2000 | 0x1200 0x2000 5 5"]
@@ -174,6 +188,7 @@ def test_record_rules_lua_same():
         test_description_read_is_not_the_value()
         test_parameter_lists_and_pnu_zero_are_no_unknown_pnu()
         test_invalid_bf00_is_not_the_configuration()
+        test_global_access_of_another_encoder_is_not_applied()
     assert "P965-VERSION-MISMATCH" in lua_same(table)
 
 

@@ -295,7 +295,7 @@ def _param(chk, ev: dict) -> None:
             if code in ABORTING_ERRORS:
                 aborted = True
         if chk.p980 is not None and pnu and pnu not in chk.p980 and not _LISTS[0] <= pnu <= _LISTS[1] \
-                and (err is None or code != 0x00):
+                and (err is None or code != 0x00) and not ev.get("do_unknown"):
             # 88: unknown PNU -> error 0x00 (001_9461bb7bc8c2767b.txt:2040). The lists P980..P989 never list
             # themselves; PNU 0 is the controller's bad request (#79), any error answers it
             _v(chk, "BMP-UNKNOWN-PNU", ev, f"PNU {pnu} is not in P980 but was answered "
@@ -328,6 +328,13 @@ def _p925(chk, v, how: str, frame) -> None:
 def _change(chk, ev, p, pnu, sub, err, vals, frame) -> None:
     c = chk.cfg
     vals = (p.get("written") or {}).get("values") or vals  # a positive change answer has no values
+    if ev.get("do_unknown"):
+        # a global access whose DO-ID may name another of the device's encoders (cyclic_axes.on_record): what it
+        # changed is unknown here -- P65000 too (presets then not judged on their result, docs/settings.md p65000)
+        if pnu == 65000 and err is None:
+            chk.p65000 = None
+        _read_only(chk, ev, pnu, err, frame)
+        return
     if pnu == 925 and err is None and vals:
         _p925(chk, vals[0], "written", frame)
     if pnu == 65000:
@@ -346,18 +353,24 @@ def _change(chk, ev, p, pnu, sub, err, vals, frame) -> None:
             _v(chk, "BMP-PRESET-LIMIT-ACCEPTED", ev, f"P65000={v} > R={R} accepted; expected error 0x02", frame=frame)
         if err is None and isinstance(v, int):
             chk.p65000 = v  # R-PAR-1: stored only, no preset (001_9461bb7bc8c2767b.txt:845)
-    ro = READ_ONLY.get(c.profile)
+    _read_only(chk, ev, pnu, err, frame)
+    if pnu == 971 and err is None and vals and vals[0] == 1 and c.profile == "lika":
+        chk.p971_pending = [frame, 0, ev.get("ts_ns", 0)]
+
+
+def _read_only(chk, ev, pnu, err, frame) -> None:
+    ro = READ_ONLY.get(chk.cfg.profile)
     if ro and pnu in ro and err is None:
         # 86: read-only parameters refuse changes with 0x01 (001_9461bb7bc8c2767b.txt:2041)
         _v(chk, "BMP-WRITE-RO-ACCEPTED", ev, f"change of read-only P{pnu} answered positively; expected error 0x01", frame=frame)
-    if pnu == 971 and err is None and vals and vals[0] == 1 and c.profile == "lika":
-        chk.p971_pending = [frame, 0, ev.get("ts_ns", 0)]
 
 
 def _read(chk, ev, p, pnu, sub, vals, frame) -> None:
     c = chk.cfg
     v = vals[0]
     _datatype(chk, ev, p, pnu, frame)
+    if ev.get("do_unknown"):
+        return   # the value may be another encoder's of the device (cyclic_axes.on_record)
     guessed = "length" in str(c.sources.get("telegram", ""))
     fits = isinstance(v, int) and v in tg.TELEGRAMS and all(tg.length(v, d) == n for d, n in chk.io_len.items())
     if pnu == 922 and guessed and fits:
