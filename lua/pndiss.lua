@@ -1549,7 +1549,9 @@ local function pair_response(key, rsp, frame, ts, profile)
                 rsp.no_of_parameters)
         end
         if #blocks_ > 0 and #blocks_ ~= #q.params then
-            w[#w + 1] = string.format("%d value blocks for %d requested parameters", #blocks_, #q.params)
+            if rsp.no_of_parameters == q.no_of_parameters then   -- (else said above: one fault, one note)
+                w[#w + 1] = string.format("%d value blocks for %d requested parameters", #blocks_, #q.params)
+            end
         elseif q.request_id == 0x01 and #q.params >= 2 and #blocks_ == #q.params then
             -- profidrive.order_broken (#84): the blocks that hold values (an error or zero block keeps its place)
             -- hold the requested element counts in another order; or (types_swapped) two of them each hold the

@@ -416,3 +416,12 @@ def test_undecodable_response_answers_its_request():
                                         write=False), 22, 4000)
     assert ev["pairing"] == [] and ev["request_frame"] == 20
     assert undecodable_response(b"\x01\x02", "short") is None
+
+
+def test_one_count_fault_one_note():
+    """A response that drops the last of three blocks and says 2 parameters: one fault, one note (number of
+    parameters), not a second one for its blocks (an independent audit: two BMP-NOT-MIRRORED)."""
+    req = build_param_request(1, 1, [{"pnu": 922}, {"pnu": 925}, {"pnu": 65000}])
+    two = [{"format": 0x06, "values": [81]}, {"format": 0x06, "values": [1]}]
+    assert _pair(req, build_param_response(1, 1, two))["pairing"] == \
+        ["number of parameters mismatch (request 3, response 2)"]

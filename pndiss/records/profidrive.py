@@ -353,7 +353,8 @@ class ParamPairer:
                                  f"response {rsp.get('no_of_parameters')})")
         rparams = req["params"]
         if blocks and len(blocks) != len(rparams):
-            ev["pairing"].append(f"{len(blocks)} value blocks for {len(rparams)} requested parameters")
+            if rsp.get("no_of_parameters") == req["no_of_parameters"]:   # (else said above: one fault, one note)
+                ev["pairing"].append(f"{len(blocks)} value blocks for {len(rparams)} requested parameters")
         elif order_broken(req, blocks):
             want = [max(1, a.get("count") or 0) for a in rparams]
             ev["pairing"].append(f"value blocks not in request order (elements requested {want}, values answered "
