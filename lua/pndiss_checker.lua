@@ -1512,9 +1512,9 @@ function Checker:preset89(PTRIG, pPTRIG, PACK)
 end
 
 -- ------------------------------------------------------------------------------ acyclic input (acyclic.py, §5, §9.9, §9.10)
-local function v_(chk, rule, ev, msg, frame, side)
+local function v_(chk, rule, ev, msg, frame, side, last)
   if frame == nil then frame = ev.frame or 0 end
-  chk:emit(rule, frame, ev.ts_ns or 0, msg, nil, side)
+  chk:emit(rule, frame, ev.ts_ns or 0, msg, last, side)
 end
 
 local function hexbytes(s)
@@ -1858,8 +1858,11 @@ local function param(chk, ev)
     local words = lower(tostring(prob))
     for _, pr in ipairs(K.pairing_rules) do
       if find(words, pr[1], 1, true) then
-        -- #76 / #81: one request at a time, mirrored header (001_9461bb7bc8c2767b.txt:1822, 1908, 1921)
-        v_(chk, pr[2], ev, "parameter access: " .. tostring(prob), frame)
+        -- #76 / #81: one request at a time, mirrored header (001_9461bb7bc8c2767b.txt:1822, 1908, 1921); an
+        -- overwritten request is the fault of the write that overwrote it (decided at this response)
+        local at = frame
+        if pr[1] == "overwritten" and ev.request_frame then at = ev.request_frame end
+        v_(chk, pr[2], ev, "parameter access: " .. tostring(prob), at, nil, frame)
         break
       end
     end

@@ -47,7 +47,8 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
         self.telegram_p922: dict[tuple, int] = lim.table(s.max_stations, "profiles")  # (device mac, api, slot, subslot) -> P922
         self.counts = {"rpc": 0, "rpc_fragments": 0, "rpc_retransmissions": 0, "ip_fragments": 0, "records": 0, "params": 0,
                        "connects": 0, "connect_refused": 0, "releases": 0, "responses_before_request": 0,
-                       "responses_before_request_max_ns": 0, "records_undecoded": 0, "first_record_undecoded": None}
+                       "responses_before_request_max_ns": 0, "records_undecoded": 0}
+        self.first_record_undecoded = None   # [frame, index, reason] of the first record whose data did not decode
         self.pairer = param_pairer()
         self.usermap = None
         self.gsdml = None
@@ -217,6 +218,7 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
     def summary(self) -> dict:
         return {
             "counts": dict(self.counts),
+            "first_record_undecoded": self.first_record_undecoded,
             "ars": [ar_summary(a) for a in self.ar_list],
             "profiles": {m: {"profile": p, "reason": r} for m, (p, r) in self.profiles.items()},
             "records": [{"frame": r["frame"], "op": r["op"], "index": r["index"], "index_name": r["index_name"],

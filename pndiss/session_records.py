@@ -56,8 +56,8 @@ class RecordLayer:
             except Malformed as e:
                 ev["decode_error"] = f"{e.layer}: {e.reason}"
                 self.counts["records_undecoded"] += 1   # (the frame decoded; what the record holds did not: Trust)
-                if self.counts["first_record_undecoded"] is None:
-                    self.counts["first_record_undecoded"] = [fn, hb["index"], ev["decode_error"]]
+                if self.first_record_undecoded is None:
+                    self.first_record_undecoded = [fn, hb["index"], ev["decode_error"]]
         return ev
 
     def _param_key(self, hb, device, controller):

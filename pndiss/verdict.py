@@ -174,7 +174,7 @@ def trust(summary: dict) -> list[str]:
                    "that far apart in time, so setpoints may pair with the wrong actual values and response times "
                    "are wrong; capture through one interface or a TAP that stamps both ports with one clock")
     if sc.get("records_undecoded"):
-        f, idx, why = sc.get("first_record_undecoded") or [None, 0, ""]
+        f, idx, why = (summary.get("session") or {}).get("first_record_undecoded") or [None, 0, ""]
         out.append(f"records that do not decode: {sc['records_undecoded']:,} record data (first: frame {f}, index "
                    f"0x{idx:04X}: {why}) -- what they hold is not judged; a parameter response still answers its "
                    "request (its header is judged, its values are not)")

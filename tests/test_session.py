@@ -376,5 +376,5 @@ def test_undecodable_parameter_response_is_paired_and_said(tmp_path):
     p = [e for e in evs if e["kind"] == "param" and e["frame"] == target["frame"]]
     assert p and p[0]["request_frame"] is not None and "value blocks do not decode: values not judged" in p[0]["pairing"]
     c = s["session"]["counts"]
-    assert c["records_undecoded"] == 1 and c["first_record_undecoded"][0] == target["frame"]
+    assert c["records_undecoded"] == 1 and s["session"]["first_record_undecoded"][0] == target["frame"]
     assert any(t.startswith("records that do not decode: 1") for t in trust(s))

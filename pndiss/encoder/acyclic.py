@@ -65,11 +65,11 @@ def _iso_mode_data(chk, ev: dict) -> None:
         chk.reconfigure()
 
 
-def _v(chk, rule, ev, msg, frame=None, side=None):
+def _v(chk, rule, ev, msg, frame=None, side=None, last=None):
     f = ev.get("frame", 0) if frame is None else frame
     # a violation named at the request frame has the request's time (the MCAP log, the dataset: the frame it names)
     ts = ev["request_ts_ns"] if f == ev.get("request_frame") and ev.get("request_ts_ns") is not None else ev.get("ts_ns", 0)
-    chk.emit(rule, f, ts, msg, side=side)
+    chk.emit(rule, f, ts, msg, last=last, side=side)
 
 
 def _record(chk, ev: dict) -> None:
@@ -244,8 +244,10 @@ def _param(chk, ev: dict) -> None:
         words = str(prob).lower()
         for key, rule in PAIRING_RULES:
             if key in words:
-                # 76 / 81: one request at a time, mirrored header (001_9461bb7bc8c2767b.txt:1822, 1908, 1921)
-                _v(chk, rule, ev, f"parameter access: {prob}", frame=frame)
+                # 76 / 81: one request at a time, mirrored header (001_9461bb7bc8c2767b.txt:1822, 1908, 1921); an
+                # overwritten request is the fault of the write that overwrote it (decided at this response)
+                at = ev.get("request_frame") if key == "overwritten" and ev.get("request_frame") else frame
+                _v(chk, rule, ev, f"parameter access: {prob}", frame=at, last=frame)
                 break
     ref = ev.get("request_ref")
     if isinstance(ref, int):
