@@ -721,61 +721,71 @@ end
 
 local on_reconnect     -- CyclicTracker.on_reconnect (section 7): an AR UUID connected again
 local ar_moves         -- SessionTracker.set_phase (section 7): an AR moves to a later phase
-local function connect_response(key, pinfo)
-    local req = pending_connects[key]
-    pending_connects[key] = nil
-    if req == nil or req.controller == nil then return end
-    -- session._connect: a refused Connect (PNIOStatus not 0) maps no frames
-    local ok = true
-    for _, n in ipairs({"pn_io.error_code", "pn_io.error_decode", "pn_io.error_code1", "pn_io.error_code2"}) do
-        local st = all(n)[1]
-        if st and st.value ~= 0 then ok = false end
-    end
-    map_generation = map_generation + 1
-    local bl = blocks()
-    local device = tostring(pinfo.dl_src)
-    local res_fid = {}
-    local server_name
-    local locked = {}   -- "api/slot/subslot" -> another AR owns it (session_ar.diff_state, ModuleDiffBlock)
-    for _, b in ipairs(bl) do
-        if b.type == 0x8104 then
-            local ba, bs, bss = inside(all("pn_io.api"), b), inside(all("pn_io.slot_nr"), b), inside(all("pn_io.subslot_nr"), b)
-            for _, st in ipairs(inside(all("pn_io.submodule_state"), b)) do
-                local v = st.value
-                local why
-                if bit.band(v, 0x8000) ~= 0 then   -- (or the submodule plugged is wrong / none: no parameters either)
-                    why = ({[2] = "superordinated locked", [3] = "locked by IO controller",
-                            [4] = "locked by IO supervisor"})[bit.band(bit.rshift(v, 7), 0xF)]
-                          or ({[2] = "wrong submodule", [3] = "no submodule"})[bit.band(bit.rshift(v, 11), 0xF)]
-                else
-                    why = ({[2] = "locked by IO controller", [0] = "no submodule",
-                            [1] = "wrong submodule"})[bit.band(v, 0x7FFF)]
+-- res: a response read before its request (session.orphans), applied when the request comes
+local function connect_response(key, pinfo, res)
+    if res == nil then
+        -- session._connect: a refused Connect (PNIOStatus not 0) maps no frames
+        res = {number = pinfo.number, ok = true, device = tostring(pinfo.dl_src), res_fid = {},
+               locked = {}}   -- locked: "api/slot/subslot" -> another AR owns it (session_ar.diff_state, ModuleDiffBlock)
+        for _, n in ipairs({"pn_io.error_code", "pn_io.error_decode", "pn_io.error_code1", "pn_io.error_code2"}) do
+            local st = all(n)[1]
+            if st and st.value ~= 0 then res.ok = false end
+        end
+        local bl = blocks()
+        local res_fid, locked = res.res_fid, res.locked
+        for _, b in ipairs(bl) do
+            if b.type == 0x8104 then
+                local ba, bs, bss = inside(all("pn_io.api"), b), inside(all("pn_io.slot_nr"), b), inside(all("pn_io.subslot_nr"), b)
+                for _, st in ipairs(inside(all("pn_io.submodule_state"), b)) do
+                    local v = st.value
+                    local why
+                    if bit.band(v, 0x8000) ~= 0 then   -- (or the submodule plugged is wrong / none: no parameters either)
+                        why = ({[2] = "superordinated locked", [3] = "locked by IO controller",
+                                [4] = "locked by IO supervisor"})[bit.band(bit.rshift(v, 7), 0xF)]
+                              or ({[2] = "wrong submodule", [3] = "no submodule"})[bit.band(bit.rshift(v, 11), 0xF)]
+                    else
+                        why = ({[2] = "locked by IO controller", [0] = "no submodule",
+                                [1] = "wrong submodule"})[bit.band(v, 0x7FFF)]
+                    end
+                    if why then
+                        locked[table.concat({before(ba, st.offset) or 0, before(bs, st.offset) or 0,
+                                             before(bss, st.offset) or 0}, "/")] = why
+                    end
                 end
-                if why then
-                    locked[table.concat({before(ba, st.offset) or 0, before(bs, st.offset) or 0,
-                                         before(bss, st.offset) or 0}, "/")] = why
-                end
-            end
-        elseif b.type == 0x8101 then
-            local m = inside(all("pn_io.cmresponder_macadd"), b)
-            if m[1] then device = tostring(m[1].value) end
-        elseif b.type == 0x8103 then   -- AlarmCRBlockRes: the device's local alarm reference
-            local r = inside(all("pn_io.localalarmref"), b)[1]
-            req.dref = r and r.value
-        elseif b.type == 0x8102 then
-            local r, f = inside(all("pn_io.iocr_reference"), b), inside(all("pn_io.frame_id"), b)
-            if r[1] and f[1] then res_fid[r[1].value] = f[1].value end
-        elseif b.type == 0x8106 and server_name == nil then
-            -- cm_connect._ar_server: u16 StationNameLength + the device's NameOfStation (latin-1), first block
-            local o, t = b.s + 6, b.tvb
-            if o + 2 <= b.e and o + 2 <= t:len() then
-                local n = t(o, 2):uint()
-                if o + 2 + n <= b.e and o + 2 + n <= t:len() then
-                    server_name = n > 0 and latin1(t(o + 2, n):raw()) or ""
+            elseif b.type == 0x8101 then
+                local m = inside(all("pn_io.cmresponder_macadd"), b)
+                if m[1] then res.device = tostring(m[1].value) end
+            elseif b.type == 0x8103 then   -- AlarmCRBlockRes: the device's local alarm reference
+                local r = inside(all("pn_io.localalarmref"), b)[1]
+                res.dref = r and r.value
+            elseif b.type == 0x8102 then
+                local r, f = inside(all("pn_io.iocr_reference"), b), inside(all("pn_io.frame_id"), b)
+                if r[1] and f[1] then res_fid[r[1].value] = f[1].value end
+            elseif b.type == 0x8106 and res.server_name == nil then
+                -- cm_connect._ar_server: u16 StationNameLength + the device's NameOfStation (latin-1), first block
+                local o, t = b.s + 6, b.tvb
+                if o + 2 <= b.e and o + 2 <= t:len() then
+                    local n = t(o, 2):uint()
+                    if o + 2 + n <= b.e and o + 2 + n <= t:len() then
+                        res.server_name = n > 0 and latin1(t(o + 2, n):raw()) or ""
+                    end
                 end
             end
         end
+        if pending_connects[key] == nil then
+            -- session.orphans: the capture holds the response before its request (a device's NIC or a TAP port stamping
+            -- early, the file sorted by time): kept until the request comes (the caller hands it back then)
+            pending_connects["orphan|" .. key] = res
+            return
+        end
     end
+    local req = pending_connects[key]
+    pending_connects[key] = nil
+    if req == nil or req.controller == nil then return end
+    map_generation = map_generation + 1
+    req.dref = res.dref
+    local ok, device, res_fid, server_name, locked, fn = res.ok, res.device, res.res_fid, res.server_name, res.locked,
+        res.number
     if req.ar and (ok or ar_devs[req.ar] == nil) then   -- device, controller, alarm refs, an IO AR (replaces)
         ar_devs[req.ar] = {device, req.controller, req.cref, req.dref, replaces(req)}
     end
@@ -793,7 +803,7 @@ local function connect_response(key, pinfo)
     -- session_ar._superseded: the controller's new Connect ends the AR it held with this device (power lost,
     -- link down, an abort not captured), before the new maps take its streams
     if replaces(req) then
-        for _, a in ipairs(held(req.controller, device, req.ar)) do ar_moves(a, "aborted", pinfo.number) end
+        for _, a in ipairs(held(req.controller, device, req.ar)) do ar_moves(a, "aborted", fn) end
     end
     local keys = {}
     local again = req.ar ~= nil and ar_phase[req.ar] ~= nil   -- session_ar: controllers may reuse an AR UUID
@@ -874,11 +884,11 @@ local function connect_response(key, pinfo)
                         end
                     end
                 end
-                if hit then ar_moves(a, "aborted", pinfo.number) end
+                if hit then ar_moves(a, "aborted", fn) end
             end
         end
     end
-    if again then on_reconnect(req.ar, device, keys, pinfo.number) end
+    if again then on_reconnect(req.ar, device, keys, fn) end
 end
 
 -- mid-session captures: pndiss/infer.py, step for step. The first SAMPLES C_SDUs of each cyclic stream
@@ -2964,7 +2974,16 @@ local function first_pass(pinfo)
     end
     local ok, err = pcall(function()
         if op.value == 0 and pt and key then
-            if pt.value == 0 then connect_request(key, pinfo) elseif pt.value == 2 then connect_response(key, pinfo) end
+            if pt.value == 0 then
+                connect_request(key, pinfo)
+                local early = pending_connects["orphan|" .. key]   -- its response came first (session.orphans)
+                if early ~= nil then
+                    pending_connects["orphan|" .. key], open_req[key] = nil, nil
+                    connect_response(key, pinfo, early)
+                end
+            elseif pt.value == 2 then
+                connect_response(key, pinfo)
+            end
         end
         if pt then control(op.value, pt.value, pinfo.number) end
         items = record_items(pinfo, records_of_frame())

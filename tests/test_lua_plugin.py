@@ -781,3 +781,28 @@ def test_trailer_equal_python(tmp_path):
     # the tree says where counter and status were read
     rc, out, _err = tshark(path, "-V", "-Y", "frame.number == 200")
     assert "bytes after the" in out and "read here, not at the frame's end" in out
+
+
+def test_connect_response_before_request_equal_python(tmp_path):
+    """The device's NIC (or a TAP port) stamps early and the file is sorted by time: the Connect response sits
+    before its request. The core pairs them (session.orphans) and so does the plugin now -- before, it decoded nothing
+    of that AR and missed its faults (an independent audit)."""
+    from pndiss.capture import open_capture
+    src = str(tmp_path / "s.pcapng")
+    subprocess.run([sys.executable, "-m", "pndiss", "simulate", "--scenario", "motion", "--encoders", "1",
+                    "--cycles", "1200", "--inject", "RESERVED-BIT-SET-G1ZSW@900", "--no-expected", "-o", src],
+                   check=True, capture_output=True, cwd=ROOT)
+    evs = []
+    analyze_file(src, Settings(), sink=evs.append)
+    res = [e for e in evs if e["kind"] == "rpc" and e.get("operation") == "Connect" and e.get("request_frame")]
+    assert res
+    frames = [(ts, bytes(d)) for _fn, ts, _lt, d in open_capture(src)]
+    for r in res:   # the response moved just before its request, stamped 10 us earlier
+        q, p = r["request_frame"] - 1, r["frame"] - 1
+        ts_q, _ = frames[q]
+        moved = (ts_q - 10_000, frames[p][1])
+        frames = frames[:q] + [moved] + frames[q:p] + frames[p + 1:]
+    path = str(tmp_path / "early.pcapng")
+    _pcapng(path, frames)
+    n, bad, lua_viol, viol = compare(path)
+    assert not bad and lua_viol == viol and any(r == "RESERVED-BIT-SET-G1ZSW" for _f, r in viol)
