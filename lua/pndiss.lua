@@ -140,6 +140,8 @@ field("pndiss.rule", ProtoField.string, "Violated rule")
 -- the frame whose dissection decided the violation (0 = at the end of the capture, finish()): a
 -- violation decided on a later frame than the one it names is shown only in a second pass
 field("pndiss.rule.decided_at", ProtoField.uint32, "Decided at frame (0: end of capture)")
+-- who broke the protocol (the core's "side"): filter pndiss.rule.side == "controller"
+field("pndiss.rule.side", ProtoField.string, "Side (controller or encoder)")
 -- on the deciding frame: a violation this frame decided for an earlier frame (what a single pass,
 -- which has printed that frame already, can still show); not pndiss.rule, so -Y pndiss.rule is unchanged
 field("pndiss.late_rule", ProtoField.string, "Violation decided here for an earlier frame")
@@ -2632,7 +2634,9 @@ local function add_rules(tree, tvb, pinfo)
     for _, v in ipairs(l) do
         local r = T.rules[v.rule]
         local it = st:add(F["pndiss.rule"], v.rule)
-        it:add_proto_expert_info(E[v.rule], v.rule .. ": " .. (v.message or (r and r.section) or ""))
+        local side = v.side or (r and r.side) or ""
+        it:add_proto_expert_info(E[v.rule], v.rule .. " (" .. side .. "): " .. (v.message or (r and r.section) or ""))
+        it:add(F["pndiss.rule.side"], side)
         it:add(F["pndiss.rule.decided_at"], v.decided):set_generated()
     end
 end

@@ -833,7 +833,7 @@ function Checker:cycle_std(sp, ac)
     if moving then
       -- #26: presets only at standstill (001_9461bb7bc8c2767b.txt:844, 004_59bef5ae9f41db55.txt:772)
       o = self:hit("PRESET-NOT-STANDSTILL", true)
-      if o then o.msg = fmt("preset requested while moving (positions %s, NIST=%s)", pos_list(self), tostring(NIST)) end
+      if o then o.msg = fmt("preset requested while moving (positions %s, NIST=%s)", pos_list(self), NIST == nil and "None" or tostring(NIST)) end
     end
     local allowed = VALID and (truthy(c.class4) or C.class4_open(c)) and PKA == 0 and SERR == 0
     self.pre = {n = n, f = self.f, fc = self.fc, ts = self.ts, mode = HMODE, P = self.p65000, pos2 = ppos2, x1 = pX1,
@@ -963,7 +963,7 @@ function Checker:cycle_std(sp, ac)
   if not first and (PARK == 1 and pPARK == 0) and not standstill then
     -- #50: parking while running is not allowed (000_37bf2397999f1108.txt:1876-1879)
     o = self:hit("PARK-WHILE-RUNNING", true)
-    if o then o.msg = fmt("parking requested while moving (positions %s, NIST=%s)", pos_list(self), tostring(NIST)) end
+    if o then o.msg = fmt("parking requested while moving (positions %s, NIST=%s)", pos_list(self), NIST == nil and "None" or tostring(NIST)) end
   end
 
   -- ---- 9.7 sensor error and acknowledgement -----------------------------------------------
@@ -1461,7 +1461,7 @@ function Checker:cycle_preset_telegram(sp, ac)
     if not standstill then
       -- #26: presets only at standstill (001_9461bb7bc8c2767b.txt:844)
       o = self:hit("PRESET-NOT-STANDSTILL", true)
-      if o then o.msg = fmt("preset triggered while moving (positions %s, NIST=%s)", pos_list(self), tostring(NIST)) end
+      if o then o.msg = fmt("preset triggered while moving (positions %s, NIST=%s)", pos_list(self), NIST == nil and "None" or tostring(NIST)) end
     end
     self.p860 = {n = n, f = self.f, fc = self.fc, ts = self.ts, exp = exp, seen = false, v = v_before, last = pos}
     self.preset_done = true
@@ -1889,7 +1889,7 @@ local function param(chk, ev)
     if rid ~= 0x80 or (has_code and code0 ~= 0x21) then
       -- #80: an illegal request ID is answered 0x80 / error 0x21 (001_9461bb7bc8c2767b.txt:2073)
       v_(chk, "BMP-ILLEGAL-REQID-RESPONSE", ev, fmt("request ID 0x%02X answered with response ID 0x%02X", qid, rid)
-         .. (has_code and (", error " .. tostring(code0)) or "") .. "; expected 0x80 with error 0x21", frame)
+         .. (has_code and (", error " .. (isint(code0) and fmt("0x%02X", code0) or tostring(code0))) or "") .. "; expected 0x80 with error 0x21", frame)
     end
   end
   if isint(rid) and band(rid, 0x80) == 0 then
@@ -1937,7 +1937,7 @@ local function param(chk, ev)
       -- #88: unknown PNU -> error 0x00 (001_9461bb7bc8c2767b.txt:2040); P980..P989 never list themselves,
       -- PNU 0 is the controller's bad request (#79)
       v_(chk, "BMP-UNKNOWN-PNU", ev, fmt("PNU %s is not in P980 but was answered ", tostring(pnu))
-         .. (err == nil and "positively" or ("with error " .. tostring(code))), frame)
+         .. (err == nil and "positively" or ("with error " .. (isint(code) and fmt("0x%02X", code) or tostring(code)))), frame)
     end
     local vfloat = K.float_formats[p.format] == true
     if p.attribute ~= nil and band(p.attribute, 0xF0) ~= 0x10 then

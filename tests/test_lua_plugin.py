@@ -196,13 +196,14 @@ def python_expect(path, settings=None):
                         add(d, "pndiss.param.value", v)
         elif k == "violation":
             viol.add((ev["frame"], ev["rule"]))
+            want.setdefault(ev["frame"], {}).setdefault("pndiss.sides", set()).add((ev["rule"], ev["side"]))
     return want, viol
 
 
 COMPARED = ("pndiss.telegram", "pndiss.slot", "pndiss.subslot", "pndiss.station", "pndiss.xist2_error.code",
             "pndiss.xist2_error.text", "pndiss.record.op", "pndiss.record.index", "pndiss.record.index_name")
 COMPARED_PREFIXES = ("pndiss.param.", "pndiss.bf00.", "pndiss.im0.")
-NOT_COMPARED = {"pndiss.param.kind", "pndiss.param.value_text"}
+NOT_COMPARED = {"pndiss.param.kind", "pndiss.param.value_text", "pndiss.sides"}   # (sides: compared below)
 
 
 def compare(path, settings=None, prefs=()):
@@ -220,6 +221,12 @@ def compare(path, settings=None, prefs=()):
             if gv != wv:
                 bad.append((fn, k, gv, wv))
     lua_viol = {(fn, r) for fn, d in got.items() for r in d.get("pndiss.rule", [])}
+    # who broke the protocol: the tree's pndiss.rule.side beside each pndiss.rule (an independent audit: not shown)
+    for fn in sorted(set(got) | set(want)):
+        ls = set(zip(got.get(fn, {}).get("pndiss.rule", []), got.get(fn, {}).get("pndiss.rule.side", [])))
+        ws = want.get(fn, {}).get("pndiss.sides", set())
+        if {r for r, _s in ls} == {r for r, _s in ws} and ls != ws:
+            bad.append((fn, "pndiss.rule.side", sorted(ls), sorted(ws)))
     STATS["values"] += n
     STATS["frames"] += len(want)
     STATS["captures"] += 1
