@@ -129,7 +129,13 @@ field("pndiss.param.error", ProtoField.string, "Error")
 field("pndiss.param.pairing", ProtoField.string, "Pairing problem")
 local BF00_INT = {"flags", "code_sequence", "direction", "class4", "preset_control", "scaling",
                   "alarm_channel_control", "compat", "max_master_sol_failures", "velocity_unit"}
-for _, n in ipairs(BF00_INT) do field("pndiss.bf00." .. n, ProtoField.uint8, n) end
+for _, n in ipairs(BF00_INT) do   -- labelled as the manuals name them; the flags byte in hex
+    field("pndiss.bf00." .. n, ProtoField.uint8, ({flags = "Flags (byte 0)", code_sequence = "Code sequence",
+        direction = "Direction", class4 = "Class 4 functionality", preset_control = "Preset control (G1_XIST1)",
+        scaling = "Scaling function control", alarm_channel_control = "Alarm channel control",
+        compat = "Compatibility mode (0: V3.1, 1: V4.1)", max_master_sol_failures = "Maximum master sign-of-life failures",
+        velocity_unit = "Velocity measuring unit"})[n] or n, n == "flags" and base.HEX or base.DEC)
+end
 field("pndiss.bf00.mupr", ProtoField.uint64, "Measuring units per revolution")
 field("pndiss.bf00.tmr", ProtoField.uint64, "Total measuring range")
 field("pndiss.bf00.velocity_unit_name", ProtoField.string, "Velocity unit")
