@@ -1757,11 +1757,11 @@ local function read(chk, ev, p, pnu, sub, vals, frame, vfloat)
       chk.p922_rejected = v  -- the AR's data lengths are the configuration; keep them
     end
     local lens = {}
-    for d, n in pairs(chk.io_len) do lens[#lens + 1] = d .. ": " .. tostring(n) end
-    table.sort(lens)
+    for d, n in pairs(chk.io_len) do lens[#lens + 1] = d .. " " .. tostring(n) .. " bytes" end
+    table.sort(lens, function(a, b) return a > b end)   -- setpoint, then actual (acyclic._read)
     -- #65: P922 names the configured telegram (000_37bf2397999f1108.txt:1953-1956)
     v_(chk, "TELEGRAM-SELECTION-MISMATCH", ev, fmt("P922 reads %d; the AR runs telegram %d", v, c.telegram)
-       .. (#lens > 0 and (" (data lengths {" .. table.concat(lens, ", ") .. "})") or ""), frame)
+       .. (#lens > 0 and (" (data lengths: " .. table.concat(lens, ", ") .. ")") or ""), frame)
   elseif pnu == 965 and c.profile ~= "psm" and not vfloat and p965_version(sub, v) ~= nil then
     v = p965_version(sub, v)
     local exp = c.compat == 0 and 31 or 41

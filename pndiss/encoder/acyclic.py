@@ -385,7 +385,8 @@ def _read(chk, ev, p, pnu, sub, vals, frame) -> None:
             chk.p922_rejected = v  # the AR's data lengths are the configuration; keep them
         # 65: P922 names the configured telegram (000_37bf2397999f1108.txt:1953-1956)
         _v(chk, "TELEGRAM-SELECTION-MISMATCH", ev, f"P922 reads {v}; the AR runs telegram {c.telegram}"
-           + (f" (data lengths {chk.io_len})" if chk.io_len else ""), frame=frame)
+           + (" (data lengths: " + ", ".join(f"{d} {n} bytes" for d, n in sorted(chk.io_len.items(), reverse=True)) + ")"
+              if chk.io_len else ""), frame=frame)
     elif pnu == 965 and c.profile != "psm" and p965_version(sub, v) is not None:
         v = p965_version(sub, v)
         exp = 31 if c.compat == 0 else 41
