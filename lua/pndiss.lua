@@ -1270,8 +1270,11 @@ local function value_block(t, off, len)
     if spec == nil then return nil, string.format("format 0x%02X unknown", fmt) end
     local size, code = spec.size, spec.code
     local e = off + 2 + size * n
+    if e > len and code == "hex" and n == size and off + 2 + n <= len then
+        n, e = 1, off + 2 + size   -- profidrive._values: a fixed-size octet string counted in octets, one element
+    end
     if e > len then return nil, "values truncated" end
-    local blk = {format = fmt, format_name = spec.name, no_of_values = n, shown = {}, values = {},
+    local blk = {format = fmt, format_name = spec.name, no_of_values = u8(t, off + 1), shown = {}, values = {},
                  int = INT_CODES[code] or false}
     for i = 0, n - 1 do
         local o = off + 2 + i * size

@@ -55,9 +55,12 @@ class RecordLayer:
                 ev["decoded"] = _records.decode_record(hb["index"], data, write=op == "write", profile=profile)
             except Malformed as e:
                 ev["decode_error"] = f"{e.layer}: {e.reason}"
-                self.counts["records_undecoded"] += 1   # (the frame decoded; what the record holds did not: Trust)
-                if self.first_record_undecoded is None:
-                    self.first_record_undecoded = [fn, hb["index"], ev["decode_error"]]
+                # (the frame decoded, what the record holds did not: Trust) -- an empty read answer, a device's "not
+                # ready yet" to a poll, holds nothing to decode
+                if data:
+                    self.counts["records_undecoded"] += 1
+                    if self.first_record_undecoded is None:
+                        self.first_record_undecoded = [fn, hb["index"], ev["decode_error"]]
         return ev
 
     def _param_key(self, hb, device, controller):

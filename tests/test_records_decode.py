@@ -425,3 +425,13 @@ def test_one_count_fault_one_note():
     two = [{"format": 0x06, "values": [81]}, {"format": 0x06, "values": [1]}]
     assert _pair(req, build_param_response(1, 1, two))["pairing"] == \
         ["number of parameters mismatch (request 3, response 2)"]
+
+
+def test_fixed_size_octet_string_counted_in_octets():
+    """P965 answered "OctetString2, 2 values" with its 2 bytes (the count in octets, as some devices write it): one
+    element, the profile number and version -- not a response that does not decode (an independent audit's Lika
+    session); 2 values of 4 bytes still read as two elements."""
+    d = decode_record(0xB02E, bytes([2, 1, 1, 1, 0x1F, 2, 0x3D, 31]), write=False)
+    assert d["params"][0]["values"] == ["3d1f"] and d["params"][0]["no_of_values"] == 2
+    d = decode_record(0xB02E, bytes([2, 1, 1, 1, 0x1F, 2, 0x3D, 0x29, 0x3D, 0x1F]), write=False)
+    assert d["params"][0]["values"] == ["3d29", "3d1f"]

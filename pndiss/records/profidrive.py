@@ -126,6 +126,9 @@ def _values(fmt: int, n: int, data: bytes, off: int) -> tuple[dict, int]:
         raise Malformed(LAYER, f"format 0x{fmt:02X} unknown: cannot size its {n} values")
     name, size, code = spec
     end = off + size * n
+    if end > len(data) and code == "hex" and n == size and off + n <= len(data):
+        # a fixed-size octet string counted in octets (P965 as "OctetString2, 2 values" of 2 bytes): one element
+        n, end = 1, off + size
     if end > len(data):
         raise Malformed(LAYER, f"{n} values of format 0x{fmt:02X} ({name}) need {size * n} bytes at offset "
                                f"{off}, record has {len(data)}")
