@@ -164,3 +164,21 @@ def test_window(tmp_path):
 def test_cli_window_errors(tmp_path):
     for bad in ("1", "a:b", "2:1"):
         assert cli_main(["plot", SMALL[0], "-o", str(tmp_path / "t.html"), "--window", bad]) == 2
+
+
+def test_time_axis_counts_from_the_first_frame(tmp_path):
+    """The plot's seconds are the capture's (from its first frame, as --time counts), not from the first cyclic
+    sample: a violation marker's time is the violation's time since the first frame (an independent audit: 4.7 ms
+    apart, so a time read off the plot was not the --time value)."""
+    from pndiss.analyzer import analyze_file
+    cap = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "captures",
+                       "fault-absval-ack-missing.pcapng")
+    evs = []
+    a = analyze_file(cap, sink=evs.append)
+    v = [e for e in evs if e["kind"] == "violation"][0]
+    first_tg = min(e["ts_ns"] for e in evs if e["kind"] == "telegram")
+    assert first_tg > a.first_ts   # the Connect and the parameters come first
+    out = tmp_path / "t.html"
+    assert cli_main(["plot", cap, "-o", str(out), "--no-progress"]) == 0
+    at = re.findall(r"<title>" + re.escape(v["rule"]) + r" \([a-z]+\) at ([0-9.]+) s</title>", out.read_text())
+    assert at and abs(float(at[0]) - (v["ts_ns"] - a.first_ts) / 1e9) < 1e-6

@@ -55,10 +55,12 @@ def run(args) -> int:
     progress = None if args.no_progress else ProgressReporter(args.capture, True, "reading for the plot")
     damaged = False
     try:
-        analyze_file(args.capture, settings, tl.on_event, progress.update if progress else None)
+        a = analyze_file(args.capture, settings, tl.on_event, progress.update if progress else None)
+        tl.start = a.first_ts   # the time axis counts from the first frame, as --time does
     except NotACapture:
         raise   # a FIFO that carried no capture: exit 2, no picture
     except CaptureError as e:
+        tl.start = getattr(getattr(e, "analyzer", None), "first_ts", None)
         print(f"pndiss: error: {e} ({e.frames} frames read before it); plotting what was read",
               file=sys.stderr)
         damaged = True   # exit 2 after the picture, as analyze, export and report do on a damaged file
