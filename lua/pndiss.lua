@@ -2676,6 +2676,7 @@ local function heuristic(tvb, pinfo, tree)
         -- a trailer (a TAP's, an FCS kept): bytes after the C_SDU the Connect gives, and tshark's counter and
         -- status are the trailer's. Decided once per stream and map generation (cyclic.py _trailer_check): the
         -- status where the Connect puts it and none at the frame's end -> read counter and status there
+        if cache_generation ~= map_generation then lookup(fi.value, src, dst, true) end   -- (a new generation: decide again)
         local trim, n = gen.trim[key], tvb:len()
         local function byte(i)   -- the C_SDU and, after it, the 4 bytes tshark reads as the APDU status
             if i < n then return tvb(i, 1):uint() end
