@@ -20,6 +20,7 @@ the analyzer has a sink.
 """
 from __future__ import annotations
 
+import zlib
 from . import limits, rules
 from . import telegrams as tg
 from .armap import NOT_OWNED
@@ -99,6 +100,7 @@ class CyclicTracker(AxisTracking):
         self.trailers: dict = {}      # stream key -> its frames' bytes after the IOCR's C_SDU (_trailer_check)
         self.trailer_checked: set = set()   # streams looked at for a trailer (per map generation)
         self.trim_to: dict = {}       # stream key -> its C_SDU length by the Connect, where its frames are longer
+        self.fcs_kept: dict = {}      # stream key -> a frame of it ending in its own FCS, the capture not saying so
         self.no_telegram = 0          # frames of a known AR that carry no encoder telegram (IO devices)
         self.mapped = 0
         self.gated = 0
@@ -189,6 +191,8 @@ class CyclicTracker(AxisTracking):
             self.stream_sink(key, fn, ts, pdu, csdu_off - 2)
         if key not in self.trailer_checked:   # once per stream and map generation, before copies are told apart
             fm = self.a.session.lookup(*key)
+            if fm is None:
+                self._fcs_check(key, fn, pdu)   # (a stream of no known AR: only said, nothing to read it by)
             if fm is None or self._trailer_check(key, fm, fn, pdu, csdu_off):
                 self.trailer_checked.add(key)
         cut = self.trim_to.get(key)
@@ -440,8 +444,16 @@ class CyclicTracker(AxisTracking):
             self.trim_to[key] = max(40, dl)
             if key not in self.trailers and len(self.trailers) < MAX_SILENT:
                 self.trailers[key] = {"frame_id": key[0], "src": key[1], "dst": key[2], "station": fm.station,
-                                      "first_frame": fn, "data_length": dl, "extra_bytes": n_csdu - max(40, dl)}
+                                      "first_frame": fn, "data_length": dl, "extra_bytes": n_csdu - max(40, dl),
+                                      "fcs": _ends_in_fcs(pdu)}
         return True
+
+    def _fcs_check(self, key: tuple, fn: int, pdu) -> None:
+        """A stream no AR maps whose frame ends in a valid FCS: the capture keeps the Frame Check Sequence without
+        saying so (no if_fcslen, no FCS bit in the pcap link type), so Wireshark and the content inference read the
+        FCS as cycle counter and status -- a mid-session capture then judges nothing. Named in Trust (cut it off)."""
+        if key not in self.fcs_kept and len(self.fcs_kept) < MAX_SILENT and _ends_in_fcs(pdu):
+            self.fcs_kept[key] = {"frame_id": key[0], "src": key[1], "dst": key[2], "first_frame": fn}
 
     # -- results -----------------------------------------------------------------------------------
     def finish(self) -> None:
@@ -484,6 +496,7 @@ class CyclicTracker(AxisTracking):
                 encs[-1]["ar_uuid"], encs[-1]["ar_frame"] = ar.get("ar_uuid"), ar.get("frame")
         before = self.unmapped_before_ar()
         return {"silent_streams": self._silent(), "longer_than_iocr": list(self.trailers.values()),
+                "fcs_undeclared": list(self.fcs_kept.values()),
                 "frames_mapped": self.mapped, "frames_unmapped": self.unmapped - before,
                 "frames_before_ar": before, "frames_no_telegram": self.no_telegram, "cycles_gated": self.gated,
                 # every violation, not only the encoders' (DCP, ...): one counting point (Analyzer.violations)
@@ -519,6 +532,11 @@ class CyclicTracker(AxisTracking):
         summ = self.summary()
         from .infer_report import sections as infer_sections
         return [x for x in [section(summ["capture_gaps"])] if x is not None] + infer_sections(summ) + sections(summ)
+
+
+def _ends_in_fcs(pdu) -> bool:
+    """The frame's last 4 bytes are the Ethernet CRC-32 of the bytes before them (little-endian on the wire)."""
+    return len(pdu) >= 64 and zlib.crc32(pdu[:-4]) == int.from_bytes(pdu[-4:], "little")
 
 
 def _status_at(pdu: bytes, at: int) -> bool:

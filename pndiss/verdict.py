@@ -178,14 +178,22 @@ def trust(summary: dict) -> list[str]:
         out.append(f"records that do not decode: {sc['records_undecoded']:,} record data (first: frame {f}, index "
                    f"0x{idx:04X}: {why}) -- what they hold is not judged; a parameter response still answers its "
                    "request (its header is judged, its values are not)")
+    fk = cyc.get("fcs_undeclared") or ()
+    if fk:
+        out.append(f"FCS kept: the frames of {len(fk)} cyclic stream(s) no Connect in the capture maps end in their "
+                   f"own Ethernet FCS (first frame {min(q['first_frame'] for q in fk):,}) the capture does not "
+                   "declare: Wireshark, and the analysis of a stream known only from its content, read those 4 bytes "
+                   "as cycle counter and status -- cut them off (editcap -C -4) or capture with the FCS declared")
     tr = cyc.get("longer_than_iocr") or ()
     if tr:
         extra = sorted({q["extra_bytes"] for q in tr})
         who = sorted({q.get("station") or q["dst"] for q in tr})
         out.append(f"trailer: the cyclic frames of {len(tr)} stream(s) carry {'/'.join(map(str, extra))} byte(s) after "
                    f"the C_SDU and APDU status their Connect gives (first frame {min(q['first_frame'] for q in tr):,}; "
-                   f"{', '.join(who[:4])}{' ...' if len(who) > 4 else ''}): a TAP's or switch's trailer, or an FCS the "
-                   "capture does not declare? The analysis reads cycle counter and status where the Connect puts "
+                   f"{', '.join(who[:4])}{' ...' if len(who) > 4 else ''}): "
+                   + ("their own Ethernet FCS, which the capture does not declare. " if all(q.get("fcs") for q in tr)
+                      else "a TAP's or switch's trailer, or an FCS the capture does not declare? ")
+                   + "The analysis reads cycle counter and status where the Connect puts "
                    "them; Wireshark (and the rt / APDU fields of the outputs) reads them at the frame's end, where "
                    "they are the trailer's -- capture without the trailer, or cut it off (editcap -C)")
     inp = summary.get("input") or {}

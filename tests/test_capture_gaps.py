@@ -617,3 +617,23 @@ def test_responses_stamped_before_their_requests_are_said(tmp_path):
     assert any(t.startswith("responses before their requests:") for t in trust(s))
     clean = analyze_file(src).summary()
     assert clean["session"]["counts"]["responses_before_request"] == 0
+
+
+def test_an_undeclared_fcs_of_a_mid_session_capture_is_said(tmp_path):
+    """A capture that starts mid-session (no Connect: the streams are known only from their content) and keeps
+    every frame's Ethernet FCS without declaring it: Wireshark and the content inference read the FCS as cycle counter
+    and status. The summary names the streams whose frames end in their own valid FCS and Trust says to cut it; the
+    same capture without the FCS says nothing (a 4-byte trailer that is no CRC is no FCS either)."""
+    import zlib
+    from pndiss.capture import open_capture
+    from pndiss.verdict import trust
+    src = capedit.simulate(str(tmp_path / "s.pcapng"), "--cycles", "600", "--start-mid-session", "200")
+    frames = [(ts, bytes(d)) for _fn, ts, _lt, d in open_capture(src)]
+    fcs = capedit.write(str(tmp_path / "fcs.pcapng"), [(ts, d + zlib.crc32(d).to_bytes(4, "little")) for ts, d in frames])
+    s = analyze_file(fcs).summary()
+    fk = s["cyclic"]["fcs_undeclared"]
+    assert fk and {q["frame_id"] for q in fk} >= {SP}
+    assert any(t.startswith("FCS kept:") and "editcap -C -4" in t for t in trust(s))
+    assert not analyze_file(src).summary()["cyclic"]["fcs_undeclared"]
+    junk = capedit.write(str(tmp_path / "junk.pcapng"), [(ts, d + b"\x01\x02\x03\x04") for ts, d in frames])
+    assert not analyze_file(junk).summary()["cyclic"]["fcs_undeclared"]
