@@ -1270,7 +1270,11 @@ local function value_block(t, off, len)
     if spec == nil then return nil, string.format("format 0x%02X unknown", fmt) end
     local size, code = spec.size, spec.code
     local e = off + 2 + size * n
-    if e > len and code == "hex" and n == size and off + 2 + n <= len then
+    local function fits(s, x)   -- profidrive._fits: values end the record or meet a block of a known format
+        if (x - s) % 2 == 1 and x < len then x = x + 1 end
+        return x == len or (x + 2 <= len and T.param_formats[u8(t, x)] ~= nil)
+    end
+    if code == "hex" and n == size and size > 1 and not fits(off + 2, e) and fits(off + 2, off + 2 + size) then
         n, e = 1, off + 2 + size   -- profidrive._values: a fixed-size octet string counted in octets, one element
     end
     if e > len then return nil, "values truncated" end
@@ -1543,7 +1547,10 @@ local function pair_response(key, rsp, frame, ts, profile)
     end
     local blocks_ = rsp.params
     local q = p and p.req
-    if rsp.decode_error then w[#w + 1] = "value blocks do not decode: values not judged" end
+    if rsp.decode_error then
+        ev.decode_error = true
+        w[#w + 1] = "value blocks do not decode: values not judged"
+    end
     if q == nil then
         w[#w + 1] = "no request"
     else
@@ -2655,6 +2662,7 @@ local cyclic_frame     -- number of the frame the heuristic saw last: the postdi
 local blind            -- a frame had no fields on the first pass (tshark -2 without -Y or -R)
 
 local function heuristic(tvb, pinfo, tree)
+    local whole = tvb   -- (the first pass cuts tvb before a trailer; the tree shows the frame's own bytes)
     -- pn_io may offer other frames too (a DCP Identify after an AR was seen): those are the postdissector's
     local fid = X["pn_rt.frame_id"]()
     if fid ~= nil and not ((fid.value >= 0x0100 and fid.value < 0x1000) or (fid.value >= 0x8000 and fid.value < 0xFC00)) then
@@ -2733,7 +2741,7 @@ local function heuristic(tvb, pinfo, tree)
     if tree then
         local t = cached.trim
         if t then
-            tree:add(pndiss, tvb(t.at, math.min(4, tvb:len() - t.at)), string.format("PROFINET encoder: %d bytes after the "
+            tree:add(pndiss, whole(t.at, math.min(4, whole:len() - t.at)), string.format("PROFINET encoder: %d bytes after the "
                 .. "%d-byte C_SDU the Connect gives (a trailer: a TAP's, or an FCS kept): cycle counter %d and status "
                 .. "read here, not at the frame's end", t.extra, t.at, t.cc or 0))
         end

@@ -1892,6 +1892,13 @@ local function param(chk, ev)
          .. (has_code and (", error " .. (isint(code0) and fmt("0x%02X", code0) or tostring(code0))) or "") .. "; expected 0x80 with error 0x21", frame)
     end
   end
+  if ev.decode_error then
+    -- acyclic._param: its value blocks did not decode; the header is judged above, no parameter's result is known
+    if is_change then
+      for _, p in ipairs(params) do if p.pnu == 65000 then chk.p65000 = nil end end
+    end
+    return
+  end
   if isint(rid) and band(rid, 0x80) == 0 then
     local any_err = false
     for _, p in ipairs(params) do if truthy(p.error) then any_err = true; break end end

@@ -172,11 +172,12 @@ class GapTracker:
                     self._lost_at(key, ts)
                     return self._count(st, k)
         elif pts is not None and ts - pts >= JUMP_NS and st.step and st.uniform and (st.known or st.seen >= LEARN) \
-                and ts - pts - (d // st.step) * st.step * UNIT_NS > TS_ERROR_NS + 2 * st.step * UNIT_NS \
+                and d % st.step == 0 and ts - pts - (d // st.step) * st.step * UNIT_NS > TS_ERROR_NS + 2 * st.step * UNIT_NS \
                 and self._clock_jump(pts, ts, st.step * UNIT_NS):
             # a shorter step (under half a wrap, so the counter's advance is unambiguous): the time stamps say far
             # longer than the counter, and the whole capture's time jumped there -- named too (an independent audit:
-            # a 1 s step left every later time 1 s off without a word); the counter says what was lost, as below
+            # a 1 s step left every later time 1 s off without a word); the counter says what was lost, as below.
+            # Only a counter on its own step: an irregular advance across a real outage says nothing (a review)
             self.clock_steps += 1
             if self.clock_step_first is None or fn < self.clock_step_first[0]:
                 self.clock_step_first = (fn, self.prev, ts - pts)

@@ -637,3 +637,20 @@ def test_an_undeclared_fcs_of_a_mid_session_capture_is_said(tmp_path):
     assert not analyze_file(src).summary()["cyclic"]["fcs_undeclared"]
     junk = capedit.write(str(tmp_path / "junk.pcapng"), [(ts, d + b"\x01\x02\x03\x04") for ts, d in frames])
     assert not analyze_file(junk).summary()["cyclic"]["fcs_undeclared"]
+
+
+def test_an_outage_with_an_irregular_counter_is_no_clock_step():
+    """0.7 s of the whole capture lost, and a stream whose counter moved by no whole number of its steps across it
+    (it does not follow the time): no clock step named beside the capture gap (a review: two contradictory Trust
+    lines); the same jump with the counter one step on is the clock."""
+    from types import SimpleNamespace
+    for cc_after, step_said in ((17072, False), (32 * 11, True)):
+        g = GapTracker()
+        key = (1, "a", "b")
+        g.step_from(key, 32)
+        for i in range(10):
+            g.advance(key, i, i * 1_000_000, (32 * i) % 65536)
+        t = 9 * 1_000_000 + 700_000_000
+        g.reader_of = lambda: SimpleNamespace(jumps=[(9 * 1_000_000, t)], last_drop_ts=None)
+        g.advance(key, 10, t, (32 * 9 + cc_after) % 65536 if not step_said else (32 * 10) % 65536)
+        assert bool(g.summary()["clock_steps"]) == step_said

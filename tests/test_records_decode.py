@@ -435,3 +435,6 @@ def test_fixed_size_octet_string_counted_in_octets():
     assert d["params"][0]["values"] == ["3d1f"] and d["params"][0]["no_of_values"] == 2
     d = decode_record(0xB02E, bytes([2, 1, 1, 1, 0x1F, 2, 0x3D, 0x29, 0x3D, 0x1F]), write=False)
     assert d["params"][0]["values"] == ["3d29", "3d1f"]
+    # ... also first of a multi-parameter response (a review: its 2 values swallowed the next block's header)
+    d = decode_record(0xB02E, bytes([2, 1, 1, 2, 0x1F, 2, 0x3D, 31, 0x06, 1, 0, 81]), write=False)
+    assert [p["values"] for p in d["params"]] == [["3d1f"], [81]]

@@ -128,6 +128,25 @@ def test_global_access_of_another_encoder_is_not_applied():
     assert "BMP-WRITE-RO-ACCEPTED" in rule_ids([G, other(param(922, [81], change=True)), G], profile="lika")
 
 
+def test_undecodable_response_judges_no_parameter():
+    """A response whose value blocks did not decode (profidrive.undecodable_response: paired, its parameters have no
+    block): no parameter's result is known -- a negative change of read-only P979 or of P65000 beyond the range is
+    no "answered positively", an error 0x00 no unknown PNU answered otherwise; a P65000 change leaves P65000 unknown
+    (a review: false BMP-WRITE-RO-ACCEPTED / BMP-PRESET-LIMIT-ACCEPTED / BMP-UNKNOWN-PNU)."""
+    def undecodable(ev):
+        ev = dict(ev, decode_error="profidrive: values truncated", ok=False)
+        ev["params"] = [dict(p, values=[], error=None, format_name=None) for p in ev["params"]]
+        return ev
+    for ev in (param(979, [5], change=True, rid=0x82), param(65000, [1 << 26], change=True, rid=0x82),
+               param(1234, rid=0x81)):
+        assert not rule_ids([G, undecodable(ev), G], profile="lika")
+    pre = [param(65000, [1000], change=True), undecodable(param(65000, [5000], change=True)),
+           "0x1400 0x2000 | 0x1200 0x2000 5000 5000", "0x1400 0x2000 | 0x1200 0x2000 5000 5000",
+           "0x1400 0x3800 | 0x1200 0x2000 5000 5000"]
+    assert "PRESET-VALUE-WRONG" not in rule_ids(pre + ["0x1400 0x3800 | 0x1200 0x3000 6000 6000"])
+    assert "PRESET-VALUE-WRONG" not in rule_ids(pre + ["0x1400 0x3800 | 0x1200 0x3000 10000 10000"])
+
+
 def test_bf00_in_force_reconfigures_the_checker():
     # a captured 0xBF00 with compat = 0 switches CREQ to 'held at 0' (behaviour.md §2.2)
     rows = [bf00({"compat": 0, "problems": []}), "0x1400 0x2000 | 0x1200 0x2000 5 5"]
@@ -189,6 +208,7 @@ def test_record_rules_lua_same():
         test_parameter_lists_and_pnu_zero_are_no_unknown_pnu()
         test_invalid_bf00_is_not_the_configuration()
         test_global_access_of_another_encoder_is_not_applied()
+        test_undecodable_response_judges_no_parameter()
     assert "P965-VERSION-MISMATCH" in lua_same(table)
 
 

@@ -268,6 +268,12 @@ def _param(chk, ev: dict) -> None:
             # 80: an illegal request ID is answered 0x80 / error 0x21 (001_9461bb7bc8c2767b.txt:2073)
             _v(chk, "BMP-ILLEGAL-REQID-RESPONSE", ev, f"request ID 0x{qid:02X} answered with response ID 0x{rid:02X}"
                + (f", error 0x{codes[0]:02X}" if codes else "") + "; expected 0x80 with error 0x21", frame=frame)
+    if ev.get("decode_error"):
+        # its value blocks did not decode (profidrive.undecodable_response): the header is judged above, no
+        # parameter's result is known -- a P65000 change may or may not have been taken
+        if change and any(p.get("pnu") == 65000 for p in params):
+            chk.p65000 = None
+        return
     if isinstance(rid, int) and rid & 0x80 == 0 and any(p.get("error") for p in params):
         # 82: a positive response cannot carry errors (001_9461bb7bc8c2767b.txt:1914-1920)
         _v(chk, "BMP-RESPID-MISMATCH", ev, f"positive response ID 0x{rid:02X} with a parameter error", frame=frame)

@@ -126,8 +126,10 @@ def _values(fmt: int, n: int, data: bytes, off: int) -> tuple[dict, int]:
         raise Malformed(LAYER, f"format 0x{fmt:02X} unknown: cannot size its {n} values")
     name, size, code = spec
     end = off + size * n
-    if end > len(data) and code == "hex" and n == size and off + n <= len(data):
-        # a fixed-size octet string counted in octets (P965 as "OctetString2, 2 values" of 2 bytes): one element
+    if code == "hex" and n == size > 1 and not _fits(data, off, end) and _fits(data, off, off + size):
+        # a fixed-size octet string counted in octets (P965 as "OctetString2, 2 values" of 2 bytes): one element --
+        # where n elements would not end at the record's end or at a next block, and one does (a review: also in
+        # the middle of a multi-parameter response)
         n, end = 1, off + size
     if end > len(data):
         raise Malformed(LAYER, f"{n} values of format 0x{fmt:02X} ({name}) need {size * n} bytes at offset "
@@ -158,6 +160,14 @@ def _values(fmt: int, n: int, data: bytes, off: int) -> tuple[dict, int]:
     if (end - off) % 2 and end < len(data):
         end += 1
     return out, end
+
+
+def _fits(data: bytes, off: int, end: int) -> bool:
+    """Values from ``off`` to ``end`` (then the pad byte of an odd count) end the record or meet a block header
+    with a known format."""
+    if (end - off) % 2 and end < len(data):
+        end += 1
+    return end == len(data) or (end + 2 <= len(data) and data[end] in FORMATS)
 
 
 def _block(data: bytes, off: int) -> tuple[dict, int]:
