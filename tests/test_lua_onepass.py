@@ -23,7 +23,7 @@ from test_lua_plugin import (fault_captures, public_captures, python_expect, rul
 pytestmark = pytest.mark.skipif(shutil.which("tshark") is None, reason="tshark not installed")
 
 ROW = re.compile(r"^(\d+)\s+(\S+)\s+(error|warning|info)\s+(\S+)\s+(\d+|end)\s")
-EXPERT = re.compile(r"^\s*(\d+)\s+\S+\s+PNDISS\s+([A-Z0-9-]+): ")
+EXPERT = re.compile(r"^\s*(\d+)\s+\S+\s+PNDISS\s+([A-Z0-9-]+) \((controller|encoder)\): ")   # RULE (side): message
 
 
 def tap_rows(out: str) -> set:
@@ -165,5 +165,5 @@ def test_one_pass_expert_text_is_the_observation():
     (an independent audit: "CTRLREQ-MISMATCH: 9.2 Control by PLC / Control requested" in Wireshark's packet list)."""
     path = next(p for p, _ in fault_captures() if os.path.basename(p).startswith("fault-ctrlreq-mismatch"))
     rc, out, err = tshark(path, "-q", "-z", "expert", *_settings(path)[1], two_pass=False)
-    lines = [line for line in out.splitlines() if "CTRLREQ-MISMATCH:" in line]
+    lines = [line for line in out.splitlines() if "CTRLREQ-MISMATCH (" in line]
     assert lines and all("ZSW2_ENC.9" in line for line in lines), lines
