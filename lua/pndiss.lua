@@ -40,6 +40,7 @@ C.init(T)
 
 local pndiss = Proto("pndiss", "PROFINET encoder (pndiss)")
 local F = {}          -- abbrev -> ProtoField
+local CONST = {}      -- constant tables (the main chunk may hold at most 200 locals: room for ports)
 local fields = pndiss.fields
 
 local function field(abbrev, ctor, name, ...)
@@ -1247,7 +1248,7 @@ local function error_text(c)
         (c <= 0xFF and "reserved error number" or "error number above 0x00FF (high byte reserved)"))
 end
 
-local INT_CODES = {B = true, H = true, I = true, b = true, h = true, i = true, q = true, Q = true}
+CONST.INT_CODES = {B = true, H = true, I = true, b = true, h = true, i = true, q = true, Q = true}
 local TWO53 = 2 ^ 53
 
 -- an 8-byte integer at t(o) as a Lua number (exact below 2^53 in magnitude, rounded above: the
@@ -1279,7 +1280,7 @@ local function value_block(t, off, len)
     end
     if e > len then return nil, "values truncated" end
     local blk = {format = fmt, format_name = spec.name, no_of_values = u8(t, off + 1), shown = {}, values = {},
-                 int = INT_CODES[code] or false}
+                 int = CONST.INT_CODES[code] or false}
     for i = 0, n - 1 do
         local o = off + 2 + i * size
         local v, s
@@ -1361,7 +1362,7 @@ end
 
 -- records/userparams.decode_bf00 (0xBF00; PS/PSM 0xFFFF): problems are {rule, message}; mupr/tmr
 -- as numbers for the checker, mupr64/tmr64 (UInt64) for the tree
-local CHECK_RESERVED = {lika = true, generic = true}
+CONST.CHECK_RESERVED = {lika = true, generic = true}
 local function decode_bf00(t, len, profile)
     if not T.profile_defaults[profile] then profile = "generic" end
     local d = {profile = profile, length = len, problems = {}}
@@ -1403,7 +1404,7 @@ local function decode_bf00(t, len, profile)
             problem("BF00-VALUE-OUT-OF-RANGE", string.format("velocity unit %d outside [0, %d]", d.velocity_unit, maxv))
         end
     end
-    if CHECK_RESERVED[profile] then   -- bits 0.6-7, bytes 19-30
+    if CONST.CHECK_RESERVED[profile] then   -- bits 0.6-7, bytes 19-30
         local bad = (d.reserved_bits or 0) ~= 0
         for i = 19, math.min(len, 31) - 1 do if u8(t, i) ~= 0 then bad = true end end
         if bad then problem("BF00-RESERVED-NONZERO", "reserved user parameter bits/bytes set") end
@@ -1712,10 +1713,10 @@ end
 local note_violation   -- section 7
 
 local GET, SET, IDENTIFY, HELLO = 3, 4, 5, 6
-local DCP_SERVICE_TYPES = {[0] = true, [1] = true, [5] = true}
-local DCP_PREFIXED = {[2] = true, [3] = true, [6] = true, [7] = true}
+CONST.DCP_SERVICE_TYPES = {[0] = true, [1] = true, [5] = true}
+CONST.DCP_PREFIXED = {[2] = true, [3] = true, [6] = true, [7] = true}
 -- smallest value (after BlockInfo/BlockQualifier) each value decoder accepts (dcp_blocks.py _fixed)
-local DCP_MIN = {["1|1"] = 6, ["1|2"] = 12, ["1|3"] = 28, ["2|3"] = 4, ["2|4"] = 2, ["2|7"] = 2, ["2|8"] = 4,
+CONST.DCP_MIN = {["1|1"] = 6, ["1|2"] = 12, ["1|3"] = 28, ["2|3"] = 4, ["2|4"] = 2, ["2|7"] = 2, ["2|8"] = 4,
                  ["2|10"] = 2, ["3|61"] = 2, ["3|255"] = 3, ["5|1"] = 2, ["5|2"] = 2, ["5|3"] = 4, ["5|4"] = 3,
                  ["5|5"] = 2, ["5|6"] = 2, ["7|1"] = 16, ["7|2"] = 2, ["7|3"] = 16, ["7|4"] = 16, ["7|5"] = 6}
 
@@ -1742,7 +1743,7 @@ local function dcp_decode(t, off)
     if e > len and not cut then return nil end
     if cut then e = len end
     local d = {sid = sid, stype = stype, xid = t(off + 2, 4):uint(), blocks = {}}
-    if sid < GET or sid > HELLO or not DCP_SERVICE_TYPES[stype] then return d end
+    if sid < GET or sid > HELLO or not CONST.DCP_SERVICE_TYPES[stype] then return d end
     local response = stype ~= 0
     if sid == GET and not response then
         if dlen % 2 == 1 then return nil end
@@ -1758,7 +1759,7 @@ local function dcp_decode(t, off)
         if vend > e then return cut and d or nil end
         local b = {opt = opt, sub = sub}
         local vs, vl = o + 4, blen
-        if prefix and (DCP_PREFIXED[opt] or (opt == 1 and sub >= 1 and sub <= 3)) then
+        if prefix and (CONST.DCP_PREFIXED[opt] or (opt == 1 and sub >= 1 and sub <= 3)) then
             if blen < 2 then return cut and d or nil end
             vs, vl = vs + 2, vl - 2
         end
@@ -1768,7 +1769,7 @@ local function dcp_decode(t, off)
             if vl < 2 then return cut and d or nil end
         elseif not (opt == 0xFF and sub == 0xFF) then
             local k = opt .. "|" .. sub
-            if DCP_MIN[k] and vl < DCP_MIN[k] then return cut and d or nil end
+            if CONST.DCP_MIN[k] and vl < CONST.DCP_MIN[k] then return cut and d or nil end
             if k == "2|5" and vl % 2 == 1 then return cut and d or nil end
             if k == "3|61" then
                 local n = u8(t, vs + 1)
@@ -2244,11 +2245,11 @@ end
 -- ends the AR's parameterisation (its cycles are judged from then on), Release / abort ends the AR
 -- (cyclic.py NOT_JUDGED_PHASES); at PrmEnd #66 is decided for every encoder axis of the AR
 -- (cyclic.py _ar_axes creates them). Phases only move forward.
-local PHASE_RANK = {parameterisation = 0, judged = 1, released = 2, aborted = 3}
+CONST.PHASE_RANK = {parameterisation = 0, judged = 1, released = 2, aborted = 3}
 function ar_moves(ar, phase, fn)
     local cur = ar ~= nil and ar_phase[ar] or nil
     local to = (phase == "prm_end" or phase == "application_ready") and "judged" or phase
-    if cur == nil or PHASE_RANK[to] <= PHASE_RANK[cur] then return end
+    if cur == nil or CONST.PHASE_RANK[to] <= CONST.PHASE_RANK[cur] then return end
     ar_phase[ar] = to
     for _, k in ipairs(ar_keys[ar]) do k[4].phase = to end
     if to == "released" or to == "aborted" then restart_gaps(ar) end   -- a later AR on these streams: no capture loss
@@ -2762,7 +2763,7 @@ end
 pndiss:register_heuristic("pn_io", heuristic)
 
 -- profile selection (pndiss/records/profiles.py): vendor ID 0x0239 = Lika, then order ID patterns
-local ORDER_PATTERNS = {
+CONST.ORDER_PATTERNS = {
     {{"LIKA", "ROTACOD", "XAC77"}, "lika"},
     {{"SCANCON", "SAG%-E"}, "scancon"},
     {{"^E%u?%u?%u?M?58", "ENA58IL"}, "hohner"},
@@ -2772,7 +2773,7 @@ function select_profile(vendor, order)
     if vendor == 0x0239 then return "lika" end
     if order then
         local u = order:upper():gsub("^%s+", ""):gsub("%s+$", "")
-        for _, row in ipairs(ORDER_PATTERNS) do
+        for _, row in ipairs(CONST.ORDER_PATTERNS) do
             for _, pat in ipairs(row[1]) do
                 if u:find(pat) then return row[2] end
             end
