@@ -451,8 +451,11 @@ class Window:
             fr = t.frames.get(key, _MISSING) if gen_ok else _MISSING
             if fr is None and t.infer.sampling(key, fn):
                 out[k] = ("sample", None)   # its frames are offered to content inference in bulk (_stream_stop)
-            elif fr is _MISSING or (fr is None and t.infer.wants(key, fn)) or key in t.trim_to:
-                out[k] = None   # (a trailer after the APDU status: read where the Connect puts it, one by one)
+            elif fr is _MISSING or (fr is None and t.infer.wants(key, fn)) or key in t.trim_to \
+                    or key not in t.trailer_checked:
+                # (a trailer after the APDU status: read where the Connect puts it, one by one; a stream whose frames
+                # have not told yet whether they carry one -- no valid status at either place -- too)
+                out[k] = None
             else:
                 out[k] = ("ok", fr)
         return out

@@ -654,3 +654,26 @@ def test_an_outage_with_an_irregular_counter_is_no_clock_step():
         g.reader_of = lambda: SimpleNamespace(jumps=[(9 * 1_000_000, t)], last_drop_ts=None)
         g.advance(key, 10, t, (32 * 9 + cc_after) % 65536 if not step_said else (32 * 10) % 65536)
         assert bool(g.summary()["clock_steps"]) == step_said
+
+
+def test_a_trailer_decided_late_is_read_the_same_by_the_engine(tmp_path):
+    """A 4-byte trailer on every frame, and the encoder's first 900 input frames with DataValid 0 (a device starting
+    up), the trailer counting like a cycle counter: no valid status at either place, so the stream's trailer is
+    decided only at its first valid frame. The engine reads the same counters and judges the same cycles as the
+    reference path (it sends a stream not decided yet one by one: engine.Window._categories)."""
+    from pndiss.capture import open_capture
+    from test_fastpath import _same_both_ways
+    src = capedit.simulate(str(tmp_path / "s.pcapng"), "--cycles", "1500", "--inject", "RESERVED-BIT-SET-G1ZSW@1200")
+    out, seen = [], 0
+    for _fn, ts, _lt, d in open_capture(src):
+        d = bytearray(d)
+        o = 16 if d[12:14] == b"\x81\x00" else 12
+        if d[o:o + 2] == b"\x88\x92" and (d[o + 2] << 8 | d[o + 3]) == AC and seen < 900:
+            seen += 1
+            d[-2] &= ~0x04   # DataValid 0 (the real status: no trailer yet)
+        out.append((ts, bytes(d) + bytes(d[-4:-2]) + b"\x00\x3c"))   # a trailer that counts like a cycle counter
+    path = capedit.write(str(tmp_path / "late.pcapng"), out)
+    _same_both_ways(path)
+    s = analyze_file(path).summary()
+    assert AC in {q["frame_id"] for q in s["cyclic"]["longer_than_iocr"]}
+    assert not s["cyclic"]["capture_gaps"]["count"]
