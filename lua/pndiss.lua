@@ -58,7 +58,7 @@ field("pndiss.api", ProtoField.uint32, "API", base.HEX)
 field("pndiss.slot", ProtoField.uint16, "Slot")
 field("pndiss.subslot", ProtoField.uint16, "Subslot", base.HEX)
 field("pndiss.iops", ProtoField.uint8, "IOPS", base.HEX)
-field("pndiss.judged", ProtoField.bool, "Judged (DataValid, RUN, IOPS good)")
+field("pndiss.judged", ProtoField.bool, "Judged (AR in data exchange, DataValid, RUN, TransferStatus 0, IOPS and the device's IOCS good)")
 field("pndiss.profile", ProtoField.string, "Device profile")
 field("pndiss.station", ProtoField.string, "Station")
 
