@@ -1022,7 +1022,8 @@ function Checker:cycle_std(sp, ac)
   end
   if not first and (SERR == 0 and pSERR == 1) then
     local code = self.serr_code
-    local acked = self.sack_since_serr or (self.psm and self.fack_since_serr)
+    -- (the acknowledgement of this very cycle counts: a reset within one bus cycle, words.py)
+    local acked = self.sack_since_serr or SACK == 1 or (self.psm and (self.fack_since_serr or FACK == 1))
     if PKA == 0 and not acked then
       if code == K.e_master_sol then
         -- #11: a sign-of-life fault clears only after acknowledgement (001_9461bb7bc8c2767b.txt:1697)

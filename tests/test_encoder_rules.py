@@ -133,6 +133,10 @@ PARK_ERR = [
     # known, so its clearing is no violation (the benchmark's 10 M set: a setpoint never paired hid the ack)
     ("SERR-CLEARED-WITHOUT-ACK", {}, [G, "0x1400 0x2000 | 0x1200 0x8000 5 0x1001", G],
      ["0x1400 0x2000 | 0x1200 0x8000 5 0x1001", G]),
+    # the error gone in the very cycle whose setpoint first carries SACK (a reset within one bus cycle, SCANCON
+    # 001_9461bb7bc8c2767b.txt:540): acknowledged (an independent audit)
+    ("SERR-CLEARED-WITHOUT-ACK", dict(profile="scancon", shift=0), [G, "0x1400 0x2000 | 0x1200 0x8000 5 0x1001", G],
+     [G, "0x1400 0x2000 | 0x1200 0x8000 5 0x1001", "0x1400 0xA000 | 0x1200 0x2000 5 5", G]),
     ("SERR-XIST2-NOT-RESTORED", {}, ["0x1400 0xA000 | 0x1200 0x8800 5 0x1001", ("0x1400 0x2000 | 0x1200 0x0000 5 0", 3)],
      ["0x1400 0xA000 | 0x1200 0x8800 5 0x1001", ("0x1400 0x2000 | 0x1200 0x2000 5 5", 3)]),
     ("SACK-WITHOUT-ERROR", {}, [G, "0x1400 0xA000 | 0x1200 0x2000 5 5"], [G, G]),

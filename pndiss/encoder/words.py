@@ -267,7 +267,9 @@ class WordRules:
             self.ackip_since = None
         if not first and fall(SERR, pSERR):
             code = self.serr_code
-            acked = self.sack_since_serr or (self.psm and self.fack_since_serr)
+            # (the acknowledgement of this very cycle counts: a device resetting within one bus cycle shows the
+            # error gone in the first actual value after SACK -- an independent audit, SCANCON 001_...:540)
+            acked = self.sack_since_serr or bool(SACK) or (self.psm and (self.fack_since_serr or bool(FACK)))
             if not PKA and not acked:
                 if code == E_MASTER_SOL:
                     # 11: a sign-of-life fault clears only after acknowledgement (001_9461bb7bc8c2767b.txt:1697)
