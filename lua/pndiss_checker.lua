@@ -1357,6 +1357,10 @@ end
 -- a position of unknown range may have wrapped at it
 function Checker:x1_other_reading(x1, exp1, base, pos2, x2_ok, tol, mode, pos_before)
   if C.xist1_counter(self.cfg) then
+    if pos2 == nil and mode == 0 and truthy(self.R) then
+      -- no G1_XIST2 to read it by: a counter started at the absolute position holds it modulo R (presets.py)
+      return math.abs(delta(mod(base + exp1 - mod(base, self.R), U32), x1, U32)) <= tol
+    end
     if x2_ok ~= true or pos2 == nil then return false end
     if math.abs(delta(pos2, x1, U32)) <= tol then return true end
     -- ... or moved by the position's jump (a counter that ran past the measuring range)

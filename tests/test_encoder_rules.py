@@ -307,6 +307,15 @@ def test_xist1_counter_moved_by_the_position_jump():
         assert rule_ids(rows(x1 + 3900), **cfg) == set()        # moved like the position (4000 - 100)
         assert rule_ids(rows(4000), **cfg) == set()             # started again at the new position
         assert rule_ids(rows(x1 + 17), **cfg) == {"PRESET-VALUE-WRONG"}
+
+        # G1_XIST2 not requested (G1_STW.13 = 0, X2 = 0): the counter holds the position modulo R, so the same
+        # device is judged the same (an independent audit: PRESET-VALUE-WRONG without X2, none with it)
+        def rows_no_x2(after):
+            return ([f"0x1400 0x0000 | 0x1200 0x0000 {x1} 0"] * 3 + [f"0x1400 0x1000 | 0x1200 0x0000 {x1} 0",
+                    f"0x1400 0x1000 | 0x1200 0x1000 {after} 0"])
+        assert rule_ids(rows_no_x2(x1 + 3900), **cfg) == set()
+        assert rule_ids(rows_no_x2(4000), **cfg) == set()
+        assert rule_ids(rows_no_x2(x1 + 17), **cfg) == {"PRESET-VALUE-WRONG"}
     if __import__("shutil").which("lua5.2"):
         res = replay(rec)
         assert not res["problems"], "\n".join(res["problems"][:20])

@@ -79,6 +79,11 @@ class PresetRules:
         move by the position's jump (a counter that ran past the measuring range: 001_9461bb7bc8c2767b.txt:442-447);
         a position of unknown range may have wrapped at it (position.fits_binary_range)."""
         if self.cfg.xist1_counter:
+            if pos2 is None and mode == 0 and self.R:
+                # no G1_XIST2 to read the position by (not requested): a counter that started at the absolute
+                # position holds it modulo R, so "moved by the position's jump" is base + (P - base mod R) (an
+                # independent audit: the same device judged right with G1_XIST2 on, wrong without)
+                return abs(P.delta((base + exp1 - base % self.R) % U32, x1, U32)) <= tol
             if not x2_ok or pos2 is None:
                 return False
             if abs(P.delta(pos2, x1, U32)) <= tol:
