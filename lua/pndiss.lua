@@ -2228,13 +2228,13 @@ local function length_check(o, fr, fn)
 end
 
 -- cyclic.py _startup: #66, 0xBF00 (PS/PSM 0xFFFF) is written since the Connect, decided at PrmEnd
--- (an ambiguous length guess is not judged: cyclic.py _unsure)
+-- (an ambiguous length guess of an unknown vendor is not judged: cyclic_axes._startup)
 local function startup(ax, fn)
     for _, d in ipairs(ax.fm.objects or {}) do   -- another AR owns the module (ModuleDiffBlock): no 0xBF00 of this AR
         if d.locked and d.slot == ax.info.slot and d.subslot == ax.info.subslot then return end
     end
     if ax.fm.source == "connect" and is_std(ax.checker.cfg.telegram) and not ax.checker.bf00_seen
-            and not bf00_resp[ax.fm.ar or ""] and not ambiguous(ax, {source = ax.source}) then
+            and not bf00_resp[ax.fm.ar or ""] and not (ambiguous(ax, {source = ax.source}) and ax.profile == "generic") then
         note_violation(fn, "STARTUP-NO-PARAM-RECORD", fn, false,
             "PrmEnd without a write of 0xBF00" .. (ax.profile == "psm" and " / 0xFFFF" or "")
             .. " since the Connect of this AR")

@@ -201,6 +201,8 @@ class AxisWalk:
         if ax.ambiguous or not (okS[sr] and self.okA[ar]):
             t.gated += e
             chk.gated += e
+            if ax.ambiguous:
+                chk.unsure_cycles += e
             return
         X = self.sigA.get("g1_xist1", self.sigA.get("g1_xist3"))
         motion = [int(v) for v in X[max(ar, al - 2):al + 1]] if X is not None else [None] * min(3, e)

@@ -351,6 +351,8 @@ class CyclicTracker(AxisTracking):
         chk = ax.checker
         if not (ok and ax.sp_ok) or ax.ambiguous:
             self.gated += 1
+            if ax.ambiguous:
+                chk.unsure_cycles += 1   # (said apart from the DataStatus reasons: verdict.not_checked)
             self._out(chk.gap(fn, ts, "not valid"))
             return
         if ax.fm is not None and ax.fm.phase in JUDGED_FIRST:

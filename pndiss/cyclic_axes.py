@@ -223,7 +223,10 @@ class AxisTracking:
         """66: 0xBF00 (PS/PSM 0xFFFF) is written at every start-up, before PrmEnd (000_37bf2397999f1108.txt:
         1162-1163), on its own or inside a MultipleWrite (0xE040: pndiss.session emits the inner writes)."""
         chk = ax.checker
-        if ax.fm is None or ax.fm.source != "connect" or not chk.cfg.std or chk.bf00_seen or self._unsure(ax):
+        if ax.fm is None or ax.fm.source != "connect" or not chk.cfg.std or chk.bf00_seen \
+                or (self._unsure(ax) and ax.profile == "generic"):
+            # (a length guess that fits several telegrams of a known vendor -- PS/PSM 81 or 100 -- is an encoder
+            # either way, and #66 asks for no telegram layout; of an unknown vendor it may be no encoder at all)
             return
         if self.bf00_unseen_for(ax) is not None:
             return  # its request was lost, its response shows the write (verdict.trust says so)

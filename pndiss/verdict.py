@@ -358,7 +358,12 @@ def not_checked(summary: dict) -> list[str]:
         out.append(f"{n:,} cyclic frame{'s' if n != 1 else ''} of streams an AR of the capture maps came before that "
                    "AR was known (before its Connect response, before the telegram was inferred from the content, or of "
                    "an earlier AR on the same frame IDs the capture does not show): not judged")
-    gated = sum(e.get("gated_cycles", 0) for e in encs if not e.get("telegram_unsure"))
+    gated = sum(e.get("gated_cycles", 0) - e.get("unsure_cycles", 0) for e in encs if not e.get("telegram_unsure"))
+    unsure = [e for e in encs if e.get("unsure_cycles") and not e.get("telegram_unsure")]
+    if unsure:
+        out.append(f"{sum(e['unsure_cycles'] for e in unsure):,} cycles of {_names(unsure)} not judged before the "
+                   "telegram was known (only guessed from data lengths that fit several telegrams of the profile, "
+                   "e.g. PS/PSM 81 or 100, until a P922 read named it)")
     if gated:
         out.append(f"{gated:,} cycles not judged (provider stopped, DataValid 0, TransferStatus not 0, IOPS bad, or "
                    "the device's IOCS of the setpoints bad: outputs it does not consume)")

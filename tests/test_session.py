@@ -378,3 +378,22 @@ def test_undecodable_parameter_response_is_paired_and_said(tmp_path):
     c = s["session"]["counts"]
     assert c["records_undecoded"] == 1 and s["session"]["first_record_undecoded"][0] == target["frame"]
     assert any(t.startswith("records that do not decode: 1") for t in trust(s))
+
+
+def test_psm_81_or_100_guess_judges_startup_and_says_why(tmp_path):
+    """A PS/PSM encoder on telegram 81 whose data lengths also fit its OEM telegram 100: until a P922 read names
+    the telegram its cycles are not judged -- said as such (not as DataStatus / IOPS gating) -- while #66 (no 0xFFFF /
+    0xBF00 before PrmEnd), which asks for no telegram layout, is judged (an independent audit: missed)."""
+    import capedit
+    from pndiss.analyzer import analyze_file
+    from pndiss.verdict import not_checked
+    src = capedit.simulate(str(tmp_path / "s.pcapng"), "--profile", "psm", "--telegram", "81", "--inject",
+                           "STARTUP-NO-PARAM-RECORD", "--cycles", "800", "--no-expected")
+    evs = []
+    s = analyze_file(src, sink=evs.append).summary()
+    assert [e["rule"] for e in evs if e["kind"] == "violation"] == ["STARTUP-NO-PARAM-RECORD"]
+    e = s["cyclic"]["encoders"][0]
+    assert e["unsure_cycles"] > 0 and e["gated_cycles"] >= e["unsure_cycles"] and "telegram_unsure" not in e
+    lines = not_checked(s)
+    assert any("not judged before the telegram was known" in t for t in lines)
+    assert not any("provider stopped" in t for t in lines) or e["gated_cycles"] > e["unsure_cycles"]

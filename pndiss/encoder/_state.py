@@ -62,6 +62,7 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         self.timeline: list[dict] = []     # first state changes (capped), for the report
         self.state_changes = 0
         self.gated = 0                 # cycles reported but not judged (IOPS/DataStatus)
+        self.unsure_cycles = 0         # ... of them while the telegram was only guessed from lengths fitting several
         self.lost_cycles = 0           # cycles missing from the capture (not judged)
         self.sol_known_at = 0          # cycle from which the failure counter C is known again after a loss (#10)
         self._reset_history()
@@ -361,7 +362,8 @@ class Checker(WordRules, PresetRules, SignOfLife, SteadyCycles):
         return self.out
 
     def summary(self) -> dict:
-        return {"cycles": self.n, "gated_cycles": self.gated, "lost_cycles": self.lost_cycles, "settings": self.cfg.in_force(),
+        return {"cycles": self.n, "gated_cycles": self.gated, "unsure_cycles": self.unsure_cycles,
+                "lost_cycles": self.lost_cycles, "settings": self.cfg.in_force(),
                 "violations": self.counts, "state_changes": self.state_changes, "timeline": self.timeline[:50],
                 "p65000": self.p65000, "bf00_seen": self.bf00_seen,
                 "presets_unjudged": self.presets_unjudged, "velocity_filter_frame": self.velocity_filter,
