@@ -33,7 +33,7 @@ NEWER_MAX = 61440    # the consumer's cycle-counter check: (now - last) mod 2^16
 
 
 class Stream:
-    __slots__ = ("cc", "frame", "ts", "last", "step", "known", "seen", "irregular", "uniform", "gaps", "missing")
+    __slots__ = ("cc", "frame", "ts", "last", "step", "known", "seen", "irregular", "uniform", "gaps", "missing", "said")
 
     def __init__(self):
         self.cc = None
@@ -47,6 +47,7 @@ class Stream:
         self.uniform = True
         self.gaps = 0
         self.missing = 0
+        self.said = None      # (step, from the Connect) the latest gap was counted in (the summary's, after a restart)
 
 
 TS_ERROR_NS = 20_000_000   # how far a time stamp may be off: coarse capture clocks (15.6 ms), a TAP's port batches
@@ -229,6 +230,7 @@ class GapTracker:
         return own if tool is None else tool if own is None else max(own, tool)
 
     def _count(self, st: Stream, k: int) -> int:
+        st.said = (st.step, st.known)
         st.gaps += 1
         st.missing += k
         self.count += 1
@@ -276,9 +278,11 @@ class GapTracker:
         streams = []
         for key, st in self.streams.items():
             if st.gaps or not st.uniform:
+                # the step its gaps were counted in (an AR's end starts the next one afresh at 0: an audit)
+                step, known = st.said or (st.step, st.known)
                 streams.append({"frame_id": key[0], "src": key[1], "dst": key[2], "gaps": st.gaps,
-                                "cycles_missing": st.missing, "step": st.step,
-                                "step_source": "connect" if st.known else "learnt",
+                                "cycles_missing": st.missing, "step": step,
+                                "step_source": "connect" if known else "learnt",
                                 "uniform": st.uniform})
         return {"count": self.count, "cycles_missing": self.missing, "streams": streams,
                 "checked": self.enabled, "gaps": self.kept(), "duplicates": self.duplicates,

@@ -677,3 +677,18 @@ def test_a_trailer_decided_late_is_read_the_same_by_the_engine(tmp_path):
     s = analyze_file(path).summary()
     assert AC in {q["frame_id"] for q in s["cyclic"]["longer_than_iocr"]}
     assert not s["cyclic"]["capture_gaps"]["count"]
+
+
+def test_a_streams_step_in_the_summary_is_its_gaps_after_its_ar_ended():
+    """A stream whose AR ended (Release: the counter starts afresh with the next AR) still shows in the summary the
+    step its gaps were counted in, from the Connect -- not 0 / learnt (an independent audit)."""
+    g = GapTracker()
+    key = (0x8001, "a", "b")
+    g.step_from(key, 32)
+    cc = 0
+    for i, d in enumerate([32] * 5 + [96] + [32] * 3):
+        cc = (cc + d) % 65536
+        g.advance(key, i, i * 1_000_000, cc)
+    g.restart(key)
+    row = g.summary()["streams"][0]
+    assert (row["gaps"], row["cycles_missing"], row["step"], row["step_source"]) == (1, 2, 32, "connect")
