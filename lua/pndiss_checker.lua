@@ -216,10 +216,11 @@ end
 -- EncoderConfig.velocity_lag_cycles: two velocity intervals + L_max; 0 when NIST is computed every cycle (#44)
 function C.velocity_lag_cycles(c)
   local u = defaults(c).velocity_update_ms or 0
-  if u == 0 then return 0 end
+  local f = defaults(c).velocity_filter_cycles or 0   -- a default filter's lag (SCANCON/Hohner 'Fine' 7:3)
+  if u == 0 then return f > 0 and f + c.l_max or 0 end
   local t = c.cycle_ns
   if not truthy(t) then t = 1000000 end
-  return ceil(2 * u * 1e6 / t) + c.l_max
+  return ceil(2 * u * 1e6 / t) + c.l_max + f
 end
 
 local DEFAULT_SOURCE = "default (telegrams.json profile_defaults)"   -- a profile default, nothing captured or given

@@ -184,6 +184,11 @@ PRESET_TELEGRAMS = [
      ["0x1400 0 | 0x1400 5 0", ("0x1401 100 | 0x1401 100 0", 14)]),
     ("NIST-SIGN", dict(telegram=83, profile="generic"), ["0x1400 0x2000 | 0x1200 0x2000 %d %d -10" % (i, i) for i in range(5, 11)],
      ["0x1400 0x2000 | 0x1200 0x2000 %d %d 10" % (i, i) for i in range(5, 11)]),
+    # SCANCON's default 'Fine' filter (old:new 7:3) lags a reversal by ~2.3 cycles: a run of L_max + 3 cycles is
+    # allowed (an independent audit), a longer one is not
+    ("NIST-SIGN", dict(telegram=83, profile="scancon", shift=0),
+     ["0x1400 0x2000 | 0x1200 0x2000 %d %d -10" % (i, i) for i in range(5, 16)],
+     ["0x1400 0x2000 | 0x1200 0x2000 %d %d -10" % (i, i) for i in range(5, 10)] + ["0x1400 0x2000 | 0x1200 0x2000 10 10 10"]),
 ]
 
 CASES = SOL + CONTROL + PRESET + PRESET_X1 + PRESET_TELEGRAMS + XIST + PARK_ERR + RESERVED

@@ -115,12 +115,14 @@ class EncoderConfig:
     def velocity_lag_cycles(self) -> int:
         """Cycles a correct NIST may keep the old sign after a reversal: two of the device's velocity
         intervals (a value computed over an interval that straddles the reversal, then held for one
-        interval) plus L_max; 0 for a device that computes NIST every cycle (#44)."""
+        interval) plus L_max, plus the lag of the default velocity filter (an independent audit: SCANCON/Hohner
+        'Fine'); 0 for a device that computes NIST every cycle unfiltered (#44)."""
         u = self.defaults.get("velocity_update_ms", 0)
+        f = self.defaults.get("velocity_filter_cycles", 0)   # a default filter's lag (SCANCON/Hohner 'Fine' 7:3)
         if not u:
-            return 0
+            return f + self.l_max if f else 0
         t = self.cycle_ns or 1_000_000
-        return math.ceil(2 * u * 1e6 / t) + self.l_max
+        return math.ceil(2 * u * 1e6 / t) + self.l_max + f
 
     def compat_open(self) -> bool:
         """The compatibility mode is not known from the capture (no 0xBF00 seen: a capture started
