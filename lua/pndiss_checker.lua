@@ -1147,6 +1147,15 @@ function Checker:value_rules(CLS, pCLS, DLS, pDLS, SERR, ATX, PKA, PDONE, X1, X2
     if o then o.msg = fmt("position G1_XIST2=%s G1_XIST1=%s >= R=%s", tostring(X2), tostring(X1), tostring(R)) end
   end
   self:continuity(pos2, ppos2, pre, PKA, PDONE)
+  local pa = self.prev_ac
+  if pos2 == nil and ppos2 == nil and self.lika and X3 == nil and X1 ~= nil and pmotion ~= nil and SERR == 0
+      and pa ~= nil then
+    -- value_rules._positions: LIKA's G1_XIST1 is the absolute position too, where no X2 carries it (no sensor error,
+    -- no parking in either cycle)
+    local pz = pa.g1_zsw or 0
+    local pss = bitof(pz, 15) == 1 and (pa.g1_xist2 or 1) or 0
+    if pss == 0 and bitof(pz, 14) == 0 then self:continuity(rshift(X1, shift), rshift(pmotion, shift), pre, PKA, PDONE) end
+  end
   if self.velocity_filter == nil then self:nist_sign(motion_ref, pmotion, NIST) end   -- not with a SCANCON filter written
 
   if self.lika and PKA == 1 and ((X1 or 0) ~= 0 or (SERR == 0 and (X2 or 0) ~= 0) or PDONE ~= 0 or ATX ~= 0) then

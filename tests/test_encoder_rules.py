@@ -104,6 +104,12 @@ XIST = [
     ("POSITION-DISCONTINUITY", dict(profile="lika", shift=0, scaling=1, tmr=20_000_000),
      ["0x1400 0x2000 | 0x1200 0x2000 9000000 9000000", "0x1400 0x2000 | 0x1200 0x2000 19000000 19000000"],
      ["0x1400 0x2000 | 0x1200 0x2000 19999999 19999999", "0x1400 0x2000 | 0x1200 0x2000 0 0"]),
+    # ... and in G1_XIST1 where the PLC does not request G1_XIST2 (G1_STW.13 = 0: X2 = 0), LIKA's X1 being the
+    # absolute position (an independent audit: a glitch there went unseen); parking (X1 = 0) is no jump
+    ("POSITION-DISCONTINUITY", dict(profile="lika", shift=0),
+     ["0x1400 0x0000 | 0x1200 0x0000 1000 0", "0x1400 0x0000 | 0x1200 0x0000 16778216 0"],
+     ["0x1400 0x0000 | 0x1200 0x0000 1000 0", "0x1400 0x0000 | 0x1200 0x0000 1005 0",
+      "0x1400 0x4000 | 0x1200 0x4000 0 0", "0x1400 0x0000 | 0x1200 0x0000 1005 0"]),
 ]
 
 PARK_ERR = [

@@ -17,7 +17,7 @@ class Cycle:
     """What the value rules read of one cycle (ints; None where the telegram has no such signal)."""
 
     __slots__ = ("SERR", "ATX", "PKA", "PDONE", "DLS", "X1", "X2", "X3", "NIST", "pos2", "ppos2", "motion", "pmotion",
-                 "pX3", "zsw2", "g1zsw", "has_g1", "started_D", "serr_state", "pserr_state")
+                 "pX3", "zsw2", "g1zsw", "has_g1", "started_D", "serr_state", "pserr_state", "pPKA")
 
     @classmethod
     def of(cls, ac: dict, pa: dict | None, has_g1: bool, started_D: bool = False) -> "Cycle":
@@ -36,7 +36,7 @@ class Cycle:
         c.motion = X1 if X1 is not None else X3
         c.serr_state = serr_state(SERR, X2)
         if pa is None:
-            c.ppos2 = c.pmotion = c.pX3 = c.pserr_state = None
+            c.ppos2 = c.pmotion = c.pX3 = c.pserr_state = c.pPKA = None
         else:
             pz = pa.get("g1_zsw", 0)
             c.ppos2 = pa.get("g1_xist3") if "g1_xist3" in pa else (
@@ -44,6 +44,7 @@ class Cycle:
             c.pmotion = pa.get("g1_xist1") if X1 is not None else pa.get("g1_xist3")
             c.pX3 = pa.get("g1_xist3")
             c.pserr_state = serr_state((pz >> 15) & 1, pa.get("g1_xist2"))
+            c.pPKA = (pz >> 14) & 1
         c.has_g1 = has_g1
         c.started_D = started_D
         return c
@@ -99,6 +100,7 @@ class Columns:
         pz[1:] = g1zsw[:-1]
         pz[0] = 0 if pa is None else pa.get("g1_zsw", 0)
         atx_ok = (self.ATX == 1) & (self.SERR == 0)
+        self.pPKA = (pz >> 14) & 1
         if X3 is not None:
             self.pos2, self.pos2_ok = X3, np.ones(m, dtype=bool)
             self.ppos2, self.ppos2_ok = self.pX3, pX3_have

@@ -124,14 +124,29 @@ def _step(k) -> int:
     return k.cfg.max_position_step or max(1, k.R // 8)
 
 
+def _positions(k, c):
+    """The two positions the continuity rule compares: G1_XIST2 (or X3) of this and the cycle before; where neither
+    carries the position (the PLC did not request it), LIKA's G1_XIST1, which is the absolute position too
+    (000_37bf2397999f1108.txt:1579-1580; an independent audit: a glitch there went unseen), between two cycles with
+    no sensor error and no parking."""
+    if c.pos2 is not None or c.ppos2 is not None:
+        return c.pos2, c.ppos2
+    if k.lika and c.X3 is None and c.X1 is not None and c.pmotion is not None and c.SERR == 0 \
+            and c.pserr_state == 0 and not c.pPKA:
+        s = k.cfg.shift or 0
+        return c.X1 >> s, c.pmotion >> s
+    return None, None
+
+
 def _discontinuity(k, c):
     # (a jump in a cycle with G1_ZSW.12 is a preset's, also one whose request a capture gap hid)
-    if c.pos2 is None or c.ppos2 is None or c.PKA or c.PDONE or not _continuity_applies(k):
+    pos, ppos = _positions(k, c)
+    if pos is None or ppos is None or c.PKA or c.PDONE or not _continuity_applies(k):
         return False  # generic: unknown
     step = _step(k)
-    if abs(P.delta(c.ppos2, c.pos2, k.R)) <= step:
+    if abs(P.delta(ppos, pos, k.R)) <= step:
         return False
-    return not (_red_zone(k) and (_near_zero(c.pos2, k.R, step) or _near_zero(c.ppos2, k.R, step)))
+    return not (_red_zone(k) and (_near_zero(pos, k.R, step) or _near_zero(ppos, k.R, step)))
 
 
 def _red_zone(k) -> bool:
@@ -148,22 +163,32 @@ def _near_zero(x, R: int, step: int):
 
 
 def _discontinuity_v(k, V):
-    if V.pos2 is None or not _continuity_applies(k):
+    if not _continuity_applies(k):
         return _none(V)
     R = k.R
     step = _step(k)
-    pos, ppos = (V.pos2, V.ppos2) if R < SAFE else (V.pos2.astype(object), V.ppos2.astype(object))
-    d = (pos - ppos) % R
-    d = np.where(d > R // 2, d - R, d)
-    hit = V.pos2_ok & V.ppos2_ok & (V.PKA == 0) & (V.PDONE == 0) & _b(np.abs(d) > step)
-    if _red_zone(k):
-        hit &= ~(_b(_near_zero(pos, R, step)) | _b(_near_zero(ppos, R, step)))
+
+    def jumps(pos, ppos, ok):
+        pos, ppos = (pos, ppos) if R < SAFE else (pos.astype(object), ppos.astype(object))
+        d = (pos - ppos) % R
+        d = np.where(d > R // 2, d - R, d)
+        hit = ok & (V.PKA == 0) & (V.PDONE == 0) & _b(np.abs(d) > step)
+        if _red_zone(k):
+            hit &= ~(_b(_near_zero(pos, R, step)) | _b(_near_zero(ppos, R, step)))
+        return hit
+    hit = _none(V) if V.pos2 is None else jumps(V.pos2, V.ppos2, V.pos2_ok & V.ppos2_ok)
+    if k.lika and V.X3 is None and V.X1 is not None:   # _positions: LIKA's G1_XIST1 where no X2 carries it
+        s = k.cfg.shift or 0
+        neither = np.ones(V.m, dtype=bool) if V.pos2 is None else ~V.pos2_ok & ~V.ppos2_ok
+        ok = neither & V.pmotion_ok & (V.SERR == 0) & (V.pserr_state == 0) & (V.pPKA == 0)
+        hit |= jumps(V.X1 >> s, V.pmotion >> s, ok)
     return hit
 
 
 def _discontinuity_msg(k, c):
-    d = P.delta(c.ppos2, c.pos2, k.R)
-    return f"position {c.ppos2} -> {c.pos2} (step {d}) exceeds the plausible {_step(k)} per cycle (R={k.R})"
+    pos, ppos = _positions(k, c)
+    d = P.delta(ppos, pos, k.R)
+    return f"position {ppos} -> {pos} (step {d}) exceeds the plausible {_step(k)} per cycle (R={k.R})"
 
 
 # 44: NIST sign follows the motion [INFERENCE] (001_9461bb7bc8c2767b.txt:962); counts after 3 cycles in a row
