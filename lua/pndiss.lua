@@ -309,9 +309,9 @@ local function profile_for(mac)
     if p ~= "auto" then return p, "set by the Device profile preference" end
     if profiles[mac] == nil then
         local f = facts[mac] or {}
-        local src = f.im0 or f.dcp
+        local src = f.im0 or f.dcp or f.connect   -- (the Connect's object UUID: session_ar._connect_identity)
         profiles[mac] = {src and select_profile(src[1], src[2]) or "generic",
-                         f.im0 and "I&M0" or (f.dcp and "DCP") or "no identity seen"}
+                         f.im0 and "I&M0" or (f.dcp and "DCP") or (f.connect and "Connect") or "no identity seen"}
         if profiles[mac][1] == "generic" and f.ffff then   -- only PS/PSM keeps its parameters at 0xFFFF
             profiles[mac] = {"psm", "record 0xFFFF written in frame " .. f.ffff .. ": PS/PSM's encoder parameter record"}
         elseif profiles[mac][1] == "generic" and f.words then   -- an inferred layout's words fit one profile only
@@ -553,7 +553,7 @@ for _, n in ipairs({"pn_io.opnum", "pn_io.block_type", "pn_io.ar_uuid", "pn_io.c
                     "pn_io.submodule_properties", "pn_io.submodule_state",
                     "pn_io.module_ident_number", "pn_io.submodule_ident_number", "pn_io.iocr_multicast_mac_add",
                     "pn_io.index", "pn_io.im_profile_id", "pn_io.vendor_id_high", "pn_io.vendor_id_low",
-                    "pn_io.order_id", "dcerpc.pkt_type", "dcerpc.dg_act_id", "dcerpc.dg_seqnum", "dcerpc.dg_frag_len",
+                    "pn_io.order_id", "dcerpc.pkt_type", "dcerpc.dg_act_id", "dcerpc.dg_seqnum", "dcerpc.dg_frag_len", "dcerpc.obj_id",
                     "pn_rt.frame_id", "pn_rt.ds", "pn_rt.transfer_status", "pn_rt.cycle_counter", "pn_io.send_clock_factor", "pn_io.reduction_ratio",
                     "pn_io.error_code", "pn_io.error_decode", "pn_io.error_code1", "pn_io.error_code2",
                     "pn_io.control_command", "pn_io.pdu_type.type", "pn_io.alarm_type", "pn_io.send_seq_num",
@@ -714,6 +714,15 @@ local function connect_request(key, pinfo)
         end
     end
     pending_connects[key] = req
+    -- session_ar._connect_identity: the object UUID DEA00000-6C97-11D1-8271-{instance}{device ID}{vendor ID}
+    local oid = X["dcerpc.obj_id"]()
+    oid = oid and tostring(oid):lower() or ""   -- (a GUID field has no .value in Wireshark 4.0's Lua: its text)
+    if oid:sub(1, 24) == "dea00000-6c97-11d1-8271-" and #oid == 36 and tonumber(oid:sub(33, 36), 16) then
+        local f = facts[req.dst] or {}
+        if f.connect == nil then
+            f.connect, facts[req.dst], profiles[req.dst] = {tonumber(oid:sub(33, 36), 16), nil}, f, nil
+        end
+    end
     if not replaces(req) then return end
     -- session_ar._connect_requested: the device may provide the new AR's frames before the response, so the
     -- streams of the AR the controller holds with it start their capture-loss tracking afresh

@@ -44,6 +44,7 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
         self.word_profiles: dict = lim.table(s.max_stations, "profiles")   # device -> (profiles, frames): infer.py
         self.im0: dict[str, dict] = lim.table(s.max_stations, "profiles")   # device MAC -> I&M0 decoded
         self.ffff_writes: dict[str, int] = lim.table(s.max_stations, "profiles")  # device MAC -> frame of a 0xFFFF write
+        self.connect_ident: dict = lim.table(s.max_stations, "profiles")   # device MAC -> (vendor ID, device ID), Connect
         self.telegram_p922: dict[tuple, int] = lim.table(s.max_stations, "profiles")  # (device mac, api, slot, subslot) -> P922
         self.counts = {"rpc": 0, "rpc_fragments": 0, "rpc_retransmissions": 0, "ip_fragments": 0, "records": 0, "params": 0,
                        "connects": 0, "connect_refused": 0, "releases": 0, "responses_before_request": 0,

@@ -262,6 +262,9 @@ class RecordLayer:
         if im0 is not None and im0.get("vendor_id") is not None:
             got = _records.select_profile(im0.get("vendor_id"), st.get("device_id"), im0.get("order_id"),
                                           source="I&M0")
+        elif st.get("vendor_id") is None and device_mac in self.connect_ident:
+            vid, did = self.connect_ident[device_mac]
+            got = _records.select_profile(vid, did, None, source="the Connect's object UUID")
         else:
             got = _records.select_profile(st.get("vendor_id"), st.get("device_id"), st.get("type_of_station"),
                                           source="DCP")

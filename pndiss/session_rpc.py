@@ -177,7 +177,7 @@ class RpcLayer:
         # a request counts from the frame that completes it (tshark's request_in does the same)
         if ptype == dcerpc.REQUEST and stub is not None and key not in self.calls:
             self.calls[key] = {"frame": fn, "ts": ts, "opnum": hdr["opnum"], "conv": conv, "pdu": None,
-                               "src": src, "dst": dst}
+                               "src": src, "dst": dst, "obj_id": hdr.get("obj_id")}
         if stub is None or iface == "EPM" or ptype not in (dcerpc.REQUEST, dcerpc.RESPONSE) or not stub:
             self.a.emit(ev)
             return

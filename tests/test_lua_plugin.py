@@ -813,3 +813,27 @@ def test_connect_response_before_request_equal_python(tmp_path):
     _pcapng(path, frames)
     n, bad, lua_viol, viol = compare(path)
     assert not bad and lua_viol == viol and any(r == "RESERVED-BIT-SET-G1ZSW" for _f, r in viol)
+
+
+def test_profile_from_the_connects_object_uuid(tmp_path):
+    """A capture without the device's DCP or I&M0: the Connect's object UUID (DEA00000-6C97-11D1-8271-{instance}
+    {device ID}{vendor ID}) names Lika's vendor ID 0x0239, so core and plugin judge it as LIKA, not generic (an
+    independent audit)."""
+    import capedit
+    src = str(tmp_path / "s.pcapng")
+    subprocess.run([sys.executable, "-m", "pndiss", "simulate", "--profile", "lika", "--cycles", "300",
+                    "--no-expected", "-o", src], check=True, capture_output=True, cwd=ROOT)
+
+    def keep(_fn, d):
+        d = bytes(d)
+        o = 16 if d[12:14] == b"\x81\x00" else 12
+        return not (d[o:o + 2] == b"\x88\x92" and 0xFEFC <= (d[o + 2] << 8 | d[o + 3]) <= 0xFEFF) \
+            and d[o:o + 2] != b"\x88\xcc"   # no DCP, no LLDP
+    path = str(tmp_path / "nodcp.pcapng")
+    capedit.rewrite(src, path, keep)
+    e = analyze_file(path).summary()["cyclic"]["encoders"][0]
+    assert e["profile"] == "lika" and "object UUID" in e["profile_reason"]
+    rc, out, _err = tshark(path, "-Y", "pndiss.profile", "-T", "fields", "-e", "pndiss.profile")
+    assert rc == 0 and {v for line in out.split() for v in line.split(",")} == {"lika"}
+    n, bad, lua_viol, viol = compare(path)
+    assert not bad and lua_viol == viol
