@@ -217,7 +217,7 @@ end
 function C.velocity_lag_cycles(c)
   local u = defaults(c).velocity_update_ms or 0
   local f = defaults(c).velocity_filter_cycles or 0   -- a default filter's lag (SCANCON/Hohner 'Fine' 7:3)
-  if u == 0 then return f > 0 and f + c.l_max or 0 end
+  if u == 0 then return f end   -- (NIST and the position travel in one frame: no controller latency)
   local t = c.cycle_ns
   if not truthy(t) then t = 1000000 end
   return ceil(2 * u * 1e6 / t) + c.l_max + f
@@ -1149,7 +1149,7 @@ function Checker:value_rules(CLS, pCLS, DLS, pDLS, SERR, ATX, PKA, PDONE, X1, X2
   self:continuity(pos2, ppos2, pre, PKA, PDONE)
   local pa = self.prev_ac
   if pos2 == nil and ppos2 == nil and self.lika and X3 == nil and X1 ~= nil and pmotion ~= nil and SERR == 0
-      and pa ~= nil then
+      and pa ~= nil and X1 ~= 0 and pmotion ~= 0 then   -- (0: parked or in error, a cycle apart from its bit)
     -- value_rules._positions: LIKA's G1_XIST1 is the absolute position too, where no X2 carries it (no sensor error,
     -- no parking in either cycle)
     local pz = pa.g1_zsw or 0

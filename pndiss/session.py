@@ -97,6 +97,7 @@ class SessionTracker(RpcLayer, ArLayer, RecordLayer):
             if call is not None and call["frame"] == fn or (call is not None and call["pdu"] is None):
                 call["pdu"] = pdu
             if op == 0:
+                self._connect_identity(dst, (call or {}).get("obj_id"))   # (as the plugin: at the request)
                 self._connect_requested(pdu, dst, fn, ts)
             if op == 3:
                 self._writes(fn, ts, pdu, key, src, dst)

@@ -262,7 +262,8 @@ class RecordLayer:
         if im0 is not None and im0.get("vendor_id") is not None:
             got = _records.select_profile(im0.get("vendor_id"), st.get("device_id"), im0.get("order_id"),
                                           source="I&M0")
-        elif st.get("vendor_id") is None and device_mac in self.connect_ident:
+        elif st.get("vendor_id") is None and not st.get("type_of_station") and device_mac in self.connect_ident:
+            # (only where DCP said nothing of the device: its type-of-station string names the profile too)
             vid, did = self.connect_ident[device_mac]
             got = _records.select_profile(vid, did, None, source="the Connect's object UUID")
         else:

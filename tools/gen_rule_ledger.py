@@ -58,7 +58,7 @@ PARTIAL = {
     "PARK-WHILE-RUNNING": "standstill by the position only (as PRESET-NOT-STANDSTILL)",
     "NIST-SIGN": "3 cycles in a row; LIKA computes NIST every 100 ms (000_37bf2397999f1108.txt:1919), so there the run "
                  "must outlast two intervals + L_max (telegrams.json velocity_update_ms); SCANCON/Hohner filter NIST "
-                 "by default ('Fine', an average old:new 7:3, 001_9461bb7bc8c2767b.txt:970-983), so there L_max + 3 "
+                 "by default ('Fine', an average old:new 7:3, 001_9461bb7bc8c2767b.txt:970-983), so there 3 "
                  "cycles of lag are allowed (velocity_filter_cycles [INFERENCE]); a 0x1000 write (another filter) "
                  "switches the rule off",
 }

@@ -120,7 +120,7 @@ class EncoderConfig:
         u = self.defaults.get("velocity_update_ms", 0)
         f = self.defaults.get("velocity_filter_cycles", 0)   # a default filter's lag (SCANCON/Hohner 'Fine' 7:3)
         if not u:
-            return f + self.l_max if f else 0
+            return f   # (NIST and the position travel in one frame: no controller latency in it -- a review)
         t = self.cycle_ns or 1_000_000
         return math.ceil(2 * u * 1e6 / t) + self.l_max + f
 

@@ -128,11 +128,12 @@ def _positions(k, c):
     """The two positions the continuity rule compares: G1_XIST2 (or X3) of this and the cycle before; where neither
     carries the position (the PLC did not request it), LIKA's G1_XIST1, which is the absolute position too
     (000_37bf2397999f1108.txt:1579-1580; an independent audit: a glitch there went unseen), between two cycles with
-    no sensor error and no parking."""
+    no sensor error and no parking -- and neither value 0, what LIKA shows parked or in error (the bit and the value
+    may change a cycle apart: a review). PS/PSM and the generic profile are not judged there (X1's alignment is
+    theirs to say)."""
     if c.pos2 is not None or c.ppos2 is not None:
         return c.pos2, c.ppos2
-    if k.lika and c.X3 is None and c.X1 is not None and c.pmotion is not None and c.SERR == 0 \
-            and c.pserr_state == 0 and not c.pPKA:
+    if k.lika and c.X3 is None and c.X1 and c.pmotion and c.SERR == 0 and c.pserr_state == 0 and not c.pPKA:
         s = k.cfg.shift or 0
         return c.X1 >> s, c.pmotion >> s
     return None, None
@@ -180,7 +181,8 @@ def _discontinuity_v(k, V):
     if k.lika and V.X3 is None and V.X1 is not None:   # _positions: LIKA's G1_XIST1 where no X2 carries it
         s = k.cfg.shift or 0
         neither = np.ones(V.m, dtype=bool) if V.pos2 is None else ~V.pos2_ok & ~V.ppos2_ok
-        ok = neither & V.pmotion_ok & (V.SERR == 0) & (V.pserr_state == 0) & (V.pPKA == 0)
+        ok = neither & V.pmotion_ok & (V.SERR == 0) & (V.pserr_state == 0) & (V.pPKA == 0) & _b(V.X1 != 0) \
+            & _b(V.pmotion != 0)
         hit |= jumps(V.X1 >> s, V.pmotion >> s, ok)
     return hit
 
