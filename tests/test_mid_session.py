@@ -547,3 +547,19 @@ def test_an_unseen_ars_err_rta_does_not_end_the_inferred_ar_whose_alarms_say_oth
             from test_lua_plugin import compare
             n, bad, lua_viol, py_viol = compare(path)
             assert n > 1000 and not bad and lua_viol == py_viol, bad[:5]
+
+
+def test_the_connects_object_uuid_names_the_vendor_only_where_dcp_said_nothing():
+    """The Connect's object UUID (DEA00000-6C97-11D1-8271-{instance}{device ID}{vendor ID}) names the vendor where the
+    capture holds no identity of the device (Lika 0x0239: lika); a DCP type-of-station string without a DeviceID
+    block still names the profile (a review: a SCANCON turned generic by an object UUID of another vendor)."""
+    from pndiss.analyzer import Analyzer
+    a = Analyzer(Settings())
+    lika, scancon = "00:0e:cf:00:00:01", "00:0e:cf:00:00:02"
+    a.session._connect_identity(lika, "dea00000-6c97-11d1-8271-000100010239")
+    p, why = a.session.profile_for(lika)
+    assert p == "lika" and "object UUID" in why
+    a.stations.from_dcp({"service": "Identify", "service_type": 1,
+                         "station_info": {"type_of_station": "SCANCON SAG-EIXXB"}}, scancon, "00:1b:1b:11:22:33")
+    a.session._connect_identity(scancon, "dea00000-6c97-11d1-8271-00010001002a")
+    assert a.session.profile_for(scancon)[0] == "scancon"
