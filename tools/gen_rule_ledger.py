@@ -44,7 +44,10 @@ PARTIAL = {
     "PARK-OUTPUTS-NOT-CLEARED": "LIKA; G1_XIST2 may keep a sensor error's code while SERR is still shown (#49 allows L_max)",
     "SERR-XIST2-NOT-RESTORED": "not while parked (parking clears the error and keeps the position out, R-ABS-4)",
     "POSITION-DISCONTINUITY": "plausible step = settings.max_position_step, else R/8 [INFERENCE]; LIKA with R no power of two: a "
-                              "jump to or from within a step of 0 is its red zone's physical wrap [INFERENCE]; not in a cycle with G1_ZSW.12 (a preset's result, also one whose request a gap hid)",
+                              "jump to or from within a step of 0 is its red zone's physical wrap [INFERENCE]; not in a cycle with G1_ZSW.12 (a preset's result, also one whose request a gap hid); "
+                              "judged on G1_XIST2 (or X3), and on LIKA's G1_XIST1 where no X2 carries the position "
+                              "(000_37bf2397999f1108.txt:1579-1580; not from or to 0: parked or in error) -- PS/PSM's and "
+                              "the generic profile's X1 only through X2 (its alignment is theirs to say)",
     "PRESET-CLASS4-DISABLED": "class 4 from a captured 0xBF00 or --set class4, not a vendor default",
     "BMP-CLASS4-WRITE-ACCEPTED": "class 4 from a captured 0xBF00 or --set class4, not a vendor default",
     "PRESET-XIST1-AFFECTED-WHEN-DISABLED": "needs the preset control bit of a captured 0xBF00",
