@@ -2486,10 +2486,11 @@ local function on_cyclic(pinfo, tvb, fr, ds_ok, miss, key)
             end
             -- what the tree shows of this object; the same table while nothing changes (memory per frame)
             local v = o.view
-            if v == nil or v.iops ~= iops or v.ok ~= ok or v.profile ~= ax.profile or v.telegram ~= o.telegram
+            local shown = ok and not ax.ambiguous   -- judged: not while the telegram is only guessed (cyclic.py)
+            if v == nil or v.iops ~= iops or v.ok ~= shown or v.profile ~= ax.profile or v.telegram ~= o.telegram
                     or v.rows ~= o.rows or v.source ~= o.source or v.station ~= fr.fm.station then
                 v = {telegram = o.telegram, source = o.source, rows = o.rows, len = o.len, d = d, dir = dir,
-                     iops = iops, ok = ok, profile = ax.profile, station = fr.fm.station}
+                     iops = iops, ok = shown, profile = ax.profile, station = fr.fm.station}
                 o.view = v
             end
             out.objs[#out.objs + 1] = v

@@ -223,5 +223,6 @@ class AxisWalk:
             if col.cyc:
                 iops = c.iops(o)
                 iops = iops[r:r + e].astype(np.int16) if iops is not None else np.full(e, -1, dtype=np.int16)
-                col.bulk_cycles(o, fr, c.s.key[0], c.fn[r:r + e], c.ts[r:r + e], iops, ok[r:r + e],
+                col.bulk_cycles(o, fr, c.s.key[0], c.fn[r:r + e], c.ts[r:r + e], iops,
+                                ok[r:r + e] & (not self.ax.ambiguous),   # (cyclic.py: not while only guessed)
                                 {k: v[r:r + e] for k, v in sig.items()})

@@ -278,10 +278,12 @@ class CyclicTracker(AxisTracking):
                 chk.io_len[direction] = do.length
                 self._refine_profile(ax)
             if sink is not None:  # after the axis exists: its bits follow the axis profile
+                # (judged: not while the telegram is only guessed from lengths that fit several -- an audit)
+                jok = bool(ok) and not ax.ambiguous
                 if self.telegram_sink is None:
-                    self._telegram_event(o, fr, rt_ev, iops, bool(ok))
+                    self._telegram_event(o, fr, rt_ev, iops, jok)
                 else:
-                    self.telegram_sink(o, fr, key[0], fn, ts, iops, bool(ok))
+                    self.telegram_sink(o, fr, key[0], fn, ts, iops, jok)
             if direction == "setpoint":
                 before = ax.sp_before
                 ax.sp_before = ax.sp if ax.sp_ok else None

@@ -396,4 +396,8 @@ def test_psm_81_or_100_guess_judges_startup_and_says_why(tmp_path):
     assert e["unsure_cycles"] > 0 and e["gated_cycles"] >= e["unsure_cycles"] and "telegram_unsure" not in e
     lines = not_checked(s)
     assert any("not judged before the telegram was known" in t for t in lines)
+    # the telegram events say so too: none judged while the telegram was only guessed (an audit: judged true)
+    p922 = min(e["frame"] for e in evs if e["kind"] == "param" and any(p.get("pnu") == 922 for p in e["params"]))
+    assert not [e for e in evs if e["kind"] == "telegram" and e["frame"] < p922 and e["judged"]]
+    assert [e for e in evs if e["kind"] == "telegram" and e["frame"] > p922 and e["judged"]]
     assert not any("provider stopped" in t for t in lines) or e["gated_cycles"] > e["unsure_cycles"]
