@@ -2697,9 +2697,12 @@ local function heuristic(tvb, pinfo, tree)
         -- status where the Connect puts it and none at the frame's end -> read counter and status there
         if cache_generation ~= map_generation then lookup(fi.value, src, dst, true) end   -- (a new generation: decide again)
         local trim, n = gen.trim[key], tvb:len()
-        local function byte(i)   -- the C_SDU and, after it, the 4 bytes tshark reads as the APDU status
-            if i < n then return tvb(i, 1):uint() end
-            return ({cc and bit.rshift(cc, 8), cc and bit.band(cc, 0xFF), ds, xs})[i - n + 1] or 0
+        local byte   -- the C_SDU and, after it, the 4 bytes tshark reads as the APDU status (only where looked at)
+        if trim or not gen.checked[key] then
+            byte = function(i)
+                if i < n then return tvb(i, 1):uint() end
+                return ({cc and bit.rshift(cc, 8), cc and bit.band(cc, 0xFF), ds, xs})[i - n + 1] or 0
+            end
         end
         if not gen.checked[key] then
             local fm = lookup(fi.value, src, dst, true)

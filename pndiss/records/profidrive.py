@@ -230,8 +230,7 @@ def decode_response(data: bytes, profile: str = "generic") -> dict:
             blk, off = _block(data, off)
             blocks.append(blk)
     out = {"kind": "parameter response", "request_ref": ref, "response_id": rid,
-           "response_id_name": RESPONSE_IDS.get(rid, "manufacturer-specific" if 0x40 <= rid <= 0x7F or rid >= 0xC0
-                                                else "reserved"),
+           "response_id_name": _response_id_name(rid),
            "axis": axis, "no_of_parameters": n, "params": blocks, "length": len(data),
            "ok": rid in (0x01, 0x02) and not any(b["format"] == FMT_ERROR for b in blocks)}
     if off < len(data):
@@ -247,9 +246,12 @@ def undecodable_response(data: bytes, reason: str) -> dict | None:
         return None
     ref, rid, axis, n = data[0], data[1], data[2], data[3]
     return {"kind": "parameter response", "request_ref": ref, "response_id": rid,
-            "response_id_name": RESPONSE_IDS.get(rid, "manufacturer-specific" if 0x40 <= rid <= 0x7F or rid >= 0xC0
-                                                 else "reserved"),
+            "response_id_name": _response_id_name(rid),
             "axis": axis, "no_of_parameters": n, "params": [], "length": len(data), "ok": False, "decode_error": reason}
+
+
+def _response_id_name(rid: int) -> str:
+    return RESPONSE_IDS.get(rid, "manufacturer-specific" if 0x40 <= rid <= 0x7F or rid >= 0xC0 else "reserved")
 
 
 def legal_request_id(rid) -> bool:
