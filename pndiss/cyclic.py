@@ -21,6 +21,7 @@ the analyzer has a sink.
 from __future__ import annotations
 
 import zlib
+
 from . import limits, rules
 from . import telegrams as tg
 from .armap import NOT_OWNED

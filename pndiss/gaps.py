@@ -164,9 +164,7 @@ class GapTracker:
                 # the time stamps jumped by what the counter's advance contradicts, and so did the whole capture's
                 # time between two frames: the capture's clock stepped; the counter says what was lost (usually
                 # nothing) -- not "seen in the cycle counter" cycles
-                self.clock_steps += 1
-                if self.clock_step_first is None or fn < self.clock_step_first[0]:
-                    self.clock_step_first = (fn, self.prev, ts - pts)
+                self._clock_step(fn, ts - pts)
             else:
                 k = k0 if k is None else k   # (a counter restarted in the pause, a device rebooting: the time)
                 if k > 0:
@@ -179,9 +177,7 @@ class GapTracker:
             # longer than the counter, and the whole capture's time jumped there -- named too (an independent audit:
             # a 1 s step left every later time 1 s off without a word); the counter says what was lost, as below.
             # Only a counter on its own step: an irregular advance across a real outage says nothing (a review)
-            self.clock_steps += 1
-            if self.clock_step_first is None or fn < self.clock_step_first[0]:
-                self.clock_step_first = (fn, self.prev, ts - pts)
+            self._clock_step(fn, ts - pts)
         if d == 0:
             return 0              # a repeated counter: no new cycle, nothing to say
         if st.step == 0:
@@ -228,6 +224,11 @@ class GapTracker:
         (pcapng epb_dropcount: ReadInfo.last_drop_ts) -- None: never."""
         own, tool = self.last_by_mac.get(mac), getattr(self.reader_of(), "last_drop_ts", None)
         return own if tool is None else tool if own is None else max(own, tool)
+
+    def _clock_step(self, fn: int, jump_ns: int) -> None:
+        self.clock_steps += 1
+        if self.clock_step_first is None or fn < self.clock_step_first[0]:
+            self.clock_step_first = (fn, self.prev, jump_ns)
 
     def _count(self, st: Stream, k: int) -> int:
         st.said = (st.step, st.known)

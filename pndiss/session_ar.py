@@ -77,7 +77,8 @@ class ArLayer:
     def _connect_identity(self, device: str, obj_id) -> None:
         """The Connect request's DCE/RPC object UUID names the device: DEA00000-6C97-11D1-8271-{instance}{device
         ID}{vendor ID} (IEC 61158-6-10, as Wireshark decodes it) -- the vendor for profile_for where no DCP or I&M0
-        of the device is in the capture (an independent audit: a LIKA encoder judged as generic)."""
+        of the device is in the capture (an independent audit: a LIKA encoder judged as generic). Taken at the
+        request (session._cm), as the plugin does, so the response's telegram guess already has it."""
         s = str(obj_id or "").lower()
         if s.startswith("dea00000-6c97-11d1-8271-") and len(s) == 36 and device \
                 and self.connect_ident.get(device) is None:
@@ -101,7 +102,6 @@ class ArLayer:
         ok = res["status"]["ok"]
         controller = arq["cminitiator_mac_add"]
         device = ars["cmresponder_macadd"] if ars else src  # the responder sent this frame
-        self._connect_identity(device, (call or {}).get("obj_id"))
         if not ok:
             self.counts["connect_refused"] += 1
         elif _replaces(arq, rb.get(0x0102)):
